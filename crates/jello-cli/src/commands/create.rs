@@ -1,0 +1,352 @@
+//! `jello create`: write a new world file, everything the original createWorld does and more.
+
+use std::path::PathBuf;
+use std::str::FromStr;
+
+use clap::Args;
+use jello_core::diagnostics::centre_of_mass;
+use jello_core::field::RES_RANGE;
+use jello_core::{defaults, Aabb, ForceField, Integrator, Lattice, Vec3, World};
+
+use super::{parse_integrator, parse_non_negative, parse_positive};
+use crate::error::CliError;
+use crate::fsio::{check_writable_target, write_atomic};
+
+/// Arguments of `jello create`.
+#[derive(Args, Debug)]
+pub struct CreateArgs {
+    /// The world file to write.
+    #[arg(value_name = "OUT.w")]
+    pub out: PathBuf,
+    /// Integrator (Euler, RK2, RK4, SymplecticEuler; any case).
+    #[arg(long, value_parser = parse_integrator, default_value = "RK4")]
+    pub integrator: Integrator,
+    /// Time step (s).
+    #[arg(long, value_parser = parse_positive, default_value_t = defaults::DT)]
+    pub dt: f64,
+    /// Simulation steps per displayed frame (the `n` of the file).
+    #[arg(short = 'n', long, default_value_t = defaults::STEPS_PER_FRAME, value_parser = clap::value_parser!(u32).range(1..))]
+    pub steps_per_frame: u32,
+    /// Stiffness of every lattice spring (N/m).
+    #[arg(long, value_parser = parse_positive, default_value_t = defaults::K_ELASTIC)]
+    pub k_elastic: f64,
+    /// Damping of every lattice spring (N·s/m).
+    #[arg(long, value_parser = parse_non_negative, default_value_t = defaults::D_ELASTIC)]
+    pub d_elastic: f64,
+    /// Stiffness of the collision penalty springs (N/m).
+    #[arg(long, value_parser = parse_positive, default_value_t = defaults::K_COLLISION)]
+    pub k_collision: f64,
+    /// Damping of the collision penalty springs (N·s/m).
+    #[arg(long, value_parser = parse_non_negative, default_value_t = defaults::D_COLLISION)]
+    pub d_collision: f64,
+    /// Mass of each of the 512 points (kg) [default: 1/512].
+    #[arg(long, value_parser = parse_positive, conflicts_with = "total_mass")]
+    pub mass: Option<f64>,
+    /// Mass of the whole cube (kg), spread over its 512 points.
+    #[arg(long, value_parser = parse_positive)]
+    pub total_mass: Option<f64>,
+    /// Inclined plane a x + b y + c z + d = 0, given as A,B,C,D [default: none].
+    #[arg(long, value_name = "A,B,C,D", allow_hyphen_values = true)]
+    pub plane: Option<Numbers<4>>,
+    /// Force field: none | uniform:FX,FY,FZ | gravity[:G] | vortex:S[:x|y|z] | radial:S | tornado:S.
+    #[arg(long, default_value = "none", allow_hyphen_values = true)]
+    pub field: FieldSpec,
+    /// Force field grid resolution (2 to 30).
+    #[arg(long, default_value_t = 30, value_parser = clap::value_parser!(u32).range(2..=30))]
+    pub res: u32,
+    /// Side length of the initial cube (m); its rest shape stays the 1 m cube.
+    #[arg(long, value_parser = parse_positive, default_value_t = 1.0)]
+    pub scale: f64,
+    /// Rotation of the initial cube about its centre, in degrees about x, then y, then z.
+    #[arg(long, value_name = "RX,RY,RZ", allow_hyphen_values = true)]
+    pub rotate: Option<Numbers<3>>,
+    /// Where the cube's first corner (point 0,0,0 before rotation) sits (m).
+    #[arg(
+        long,
+        value_name = "X,Y,Z",
+        allow_hyphen_values = true,
+        default_value = "0,0,0"
+    )]
+    pub offset: Numbers<3>,
+    /// Move one point after placing the cube: I,J,K:DX,DY,DZ (repeatable), e.g. the dragged
+    /// corner of the official jello.w is 7,7,7:0.142857,0.142857,0.142857.
+    #[arg(long, value_name = "I,J,K:DX,DY,DZ", allow_hyphen_values = true)]
+    pub drag: Vec<Drag>,
+    /// Initial velocity of every point (m/s).
+    #[arg(
+        long,
+        value_name = "VX,VY,VZ",
+        allow_hyphen_values = true,
+        default_value = "0,0,0"
+    )]
+    pub velocity: Numbers<3>,
+    /// Initial spin: angular velocity about the cube's centre of mass (rad/s), added to --velocity.
+    #[arg(long, value_name = "WX,WY,WZ", allow_hyphen_values = true)]
+    pub spin: Option<Numbers<3>>,
+    /// Overwrite OUT.w if it exists.
+    #[arg(long)]
+    pub force: bool,
+}
+
+/// `N` comma-separated finite numbers.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Numbers<const N: usize>(pub [f64; N]);
+
+impl<const N: usize> FromStr for Numbers<N> {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        let parts: Vec<&str> = s.split(',').map(str::trim).collect();
+        if parts.len() != N {
+            return Err(format!(
+                "expected {N} comma-separated numbers, found \"{s}\""
+            ));
+        }
+        let mut out = [0.0; N];
+        for (o, p) in out.iter_mut().zip(&parts) {
+            *o = p
+                .parse::<f64>()
+                .ok()
+                .filter(|v| v.is_finite())
+                .ok_or_else(|| format!("expected a finite number, found \"{p}\" in \"{s}\""))?;
+        }
+        Ok(Numbers(out))
+    }
+}
+
+impl Numbers<3> {
+    fn vec3(self) -> Vec3 {
+        Vec3::from_array(self.0)
+    }
+}
+
+/// A point to move: its lattice coordinates and the displacement (m).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Drag {
+    ijk: [usize; 3],
+    by: Vec3,
+}
+
+impl FromStr for Drag {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        let (point, by) = s
+            .split_once(':')
+            .ok_or_else(|| format!("expected I,J,K:DX,DY,DZ, found \"{s}\""))?;
+        let ijk: Vec<usize> = point
+            .split(',')
+            .map(|c| c.trim().parse::<usize>().ok().filter(|&c| c < 8))
+            .collect::<Option<_>>()
+            .filter(|v: &Vec<usize>| v.len() == 3)
+            .ok_or_else(|| {
+                format!("expected three lattice indices 0 to 7 before ':', found \"{point}\"")
+            })?;
+        let by = by.parse::<Numbers<3>>()?.vec3();
+        Ok(Drag {
+            ijk: [ijk[0], ijk[1], ijk[2]],
+            by,
+        })
+    }
+}
+
+/// Axis of a vortex.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Axis {
+    /// x axis.
+    X,
+    /// y axis.
+    Y,
+    /// z axis.
+    Z,
+}
+
+impl Axis {
+    fn unit(self) -> Vec3 {
+        match self {
+            Axis::X => Vec3::new(1.0, 0.0, 0.0),
+            Axis::Y => Vec3::new(0.0, 1.0, 0.0),
+            Axis::Z => Vec3::new(0.0, 0.0, 1.0),
+        }
+    }
+}
+
+/// A force field to sample on the grid (forces in N at node position p).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum FieldSpec {
+    /// No field (`res` 0 in the file).
+    None,
+    /// The same force everywhere.
+    Uniform(Vec3),
+    /// Gravity of `g` m/s² along −z on each point: the force `(0, 0, −g·mass)`.
+    Gravity(f64),
+    /// Swirl about an axis through the origin: `s · (axis × p)`; the official rotate.w is
+    /// `vortex:0.009765625` about z.
+    Vortex(f64, Axis),
+    /// Pull toward the centre of the box: `−s · p` (a negative s pushes out).
+    Radial(f64),
+    /// A vortex about z that sucks in near the floor and lifts near the axis:
+    /// `s · ((−y, x, 0)/(r + 0.25) − 0.3 (x, y, 0) + (0, 0, 1.5 e^(−r²) − 0.5))`, `r = √(x² + y²)`.
+    Tornado(f64),
+}
+
+impl FromStr for FieldSpec {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        let (kind, rest) = s.split_once(':').unwrap_or((s, ""));
+        let number = |t: &str| {
+            t.trim()
+                .parse::<f64>()
+                .ok()
+                .filter(|v| v.is_finite())
+                .ok_or_else(|| format!("expected a number after \"{kind}:\", found \"{t}\""))
+        };
+        match kind.to_ascii_lowercase().as_str() {
+            "none" if rest.is_empty() => Ok(FieldSpec::None),
+            "uniform" => Ok(FieldSpec::Uniform(rest.parse::<Numbers<3>>()?.vec3())),
+            "gravity" if rest.is_empty() => Ok(FieldSpec::Gravity(9.81)),
+            "gravity" => Ok(FieldSpec::Gravity(number(rest)?)),
+            "vortex" => {
+                let (strength, axis) = rest.split_once(':').unwrap_or((rest, "z"));
+                let axis = match axis.to_ascii_lowercase().as_str() {
+                    "x" => Axis::X,
+                    "y" => Axis::Y,
+                    "z" => Axis::Z,
+                    other => return Err(format!("expected a vortex axis x, y or z, found \"{other}\"")),
+                };
+                Ok(FieldSpec::Vortex(number(strength)?, axis))
+            }
+            "radial" => Ok(FieldSpec::Radial(number(rest)?)),
+            "tornado" => Ok(FieldSpec::Tornado(number(rest)?)),
+            _ => Err(format!(
+                "expected none, uniform:FX,FY,FZ, gravity[:G], vortex:S[:AXIS], radial:S or tornado:S, found \"{s}\""
+            )),
+        }
+    }
+}
+
+impl FieldSpec {
+    /// The force at `p` for points of mass `mass`.
+    fn force(self, p: Vec3, mass: f64) -> Vec3 {
+        match self {
+            FieldSpec::None => Vec3::ZERO,
+            FieldSpec::Uniform(f) => f,
+            FieldSpec::Gravity(g) => Vec3::new(0.0, 0.0, -g * mass),
+            FieldSpec::Vortex(s, axis) => axis.unit().cross(p) * s,
+            FieldSpec::Radial(s) => p * -s,
+            FieldSpec::Tornado(s) => {
+                let r2 = p.x * p.x + p.y * p.y;
+                let r = r2.sqrt();
+                let swirl = Vec3::new(-p.y, p.x, 0.0) / (r + 0.25);
+                let inward = Vec3::new(p.x, p.y, 0.0) * -0.3;
+                let lift = Vec3::new(0.0, 0.0, 1.5 * (-r2).exp() - 0.5);
+                (swirl + inward + lift) * s
+            }
+        }
+    }
+}
+
+/// Writes the world the options describe.
+pub fn create(args: CreateArgs) -> Result<(), CliError> {
+    let out = &args.out;
+    check_writable_target(out)?;
+    if out.exists() && !args.force {
+        return Err(CliError::input(format!(
+            "{}: already exists (use --force to overwrite)",
+            out.display()
+        )));
+    }
+    let mass = match (args.mass, args.total_mass) {
+        (Some(m), _) => m,
+        (None, Some(total)) => total / 512.0,
+        (None, None) => defaults::MASS,
+    };
+
+    // Place the cube: scale about its centre, rotate about its centre, move its corner, drag.
+    let lattice = Lattice::classic();
+    let rest = lattice.rest_positions();
+    let centre = Vec3::new(0.5, 0.5, 0.5);
+    let rotation = args.rotate.map(|r| rotation_xyz(r.0));
+    let corner = transform(Vec3::ZERO, centre, args.scale, rotation.as_ref());
+    let offset = args.offset.vec3() - corner;
+    let mut positions: Vec<Vec3> = rest
+        .iter()
+        .map(|&p| transform(p, centre, args.scale, rotation.as_ref()) + offset)
+        .collect();
+    for d in &args.drag {
+        let [i, j, k] = d.ijk;
+        positions[lattice.index(i, j, k)] += d.by;
+    }
+
+    // Velocities: uniform plus rigid spin about the centre of mass.
+    let com = centre_of_mass(&positions);
+    let v0 = args.velocity.vec3();
+    let velocities: Vec<Vec3> = positions
+        .iter()
+        .map(|&p| match args.spin {
+            Some(w) => v0 + w.vec3().cross(p - com),
+            None => v0,
+        })
+        .collect();
+
+    let field = match args.field {
+        FieldSpec::None => None,
+        spec => {
+            let res = args.res as usize;
+            debug_assert!(RES_RANGE.contains(&res));
+            let f = ForceField::from_fn(res, Aabb::classic(), |p| spec.force(p, mass))
+                .map_err(|e| CliError::input(format!("--field: {e}")))?;
+            Some((res, f.forces().to_vec()))
+        }
+    };
+    if let Some(p) = args.plane {
+        if p.0[..3].iter().all(|&c| c == 0.0) {
+            return Err(CliError::input(
+                "--plane: the normal (a, b, c) must not be zero",
+            ));
+        }
+    }
+
+    let world = World {
+        integrator: args.integrator,
+        dt: args.dt,
+        steps_per_frame: args.steps_per_frame,
+        k_elastic: args.k_elastic,
+        d_elastic: args.d_elastic,
+        k_collision: args.k_collision,
+        d_collision: args.d_collision,
+        mass,
+        plane: args.plane.map(|p| p.0),
+        field,
+        positions,
+        velocities,
+    };
+    // The world must make a valid simulation before it is written.
+    world
+        .to_simulation()
+        .map_err(|e| CliError::input(format!("{}: {e}", out.display())))?;
+    write_atomic(out, world.to_text().as_bytes())?;
+    println!("wrote {}", out.display());
+    Ok(())
+}
+
+/// `p` scaled by `scale` and rotated about `centre`.
+fn transform(p: Vec3, centre: Vec3, scale: f64, rotation: Option<&[Vec3; 3]>) -> Vec3 {
+    let d = (p - centre) * scale;
+    let d = match rotation {
+        Some(rows) => Vec3::new(rows[0].dot(d), rows[1].dot(d), rows[2].dot(d)),
+        None => d,
+    };
+    centre + d
+}
+
+/// Rows of the rotation by `rx` degrees about x, then `ry` about y, then `rz` about z.
+fn rotation_xyz([rx, ry, rz]: [f64; 3]) -> [Vec3; 3] {
+    let (sx, cx) = rx.to_radians().sin_cos();
+    let (sy, cy) = ry.to_radians().sin_cos();
+    let (sz, cz) = rz.to_radians().sin_cos();
+    // R = Rz · Ry · Rx.
+    [
+        Vec3::new(cz * cy, cz * sy * sx - sz * cx, cz * sy * cx + sz * sx),
+        Vec3::new(sz * cy, sz * sy * sx + cz * cx, sz * sy * cx - cz * sx),
+        Vec3::new(-sy, cy * sx, cy * cx),
+    ]
+}

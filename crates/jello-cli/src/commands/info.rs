@@ -1,0 +1,110 @@
+//! `jello info`: what a world file holds, its energies and the stable time step per integrator.
+
+use std::path::PathBuf;
+
+use clap::Args;
+use jello_core::diagnostics::{centre_of_mass, energy, max_penetration, momentum};
+use jello_core::stability::stable_dt;
+use jello_core::{Integrator, ReadOptions, Simulation, SpringKind};
+
+use super::parse_integrator;
+use crate::error::CliError;
+use crate::fsio::read_world;
+
+/// Arguments of `jello info`.
+#[derive(Args, Debug)]
+pub struct InfoArgs {
+    /// World file (.w) to describe.
+    pub world: PathBuf,
+    /// Read the file as if it named this integrator (for files with an unknown one).
+    #[arg(long, value_parser = parse_integrator)]
+    pub integrator: Option<Integrator>,
+}
+
+/// Prints the header, counts, energies and stability estimates.
+pub fn info(args: InfoArgs) -> Result<(), CliError> {
+    let world = read_world(
+        &args.world,
+        ReadOptions {
+            integrator: args.integrator,
+        },
+    )?;
+    let name = args.world.display().to_string();
+    let sim =
+        Simulation::from_world(&world).map_err(|e| CliError::input(format!("{name}: {e}")))?;
+    let (m, s) = (&sim.model, &sim.state);
+
+    println!("world          {name}");
+    println!(
+        "integrator     {}, dt = {} s, {} step(s) per frame",
+        m.integrator, m.dt, m.steps_per_frame
+    );
+    println!(
+        "springs        kElastic = {} N/m, dElastic = {} N·s/m; collision kCollision = {} N/m, dCollision = {} N·s/m",
+        world.k_elastic, world.d_elastic, world.k_collision, world.d_collision
+    );
+    println!(
+        "mass           {} kg per point, {} kg in all",
+        m.mass,
+        m.mass * m.point_count() as f64
+    );
+    match &m.plane {
+        Some(p) => {
+            let [a, b, c, d] = p.coeffs;
+            let side = if p.side > 0.0 { "positive" } else { "negative" };
+            println!("plane          {a} x + {b} y + {c} z + {d} = 0; allowed side: {side} (holds the centre of mass)");
+        }
+        None => println!("plane          none"),
+    }
+    match &m.field {
+        Some(f) => println!(
+            "force field    {0}×{0}×{0} nodes over the box, largest force {1:.6e} N",
+            f.res(),
+            f.max_magnitude()
+        ),
+        None => println!("force field    none"),
+    }
+    let [nx, ny, nz] = m.lattice.counts;
+    let by_kind = m.springs.count_by_kind();
+    println!(
+        "lattice        {nx}×{ny}×{nz} = {} points, {} springs ({} {}, {} {}, {} {})",
+        m.point_count(),
+        m.springs.len(),
+        by_kind[0],
+        SpringKind::Structural.name(),
+        by_kind[1],
+        SpringKind::Shear.name(),
+        by_kind[2],
+        SpringKind::Bend.name()
+    );
+    let e = energy(m, s);
+    println!(
+        "energy         {:.6e} J: kinetic {:.6e}, spring {:.6e}, collision {:.6e}",
+        e.total(),
+        e.kinetic,
+        e.spring,
+        e.collision
+    );
+    let c = centre_of_mass(&s.pos);
+    let p = momentum(m, &s.vel);
+    println!("centre of mass ({:.6}, {:.6}, {:.6}) m", c.x, c.y, c.z);
+    println!("momentum       ({:.6}, {:.6}, {:.6}) kg·m/s", p.x, p.y, p.z);
+    println!(
+        "penetration    {:.6e} m (deepest point into a wall or the plane)",
+        max_penetration(m, &s.pos)
+    );
+    println!("stable dt      estimate per integrator (stiffest lattice mode; see README):");
+    for integrator in Integrator::ALL {
+        let h = stable_dt(m, integrator);
+        let verdict = if h <= 0.0 {
+            "unstable at every dt (no damping)".to_string()
+        } else if m.dt <= h {
+            format!("{h:.3e} s  (dt {} is within it)", m.dt)
+        } else {
+            format!("{h:.3e} s  (dt {} exceeds it)", m.dt)
+        };
+        let marker = if integrator == m.integrator { "*" } else { " " };
+        println!("             {marker} {:<16} {verdict}", integrator.name());
+    }
+    Ok(())
+}

@@ -1,0 +1,28 @@
+//! The subcommands of `jello`.
+
+pub mod create;
+pub mod info;
+pub mod run;
+
+use jello_core::Integrator;
+
+/// Parses an integrator name for clap, listing the known names on failure.
+pub fn parse_integrator(s: &str) -> Result<Integrator, String> {
+    s.parse::<Integrator>().map_err(|e| e.to_string())
+}
+
+/// Parses a finite, positive number for clap.
+pub fn parse_positive(s: &str) -> Result<f64, String> {
+    match s.parse::<f64>() {
+        Ok(v) if v.is_finite() && v > 0.0 => Ok(v),
+        _ => Err(format!("expected a finite positive number, found \"{s}\"")),
+    }
+}
+
+/// Parses a finite number that is at least 0 for clap.
+pub fn parse_non_negative(s: &str) -> Result<f64, String> {
+    match s.parse::<f64>() {
+        Ok(v) if v.is_finite() && v >= 0.0 => Ok(v),
+        _ => Err(format!("expected a finite number ≥ 0, found \"{s}\"")),
+    }
+}

@@ -1,0 +1,152 @@
+//! `jello run`: step a world headless, optionally writing frames and the final state.
+
+use std::path::PathBuf;
+use std::time::Instant;
+
+use clap::Args;
+use jello_core::diagnostics::{energy, max_penetration};
+use jello_core::{Integrator, ReadOptions, Simulation};
+
+use super::{parse_integrator, parse_positive};
+use crate::error::CliError;
+use crate::frames::{FrameFormat, FrameWriter};
+use crate::fsio::{check_writable_target, read_world, write_atomic};
+use crate::progress::Progress;
+
+/// Simulated time run when neither `--steps` nor `--time` is given (s).
+const DEFAULT_TIME: f64 = 1.0;
+
+/// Arguments of `jello run`.
+#[derive(Args, Debug)]
+pub struct RunArgs {
+    /// World file (.w) to run.
+    pub world: PathBuf,
+    /// Number of steps to take [default: as many as 1 s of simulated time takes].
+    #[arg(long, conflicts_with = "time")]
+    pub steps: Option<u64>,
+    /// Simulated time to run (s), rounded up to whole steps.
+    #[arg(long, value_parser = parse_positive)]
+    pub time: Option<f64>,
+    /// Integrator to use instead of the file's (Euler, RK2, RK4, SymplecticEuler; any case).
+    #[arg(long, value_parser = parse_integrator)]
+    pub integrator: Option<Integrator>,
+    /// Time step to use instead of the file's (s).
+    #[arg(long, value_parser = parse_positive)]
+    pub dt: Option<f64>,
+    /// Save the final state as a world file (written only if the run succeeds).
+    #[arg(long, value_name = "OUT.w")]
+    pub save: Option<PathBuf>,
+    /// Write frames into this folder (created when missing).
+    #[arg(long, value_name = "DIR")]
+    pub frames: Option<PathBuf>,
+    /// Write a frame every K steps [default: the world's steps per frame].
+    #[arg(long, value_name = "K", requires = "frames", value_parser = clap::value_parser!(u64).range(1..))]
+    pub every: Option<u64>,
+    /// Frame file format.
+    #[arg(long, value_enum, default_value_t = FrameFormat::Ply, requires = "frames")]
+    pub format: FrameFormat,
+    /// No progress bar.
+    #[arg(long, short)]
+    pub quiet: bool,
+}
+
+/// Runs the world and prints a one-line summary.
+pub fn run(args: RunArgs) -> Result<(), CliError> {
+    let options = ReadOptions {
+        integrator: args.integrator,
+    };
+    let mut world = read_world(&args.world, options)?;
+    if let Some(dt) = args.dt {
+        world.dt = dt;
+    }
+    let name = args.world.display().to_string();
+    let mut sim =
+        Simulation::from_world(&world).map_err(|e| CliError::input(format!("{name}: {e}")))?;
+    if let Some(out) = &args.save {
+        check_writable_target(out)?;
+    }
+
+    let dt = sim.model.dt;
+    let total = match (args.steps, args.time) {
+        (Some(n), _) => n,
+        (None, t) => steps_for(t.unwrap_or(DEFAULT_TIME), dt),
+    };
+    let every = args.every.unwrap_or(u64::from(sim.model.steps_per_frame));
+    let mut frames = match &args.frames {
+        Some(dir) => Some(FrameWriter::new(dir, args.format, &sim.model)?),
+        None => None,
+    };
+
+    // Step, reading the penetration off each new state and writing frames as due.
+    let mut progress = Progress::new(total, args.quiet);
+    let mut deepest = max_penetration(&sim.model, &sim.state.pos);
+    if let Some(f) = frames.as_mut() {
+        f.write(&sim.model, &sim.state)?;
+    }
+    let start = Instant::now();
+    for done in 1..=total {
+        if let Err(blow_up) = sim.step() {
+            progress.finish();
+            return Err(CliError::blow_up(format!("{name}: {blow_up}")));
+        }
+        deepest = deepest.max(max_penetration(&sim.model, &sim.state.pos));
+        if let Some(f) = frames.as_mut() {
+            if done % every == 0 {
+                f.write(&sim.model, &sim.state)?;
+            }
+        }
+        progress.update(done);
+    }
+    let wall = start.elapsed().as_secs_f64();
+    progress.finish();
+
+    if let Some(out) = &args.save {
+        let saved = sim
+            .to_world()
+            .map_err(|e| CliError::io(format!("{}: {e}", out.display())))?;
+        write_atomic(out, saved.to_text().as_bytes())?;
+    }
+
+    let e = energy(&sim.model, &sim.state);
+    let mut summary = format!(
+        "{total} steps, t = {:.6} s, wall {:.3} s, {:.0} steps/s, max penetration {:.3e} m, \
+         energy {:.6e} J (kinetic {:.3e}, spring {:.3e}, collision {:.3e})",
+        sim.state.time,
+        wall,
+        total as f64 / wall.max(1e-9),
+        deepest,
+        e.total(),
+        e.kinetic,
+        e.spring,
+        e.collision
+    );
+    if let Some(f) = &frames {
+        summary.push_str(&format!(", {} frames", f.written()));
+    }
+    println!("{summary}");
+    Ok(())
+}
+
+/// Whole steps covering `time` at `dt`: rounded to the nearest step when `time/dt` is within
+/// rounding error of an integer, else rounded up.
+fn steps_for(time: f64, dt: f64) -> u64 {
+    let q = time / dt;
+    let nearest = q.round();
+    if (q - nearest).abs() <= 1e-9 * nearest.max(1.0) {
+        nearest as u64
+    } else {
+        q.ceil() as u64
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::steps_for;
+
+    #[test]
+    fn time_to_steps_rounds_only_rounding_error() {
+        assert_eq!(steps_for(1.0, 0.0005), 2000);
+        assert_eq!(steps_for(0.3, 0.1), 3);
+        assert_eq!(steps_for(0.35, 0.1), 4);
+    }
+}

@@ -1,0 +1,133 @@
+//! Frames of a run written as files: PLY or OBJ meshes of the surface, or CSV of every point.
+
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+use clap::ValueEnum;
+use jello_core::world::Num;
+use jello_core::{Model, State};
+
+use crate::error::CliError;
+use crate::fsio::write_atomic;
+
+/// File format of the frames.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum FrameFormat {
+    /// ASCII PLY: every point as a vertex, the lattice surface as triangles.
+    Ply,
+    /// Wavefront OBJ: every point as a vertex, the lattice surface as triangles.
+    Obj,
+    /// CSV: one row per point with i, j, k, position and velocity.
+    Csv,
+}
+
+impl FrameFormat {
+    fn extension(self) -> &'static str {
+        match self {
+            FrameFormat::Ply => "ply",
+            FrameFormat::Obj => "obj",
+            FrameFormat::Csv => "csv",
+        }
+    }
+}
+
+/// Writes numbered frames into a folder.
+pub struct FrameWriter {
+    dir: PathBuf,
+    format: FrameFormat,
+    triangles: Vec<[u32; 3]>,
+    written: usize,
+}
+
+impl FrameWriter {
+    /// Creates `dir` when missing.
+    pub fn new(dir: &Path, format: FrameFormat, model: &Model) -> Result<Self, CliError> {
+        std::fs::create_dir_all(dir)
+            .map_err(|e| CliError::io(format!("{}: cannot create folder: {e}", dir.display())))?;
+        Ok(FrameWriter {
+            dir: dir.to_path_buf(),
+            format,
+            triangles: model.lattice.surface_triangles(),
+            written: 0,
+        })
+    }
+
+    /// Number of frames written so far.
+    pub fn written(&self) -> usize {
+        self.written
+    }
+
+    /// Writes `state` as the next frame, `frame_000000.ply` and so on.
+    pub fn write(&mut self, model: &Model, state: &State) -> Result<(), CliError> {
+        let text = match self.format {
+            FrameFormat::Ply => self.ply(state),
+            FrameFormat::Obj => self.obj(state),
+            FrameFormat::Csv => csv(model, state),
+        };
+        let path = self.dir.join(format!(
+            "frame_{:06}.{}",
+            self.written,
+            self.format.extension()
+        ));
+        write_atomic(&path, text.as_bytes())?;
+        self.written += 1;
+        Ok(())
+    }
+
+    fn ply(&self, state: &State) -> String {
+        let mut s = String::with_capacity(40 * state.len() + 16 * self.triangles.len());
+        let _ = write!(
+            s,
+            "ply\nformat ascii 1.0\ncomment jello frame, step {}, t = {} s\n\
+             element vertex {}\nproperty double x\nproperty double y\nproperty double z\n\
+             element face {}\nproperty list uchar uint vertex_indices\nend_header\n",
+            state.steps,
+            Num(state.time),
+            state.len(),
+            self.triangles.len()
+        );
+        for p in &state.pos {
+            let _ = writeln!(s, "{} {} {}", Num(p.x), Num(p.y), Num(p.z));
+        }
+        for [a, b, c] in &self.triangles {
+            let _ = writeln!(s, "3 {a} {b} {c}");
+        }
+        s
+    }
+
+    fn obj(&self, state: &State) -> String {
+        let mut s = String::with_capacity(40 * state.len() + 16 * self.triangles.len());
+        let _ = writeln!(
+            s,
+            "# jello frame, step {}, t = {} s",
+            state.steps,
+            Num(state.time)
+        );
+        for p in &state.pos {
+            let _ = writeln!(s, "v {} {} {}", Num(p.x), Num(p.y), Num(p.z));
+        }
+        for [a, b, c] in &self.triangles {
+            let _ = writeln!(s, "f {} {} {}", a + 1, b + 1, c + 1);
+        }
+        s
+    }
+}
+
+fn csv(model: &Model, state: &State) -> String {
+    let mut s = String::with_capacity(80 * state.len());
+    s.push_str("i,j,k,x,y,z,vx,vy,vz\n");
+    for (n, (p, v)) in state.pos.iter().zip(&state.vel).enumerate() {
+        let [i, j, k] = model.lattice.coords(n);
+        let _ = writeln!(
+            s,
+            "{i},{j},{k},{},{},{},{},{},{}",
+            Num(p.x),
+            Num(p.y),
+            Num(p.z),
+            Num(v.x),
+            Num(v.y),
+            Num(v.z)
+        );
+    }
+    s
+}

@@ -1,0 +1,87 @@
+//! File input and output for the command line: bounded reads and atomic writes.
+
+use std::fs;
+use std::io::{Read, Write};
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicU64, Ordering};
+
+use jello_core::{ReadOptions, World};
+
+use crate::error::CliError;
+
+/// Largest world file we read (bytes). A classic file with a 30³ field is under 1 MiB; this bound
+/// keeps a wrong path (a device, a huge binary) from exhausting memory.
+pub const MAX_WORLD_BYTES: u64 = 64 << 20;
+
+/// Reads and parses a world file; errors name the file and the line.
+pub fn read_world(path: &Path, options: ReadOptions) -> Result<World, CliError> {
+    let name = path.display().to_string();
+    let file =
+        fs::File::open(path).map_err(|e| CliError::input(format!("{name}: cannot open: {e}")))?;
+    if file.metadata().map(|m| m.is_dir()).unwrap_or(false) {
+        return Err(CliError::input(format!(
+            "{name}: is a directory, expected a world file"
+        )));
+    }
+    let mut bytes = Vec::new();
+    file.take(MAX_WORLD_BYTES + 1)
+        .read_to_end(&mut bytes)
+        .map_err(|e| CliError::input(format!("{name}: cannot read: {e}")))?;
+    if bytes.len() as u64 > MAX_WORLD_BYTES {
+        return Err(CliError::input(format!(
+            "{name}: larger than {} MiB, which no world file is",
+            MAX_WORLD_BYTES >> 20
+        )));
+    }
+    World::parse(&bytes, &name, options).map_err(|e| CliError::input(e.to_string()))
+}
+
+/// Writes `bytes` to `path` atomically: into a temporary file beside it, flushed to disk, then
+/// renamed over `path`. Readers see the old file or the whole new one, never a part.
+pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), CliError> {
+    static COUNTER: AtomicU64 = AtomicU64::new(0);
+    let name = path.display().to_string();
+    let file_name = path
+        .file_name()
+        .ok_or_else(|| CliError::input(format!("{name}: not a file name")))?;
+    let dir = match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
+    if path.is_dir() {
+        return Err(CliError::io(format!("{name}: is a directory")));
+    }
+    let tmp = dir.join(format!(
+        ".{}.tmp-{}-{}",
+        file_name.to_string_lossy(),
+        std::process::id(),
+        COUNTER.fetch_add(1, Ordering::Relaxed)
+    ));
+    let result = (|| {
+        let mut f = fs::File::create(&tmp)?;
+        f.write_all(bytes)?;
+        f.sync_all()?;
+        fs::rename(&tmp, path)
+    })();
+    result.map_err(|e| {
+        let _ = fs::remove_file(&tmp);
+        CliError::io(format!("{name}: cannot write: {e}"))
+    })
+}
+
+/// Checks before a long run that `path` can later be written: its folder exists.
+pub fn check_writable_target(path: &Path) -> Result<(), CliError> {
+    let name = path.display().to_string();
+    if path.is_dir() {
+        return Err(CliError::input(format!(
+            "{name}: is a directory, expected a file to write"
+        )));
+    }
+    match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() && !d.is_dir() => Err(CliError::input(format!(
+            "{name}: folder {} does not exist",
+            d.display()
+        ))),
+        _ => Ok(()),
+    }
+}

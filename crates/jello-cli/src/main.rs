@@ -1,0 +1,40 @@
+//! `jello`: run, create and inspect jello worlds from the terminal.
+
+mod commands;
+mod error;
+mod frames;
+mod fsio;
+mod progress;
+
+use clap::{Parser, Subcommand};
+
+/// Jello: a mass-spring soft-body simulator of the classic jello cube.
+#[derive(Parser, Debug)]
+#[command(name = "jello", version, about, long_about = None)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand, Debug)]
+enum Command {
+    /// Run a world headless and print a summary; optionally save frames and the final state.
+    Run(commands::run::RunArgs),
+    /// Write a new world file.
+    Create(commands::create::CreateArgs),
+    /// Describe a world file: header, counts, energies, stable time steps.
+    Info(commands::info::InfoArgs),
+}
+
+fn main() {
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Command::Run(args) => commands::run::run(args),
+        Command::Create(args) => commands::create::create(args),
+        Command::Info(args) => commands::info::info(args),
+    };
+    if let Err(e) = result {
+        eprintln!("jello: error: {e}");
+        std::process::exit(e.code);
+    }
+}

@@ -1,0 +1,77 @@
+//! Quantities read off a state, never mixed into stepping: energies, penetration, momentum.
+
+use crate::model::Model;
+use crate::state::State;
+use crate::vec3::Vec3;
+
+pub use crate::forces::max_penetration;
+
+/// Mechanical energy (J) of a state. The force field is not a potential, so its work is not part
+/// of it: with a field, the total changes by the work the field does.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Energy {
+    /// `Σ ½ m |v|²`.
+    pub kinetic: f64,
+    /// `Σ ½ k (|L| − R)²` over the lattice springs.
+    pub spring: f64,
+    /// `Σ ½ kCollision depth²` over the box and plane penalty springs.
+    pub collision: f64,
+}
+
+impl Energy {
+    /// Kinetic plus potential energy.
+    pub fn total(&self) -> f64 {
+        self.kinetic + self.spring + self.collision
+    }
+}
+
+/// Energy of `state` under `model`.
+pub fn energy(model: &Model, state: &State) -> Energy {
+    let kinetic = 0.5 * model.mass * state.vel.iter().map(|v| v.length_squared()).sum::<f64>();
+    let s = &model.springs;
+    let spring =
+        s.a.iter()
+            .zip(&s.b)
+            .zip(s.rest_len.iter().zip(&s.kind))
+            .map(|((&a, &b), (&rest, &kind))| {
+                let stretch = (state.pos[a as usize] - state.pos[b as usize]).length() - rest;
+                0.5 * model.stiffness[kind as usize] * stretch * stretch
+            })
+            .sum();
+    let collision = state
+        .pos
+        .iter()
+        .map(|&p| {
+            let b = &model.bounds;
+            let out = |c: f64, lo: f64, hi: f64| (lo - c).max(c - hi).max(0.0);
+            let walls = [
+                out(p.x, b.min.x, b.max.x),
+                out(p.y, b.min.y, b.max.y),
+                out(p.z, b.min.z, b.max.z),
+            ];
+            let plane = model
+                .plane
+                .and_then(|pl| pl.penetration(p))
+                .map_or(0.0, |(d, _)| d);
+            walls.iter().chain([&plane]).map(|d| d * d).sum::<f64>()
+        })
+        .sum::<f64>()
+        * 0.5
+        * model.k_collision;
+    Energy {
+        kinetic,
+        spring,
+        collision,
+    }
+}
+
+/// Centre of mass (m); every point has the same mass.
+pub fn centre_of_mass(pos: &[Vec3]) -> Vec3 {
+    let sum = pos.iter().fold(Vec3::ZERO, |acc, &p| acc + p);
+    sum / pos.len() as f64
+}
+
+/// Total linear momentum (kg·m/s).
+pub fn momentum(model: &Model, vel: &[Vec3]) -> Vec3 {
+    vel.iter().fold(Vec3::ZERO, |acc, &v| acc + v) * model.mass
+}

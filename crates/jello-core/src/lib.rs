@@ -1,0 +1,105 @@
+//! # jello-core
+//!
+//! The physics of Jello: an elastic lattice of mass points joined by structural, shear and bend
+//! springs (Hooke's law with spring damping), pushed by a force field sampled on a grid, held in a
+//! box and above an inclined plane by penalty springs, and advanced by Euler, RK2, RK4 or
+//! symplectic Euler. `SPEC.md` is the contract; this crate implements it exactly.
+//!
+//! The data model follows MuJoCo and Warp:
+//! - [`Model`]: what does not change while stepping (lattice, springs, parameters, obstacles,
+//!   field, options), made by a [`ModelBuilder`] or read from a classic world file ([`World`]);
+//! - [`State`]: positions, velocities, time;
+//! - [`Control`]: forces from outside (a user's drag);
+//! - [`Scratch`]: the integrators' buffers, so that [`step`] never allocates.
+//!
+//! ```
+//! use jello_core::{step, Control, ModelBuilder, Scratch, State};
+//! let model = ModelBuilder::new().build().unwrap();
+//! let mut state = State::at_rest(&model);
+//! let mut scratch = Scratch::new(&model);
+//! for _ in 0..100 {
+//!     step(&model, &mut state, &Control::none(), &mut scratch).unwrap();
+//! }
+//! assert_eq!(state.steps, 100);
+//! ```
+//!
+//! The crate does no I/O: it parses and prints text it is handed.
+
+#![warn(missing_docs)]
+
+pub mod diagnostics;
+pub mod field;
+pub mod forces;
+pub mod integrator;
+pub mod lattice;
+pub mod model;
+pub mod stability;
+pub mod state;
+pub mod step;
+pub mod vec3;
+pub mod world;
+
+pub use diagnostics::Energy;
+pub use field::ForceField;
+pub use integrator::{Integrator, UnknownIntegrator};
+pub use lattice::{Lattice, SpringKind, Springs};
+pub use model::{defaults, Aabb, Model, ModelBuilder, ModelError, Plane};
+pub use state::{Control, State};
+pub use step::{step, BlowUp, BlowUpCause, Scratch};
+pub use vec3::Vec3;
+pub use world::{ReadOptions, World, WorldError};
+
+/// A model with its state, control and scratch: the convenient handle the command line, the
+/// browser and Python drive.
+#[derive(Clone, Debug)]
+pub struct Simulation {
+    /// What does not change while stepping.
+    pub model: Model,
+    /// What stepping advances.
+    pub state: State,
+    /// Forces from outside.
+    pub control: Control,
+    scratch: Scratch,
+}
+
+impl Simulation {
+    /// A simulation of `model` starting from `state`.
+    pub fn new(model: Model, state: State) -> Self {
+        let scratch = Scratch::new(&model);
+        Simulation {
+            model,
+            state,
+            control: Control::none(),
+            scratch,
+        }
+    }
+
+    /// The simulation a world file describes.
+    pub fn from_world(world: &World) -> Result<Self, ModelError> {
+        let (model, state) = world.to_simulation()?;
+        Ok(Simulation::new(model, state))
+    }
+
+    /// One step; on a blow-up the state stays at the last good step.
+    pub fn step(&mut self) -> Result<(), BlowUp> {
+        step(
+            &self.model,
+            &mut self.state,
+            &self.control,
+            &mut self.scratch,
+        )
+    }
+
+    /// `n` steps, stopping at the first blow-up.
+    pub fn advance(&mut self, n: u64) -> Result<(), BlowUp> {
+        for _ in 0..n {
+            self.step()?;
+        }
+        Ok(())
+    }
+
+    /// The current state as a world file, when the model fits the classic format.
+    pub fn to_world(&self) -> Result<World, ModelError> {
+        World::from_simulation(&self.model, &self.state)
+    }
+}

@@ -1,0 +1,187 @@
+//! An estimate of the largest stable time step of each integrator for a model.
+//!
+//! Method (documented in SPEC notes and the README):
+//! 1. Find the stiffest mode: the largest eigenvalue `Ω²` of the spring stiffness matrix over the
+//!    mass, at the rest shape (power iteration; never above Gershgorin's bound `2·max_p Σ k / m`,
+//!    the sum over the springs at point `p`). The damping matrix has the same structure and gives
+//!    the rate `Γ`. With one ratio d/k for all springs the two share their modes.
+//! 2. Model every mode as a damped oscillator `x'' = −ω² x − γ x'` with damping proportional to
+//!    stiffness, `(ω², γ) = s·(Ω², Γ)` for `s` in `(0, 1]`; and, for a point pressed into a wall,
+//!    the same plus one collision spring, `(s·Ω² + kCollision/m, s·Γ + dCollision/m)`.
+//! 3. For each integrator, step that scalar oscillator exactly as [`crate::step`] does, which gives
+//!    its 2×2 amplification matrix, and find the largest `dt` for which every sampled mode has a
+//!    spectral radius of at most 1.
+//!
+//! It is an estimate: the bound is conservative for the stiffness, the lattice is nonlinear, and
+//! large deformations change the modes. Explicit Euler is unstable for an undamped oscillator at
+//! every step size; with proportional damping its limit is about `d/k` whatever the mass.
+
+use crate::integrator::Integrator;
+use crate::model::Model;
+use crate::vec3::Vec3;
+
+/// Largest eigenvalue of `Σ w_s û_s û_sᵀ` assembled over the springs at rest (the stiffness
+/// matrix when `w` is the stiffness, the damping matrix when it is the damping), over the mass.
+///
+/// Power iteration from a checkerboard start (close to the stiffest lattice mode), capped by the
+/// Gershgorin bound `2·max_p Σ w`; lattices with more than [`POWER_ITERATION_MAX_SPRINGS`] springs
+/// use the bound alone. The Rayleigh quotient approaches from below, so it is raised by 2 %.
+fn largest_eigenvalue(model: &Model, weight: &[f64; 3]) -> f64 {
+    let n = model.point_count();
+    let s = &model.springs;
+    let mut sum = vec![0.0; n];
+    for ((&a, &b), &kind) in s.a.iter().zip(&s.b).zip(&s.kind) {
+        sum[a as usize] += weight[kind as usize];
+        sum[b as usize] += weight[kind as usize];
+    }
+    let gershgorin = 2.0 * sum.iter().copied().fold(0.0, f64::max) / model.mass;
+    if s.len() > POWER_ITERATION_MAX_SPRINGS || gershgorin == 0.0 {
+        return gershgorin;
+    }
+    let rest = model.lattice.rest_positions();
+    let dirs: Vec<Vec3> =
+        s.a.iter()
+            .zip(&s.b)
+            .map(|(&a, &b)| {
+                let d = rest[a as usize] - rest[b as usize];
+                d / d.length()
+            })
+            .collect();
+    let apply = |x: &[Vec3], y: &mut [Vec3]| {
+        y.fill(Vec3::ZERO);
+        for (((&a, &b), &kind), &u) in s.a.iter().zip(&s.b).zip(&s.kind).zip(&dirs) {
+            let f = u * (weight[kind as usize] * u.dot(x[a as usize] - x[b as usize]));
+            y[a as usize] += f;
+            y[b as usize] -= f;
+        }
+    };
+    let mut x: Vec<Vec3> = (0..n)
+        .map(|p| {
+            let [i, j, k] = model.lattice.coords(p);
+            let sign = if (i + j + k) % 2 == 0 { 1.0 } else { -1.0 };
+            Vec3::new(sign, sign * 0.9, sign * 0.8)
+        })
+        .collect();
+    let mut y = vec![Vec3::ZERO; n];
+    let mut rayleigh = 0.0;
+    for _ in 0..200 {
+        let norm = x.iter().map(|v| v.length_squared()).sum::<f64>().sqrt();
+        x.iter_mut().for_each(|v| *v = *v / norm);
+        apply(&x, &mut y);
+        rayleigh = x.iter().zip(&y).map(|(a, b)| a.dot(*b)).sum::<f64>();
+        std::mem::swap(&mut x, &mut y);
+    }
+    (1.02 * rayleigh / model.mass).min(gershgorin)
+}
+
+/// Springs above which [`largest_eigenvalue`] uses the Gershgorin bound alone (power iteration
+/// would cost more than the estimate is worth).
+pub const POWER_ITERATION_MAX_SPRINGS: usize = 1_000_000;
+
+/// `(Ω², Γ)`: the stiffest elastic mode's squared frequency (1/s²) and damping rate (1/s).
+fn elastic_bounds(model: &Model) -> (f64, f64) {
+    (
+        largest_eigenvalue(model, &model.stiffness),
+        largest_eigenvalue(model, &model.damping),
+    )
+}
+
+/// Spectral radius of one step of `integrator` with size `h` on `x'' = −w2·x − g·x'`.
+fn spectral_radius(integrator: Integrator, w2: f64, g: f64, h: f64) -> f64 {
+    let f = |x: f64, v: f64| -w2 * x - g * v;
+    let one_step = |x: f64, v: f64| -> (f64, f64) {
+        match integrator {
+            Integrator::Euler => (x + h * v, v + h * f(x, v)),
+            Integrator::SymplecticEuler => {
+                let v1 = v + h * f(x, v);
+                (x + h * v1, v1)
+            }
+            Integrator::Rk2 => {
+                let (xm, vm) = (x + 0.5 * h * v, v + 0.5 * h * f(x, v));
+                (x + h * vm, v + h * f(xm, vm))
+            }
+            Integrator::Rk4 => {
+                let (k1x, k1v) = (v, f(x, v));
+                let (k2x, k2v) = (v + 0.5 * h * k1v, f(x + 0.5 * h * k1x, v + 0.5 * h * k1v));
+                let (k3x, k3v) = (v + 0.5 * h * k2v, f(x + 0.5 * h * k2x, v + 0.5 * h * k2v));
+                let (k4x, k4v) = (v + h * k3v, f(x + h * k3x, v + h * k3v));
+                (
+                    x + h / 6.0 * (k1x + 2.0 * k2x + 2.0 * k3x + k4x),
+                    v + h / 6.0 * (k1v + 2.0 * k2v + 2.0 * k3v + k4v),
+                )
+            }
+        }
+    };
+    let (a, c) = one_step(1.0, 0.0);
+    let (b, d) = one_step(0.0, 1.0);
+    let half_trace = 0.5 * (a + d);
+    let det = a * d - b * c;
+    let disc = half_trace * half_trace - det;
+    if disc >= 0.0 {
+        half_trace.abs() + disc.sqrt()
+    } else {
+        det.abs().sqrt()
+    }
+}
+
+/// The largest time step (s) at which `integrator` keeps every mode of `model` from growing, by
+/// the method in the module docs; 0 when no practical step does (Euler without damping).
+pub fn stable_dt(model: &Model, integrator: Integrator) -> f64 {
+    let (omega2, gamma) = elastic_bounds(model);
+    let (kc, dc) = (
+        model.k_collision / model.mass,
+        model.d_collision / model.mass,
+    );
+    // Modes sampled log-uniformly from the softest to the stiffest.
+    let modes: Vec<(f64, f64)> = (0..=96)
+        .map(|i| 10f64.powf(-6.0 * (1.0 - i as f64 / 96.0)))
+        .flat_map(|s| [(s * omega2, s * gamma), (s * omega2 + kc, s * gamma + dc)])
+        .collect();
+    let stable = |h: f64| {
+        modes
+            .iter()
+            .all(|&(w2, g)| spectral_radius(integrator, w2, g, h) <= 1.0 + 1e-12)
+    };
+    // Scan up from a step far below the stiffest period to the first unstable one, then bisect.
+    let omega = (omega2 + kc).sqrt();
+    let practical = 1e-3 / omega;
+    if !stable(practical) {
+        return 0.0;
+    }
+    let (mut lo, mut hi) = (practical, practical * 1.25);
+    while stable(hi) {
+        lo = hi;
+        hi *= 1.25;
+        if hi > 1e6 {
+            return f64::INFINITY;
+        }
+    }
+    for _ in 0..60 {
+        let mid = 0.5 * (lo + hi);
+        if stable(mid) {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    lo
+}
+
+/// A time step to suggest after a blow-up: below both 90 % of the stability estimate and half the
+/// current step, rounded down to two significant digits. `None` when the integrator has no
+/// stable step for this model.
+pub fn suggest_dt(model: &Model) -> Option<f64> {
+    let estimate = stable_dt(model, model.integrator);
+    if estimate <= 0.0 {
+        return None;
+    }
+    Some(round_down_2(f64::min(0.9 * estimate, 0.5 * model.dt)))
+}
+
+/// `x` rounded down to two significant digits (x > 0).
+fn round_down_2(x: f64) -> f64 {
+    let scale = 10f64.powi(x.log10().floor() as i32 - 1);
+    let r = (x / scale).floor() * scale;
+    // Re-parse the printed form so the suggestion prints as a short decimal.
+    format!("{:.1e}", r).parse().unwrap_or(r)
+}
