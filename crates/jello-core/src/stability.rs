@@ -20,37 +20,50 @@ use crate::integrator::Integrator;
 use crate::model::Model;
 use crate::vec3::Vec3;
 
-/// Largest eigenvalue of `Σ w_s û_s û_sᵀ` assembled over the springs at rest (the stiffness
-/// matrix when `w` is the stiffness, the damping matrix when it is the damping), over the mass.
+/// Largest eigenvalue, over the mass, of the stiffness matrix (`tangent` true) or the damping
+/// matrix (`tangent` false) of the springs at positions `pos`, with per-kind weights `weight`.
 ///
-/// Power iteration from a checkerboard start (close to the stiffest lattice mode), capped by the
-/// Gershgorin bound `2·max_p Σ w`; lattices with more than [`POWER_ITERATION_MAX_SPRINGS`] springs
-/// use the bound alone. The Rayleigh quotient approaches from below, so it is raised by 2 %.
-fn largest_eigenvalue(model: &Model, weight: &[f64; 3]) -> f64 {
+/// A spring's 3×3 block is `w ûûᵀ` for damping and `w (ûûᵀ + (1 − R/l)(I − ûûᵀ))` for stiffness:
+/// at the rest shape the second term vanishes, but a spring stretched or crushed far from its rest
+/// length is stiffer across its axis. Power iteration from a checkerboard start (close to the
+/// stiffest lattice mode), capped by the Gershgorin bound `2·max_p Σ |block|`; lattices with more
+/// than [`POWER_ITERATION_MAX_SPRINGS`] springs use the bound alone. The Rayleigh quotient
+/// approaches from below, so it is raised by 2 %.
+fn largest_eigenvalue(model: &Model, pos: &[Vec3], weight: &[f64; 3], tangent: bool) -> f64 {
     let n = model.point_count();
     let s = &model.springs;
+    // Per spring: unit direction, axial weight and transverse weight.
+    let blocks: Vec<(Vec3, f64, f64)> =
+        s.a.iter()
+            .zip(&s.b)
+            .zip(s.rest_len.iter().zip(&s.kind))
+            .map(|((&a, &b), (&rest, &kind))| {
+                let d = pos[a as usize] - pos[b as usize];
+                let l = d.length();
+                let w = weight[kind as usize];
+                if l == 0.0 {
+                    return (Vec3::ZERO, 0.0, 0.0);
+                }
+                let transverse = if tangent { w * (1.0 - rest / l) } else { 0.0 };
+                (d / l, w, transverse)
+            })
+            .collect();
     let mut sum = vec![0.0; n];
-    for ((&a, &b), &kind) in s.a.iter().zip(&s.b).zip(&s.kind) {
-        sum[a as usize] += weight[kind as usize];
-        sum[b as usize] += weight[kind as usize];
+    for ((&a, &b), &(_, w, t)) in s.a.iter().zip(&s.b).zip(&blocks) {
+        let norm = w.max(t.abs());
+        sum[a as usize] += norm;
+        sum[b as usize] += norm;
     }
     let gershgorin = 2.0 * sum.iter().copied().fold(0.0, f64::max) / model.mass;
     if s.len() > POWER_ITERATION_MAX_SPRINGS || gershgorin == 0.0 {
         return gershgorin;
     }
-    let rest = model.lattice.rest_positions();
-    let dirs: Vec<Vec3> =
-        s.a.iter()
-            .zip(&s.b)
-            .map(|(&a, &b)| {
-                let d = rest[a as usize] - rest[b as usize];
-                d / d.length()
-            })
-            .collect();
     let apply = |x: &[Vec3], y: &mut [Vec3]| {
         y.fill(Vec3::ZERO);
-        for (((&a, &b), &kind), &u) in s.a.iter().zip(&s.b).zip(&s.kind).zip(&dirs) {
-            let f = u * (weight[kind as usize] * u.dot(x[a as usize] - x[b as usize]));
+        for ((&a, &b), &(u, w, t)) in s.a.iter().zip(&s.b).zip(&blocks) {
+            let dx = x[a as usize] - x[b as usize];
+            let axial = u * u.dot(dx);
+            let f = axial * w + (dx - axial) * t;
             y[a as usize] += f;
             y[b as usize] -= f;
         }
@@ -63,7 +76,7 @@ fn largest_eigenvalue(model: &Model, weight: &[f64; 3]) -> f64 {
         })
         .collect();
     let mut y = vec![Vec3::ZERO; n];
-    let mut rayleigh = 0.0;
+    let mut rayleigh: f64 = 0.0;
     for _ in 0..200 {
         let norm = x.iter().map(|v| v.length_squared()).sum::<f64>().sqrt();
         x.iter_mut().for_each(|v| *v = *v / norm);
@@ -71,18 +84,19 @@ fn largest_eigenvalue(model: &Model, weight: &[f64; 3]) -> f64 {
         rayleigh = x.iter().zip(&y).map(|(a, b)| a.dot(*b)).sum::<f64>();
         std::mem::swap(&mut x, &mut y);
     }
-    (1.02 * rayleigh / model.mass).min(gershgorin)
+    (1.02 * rayleigh.abs() / model.mass).min(gershgorin)
 }
 
 /// Springs above which [`largest_eigenvalue`] uses the Gershgorin bound alone (power iteration
 /// would cost more than the estimate is worth).
 pub const POWER_ITERATION_MAX_SPRINGS: usize = 1_000_000;
 
-/// `(Ω², Γ)`: the stiffest elastic mode's squared frequency (1/s²) and damping rate (1/s).
-fn elastic_bounds(model: &Model) -> (f64, f64) {
+/// `(Ω², Γ)`: the stiffest elastic mode's squared frequency (1/s²) and damping rate (1/s) with
+/// the springs at `pos`.
+fn elastic_bounds(model: &Model, pos: &[Vec3]) -> (f64, f64) {
     (
-        largest_eigenvalue(model, &model.stiffness),
-        largest_eigenvalue(model, &model.damping),
+        largest_eigenvalue(model, pos, &model.stiffness, true),
+        largest_eigenvalue(model, pos, &model.damping, false),
     )
 }
 
@@ -124,10 +138,17 @@ fn spectral_radius(integrator: Integrator, w2: f64, g: f64, h: f64) -> f64 {
     }
 }
 
-/// The largest time step (s) at which `integrator` keeps every mode of `model` from growing, by
-/// the method in the module docs; 0 when no practical step does (Euler without damping).
+/// The largest time step (s) at which `integrator` keeps every mode of `model` at its rest shape
+/// from growing, by the method in the module docs; 0 when no practical step does (Euler without
+/// damping).
 pub fn stable_dt(model: &Model, integrator: Integrator) -> f64 {
-    let (omega2, gamma) = elastic_bounds(model);
+    stable_dt_at(model, &model.lattice.rest_positions(), integrator)
+}
+
+/// Like [`stable_dt`], for the springs as they are at positions `pos` (a deformed lattice can be
+/// stiffer than the rest shape).
+pub fn stable_dt_at(model: &Model, pos: &[Vec3], integrator: Integrator) -> f64 {
+    let (omega2, gamma) = elastic_bounds(model, pos);
     let (kc, dc) = (
         model.k_collision / model.mass,
         model.d_collision / model.mass,
@@ -167,9 +188,10 @@ pub fn stable_dt(model: &Model, integrator: Integrator) -> f64 {
     lo
 }
 
-/// A time step to suggest after a blow-up: below both 90 % of the stability estimate and half the
-/// current step, rounded down to two significant digits. `None` when the integrator has no
-/// stable step for this model.
+/// A time step to suggest after a blow-up: below both 90 % of the stability estimate at the rest
+/// shape and half the current step, rounded down to two significant digits. `None` when the
+/// integrator has no stable step for this model. (The state at a blow-up is already wild, so it
+/// says little; a run that starts far from rest may need the advice followed more than once.)
 pub fn suggest_dt(model: &Model) -> Option<f64> {
     let estimate = stable_dt(model, model.integrator);
     if estimate <= 0.0 {

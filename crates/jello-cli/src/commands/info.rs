@@ -4,7 +4,7 @@ use std::path::PathBuf;
 
 use clap::Args;
 use jello_core::diagnostics::{centre_of_mass, energy, max_penetration, momentum};
-use jello_core::stability::stable_dt;
+use jello_core::stability::{stable_dt, stable_dt_at};
 use jello_core::{Integrator, ReadOptions, Simulation, SpringKind};
 
 use super::parse_integrator;
@@ -93,9 +93,9 @@ pub fn info(args: InfoArgs) -> Result<(), CliError> {
         "penetration    {:.6e} m (deepest point into a wall or the plane)",
         max_penetration(m, &s.pos)
     );
-    println!("stable dt      estimate per integrator (stiffest lattice mode; see README):");
+    println!("stable dt      estimate per integrator (stiffest lattice mode at rest, and in this world's initial shape; see README):");
     for integrator in Integrator::ALL {
-        let h = stable_dt(m, integrator);
+        let h = stable_dt(m, integrator).min(stable_dt_at(m, &s.pos, integrator));
         let verdict = if h <= 0.0 {
             "unstable at every dt (no damping)".to_string()
         } else if m.dt <= h {

@@ -1,0 +1,68 @@
+//! Helpers shared by the physics tests.
+#![allow(dead_code)]
+
+use std::path::PathBuf;
+
+use jello_core::{Aabb, Control, ForceField, Model, Scratch, State, Vec3};
+
+/// The world files collected from the wild, beside the project; `None` (with a message) when
+/// `../shared` is absent.
+pub fn shared_worlds() -> Option<PathBuf> {
+    let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../../shared/worlds");
+    if dir.is_dir() {
+        Some(dir)
+    } else {
+        eprintln!("skipping: {} is absent", dir.display());
+        None
+    }
+}
+
+/// A uniform force field over the classic box.
+pub fn uniform_field(f: Vec3) -> Option<ForceField> {
+    Some(ForceField::from_fn(2, Aabb::classic(), |_| f).unwrap())
+}
+
+/// Steps `n` times, panicking on a blow-up.
+pub fn run(model: &Model, state: &mut State, n: usize) {
+    let mut scratch = Scratch::new(model);
+    let control = Control::none();
+    for _ in 0..n {
+        jello_core::step(model, state, &control, &mut scratch).expect("no blow-up");
+    }
+}
+
+/// A deterministic pseudo-random number in [−1, 1) (64-bit LCG).
+pub struct Lcg(pub u64);
+
+impl Lcg {
+    pub fn next(&mut self) -> f64 {
+        self.0 = self
+            .0
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        ((self.0 >> 11) as f64 / (1u64 << 53) as f64) * 2.0 - 1.0
+    }
+
+    pub fn vec3(&mut self) -> Vec3 {
+        Vec3::new(self.next(), self.next(), self.next())
+    }
+}
+
+/// The model's rest shape moved by `offset`, each point jittered by up to `jitter` m.
+pub fn deformed(model: &Model, offset: Vec3, jitter: f64, seed: u64) -> Vec<Vec3> {
+    let mut rng = Lcg(seed);
+    model
+        .lattice
+        .rest_positions()
+        .into_iter()
+        .map(|p| p + offset + rng.vec3() * jitter)
+        .collect()
+}
+
+/// Largest difference between two point sets.
+pub fn max_diff(a: &[Vec3], b: &[Vec3]) -> f64 {
+    a.iter()
+        .zip(b)
+        .map(|(p, q)| (*p - *q).max_abs())
+        .fold(0.0, f64::max)
+}
