@@ -60,7 +60,8 @@ pub struct CreateArgs {
     /// Rotation of the initial cube about its centre, in degrees about x, then y, then z.
     #[arg(long, value_name = "RX,RY,RZ", allow_hyphen_values = true)]
     pub rotate: Option<Numbers<3>>,
-    /// Where the cube's first corner (point 0,0,0 before rotation) sits (m).
+    /// Where lattice point (0,0,0) sits after scaling and rotation (m); the default keeps the
+    /// original cube [0,1]³.
     #[arg(
         long,
         value_name = "X,Y,Z",
