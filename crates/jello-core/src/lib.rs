@@ -10,7 +10,7 @@
 //!   field, options), made by a [`ModelBuilder`] or read from a classic world file ([`World`]);
 //! - [`State`]: positions, velocities, time;
 //! - [`Control`]: forces from outside (a user's drag);
-//! - [`Scratch`]: the integrators' buffers, so that [`step`] never allocates.
+//! - [`Scratch`]: the integrators' buffers, so that [`step()`] never allocates.
 //!
 //! ```
 //! use jello_core::{step, Control, ModelBuilder, Scratch, State};

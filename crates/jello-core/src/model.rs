@@ -80,16 +80,18 @@ pub struct Plane {
 impl Plane {
     /// The plane whose allowed side holds `reference` (SPEC.md: the centre of mass of the initial
     /// positions). A reference exactly on the plane gets the positive side, the side every
-    /// official world uses. Fails when `(a, b, c)` is zero or a coefficient is not finite.
+    /// official world uses. Fails when a coefficient is not finite or the length of `(a, b, c)`
+    /// is zero or overflows.
     pub fn facing(coeffs: [f64; 4], reference: Vec3) -> Result<Plane, ModelError> {
         if coeffs.iter().any(|c| !c.is_finite()) {
             return Err(ModelError::new("plane coefficients must be finite"));
         }
         let plane = Plane { coeffs, side: 1.0 };
-        if plane.normal_length() == 0.0 {
-            return Err(ModelError::new(
-                "plane normal (a, b, c) must not be zero: a x + b y + c z + d = 0 is no plane",
-            ));
+        let norm = plane.normal_length();
+        if !(norm.is_finite() && norm > 0.0) {
+            return Err(ModelError::new(format!(
+                "plane normal (a, b, c) must have a finite, non-zero length (it has {norm})"
+            )));
         }
         let side = if plane.value(reference) < 0.0 {
             -1.0

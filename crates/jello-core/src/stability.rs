@@ -8,7 +8,7 @@
 //! 2. Model every mode as a damped oscillator `x'' = −ω² x − γ x'` with damping proportional to
 //!    stiffness, `(ω², γ) = s·(Ω², Γ)` for `s` in `(0, 1]`; and, for a point pressed into a wall,
 //!    the same plus one collision spring, `(s·Ω² + kCollision/m, s·Γ + dCollision/m)`.
-//! 3. For each integrator, step that scalar oscillator exactly as [`crate::step`] does, which gives
+//! 3. For each integrator, step that scalar oscillator exactly as [`crate::step()`] does, which gives
 //!    its 2×2 amplification matrix, and find the largest `dt` for which every sampled mode has a
 //!    spectral radius of at most 1.
 //!
@@ -87,18 +87,9 @@ fn largest_eigenvalue(model: &Model, pos: &[Vec3], weight: &[f64; 3], tangent: b
     (1.02 * rayleigh.abs() / model.mass).min(gershgorin)
 }
 
-/// Springs above which [`largest_eigenvalue`] uses the Gershgorin bound alone (power iteration
+/// Springs above which the stiffest-mode search uses the Gershgorin bound alone (power iteration
 /// would cost more than the estimate is worth).
 pub const POWER_ITERATION_MAX_SPRINGS: usize = 1_000_000;
-
-/// `(Ω², Γ)`: the stiffest elastic mode's squared frequency (1/s²) and damping rate (1/s) with
-/// the springs at `pos`.
-fn elastic_bounds(model: &Model, pos: &[Vec3]) -> (f64, f64) {
-    (
-        largest_eigenvalue(model, pos, &model.stiffness, true),
-        largest_eigenvalue(model, pos, &model.damping, false),
-    )
-}
 
 /// Spectral radius of one step of `integrator` with size `h` on `x'' = −w2·x − g·x'`.
 fn spectral_radius(integrator: Integrator, w2: f64, g: f64, h: f64) -> f64 {
@@ -138,54 +129,83 @@ fn spectral_radius(integrator: Integrator, w2: f64, g: f64, h: f64) -> f64 {
     }
 }
 
-/// The largest time step (s) at which `integrator` keeps every mode of `model` at its rest shape
-/// from growing, by the method in the module docs; 0 when no practical step does (Euler without
-/// damping).
-pub fn stable_dt(model: &Model, integrator: Integrator) -> f64 {
-    stable_dt_at(model, &model.lattice.rest_positions(), integrator)
+/// The stiffest modes of a model in some shape: what the stable time step depends on.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ModeBounds {
+    /// Squared angular frequency of the stiffest elastic mode, Ω² (1/s²).
+    pub omega2: f64,
+    /// Damping rate of the stiffest elastic damping mode, Γ (1/s).
+    pub gamma: f64,
+    /// A collision spring's stiffness over the mass (1/s²).
+    pub collision_omega2: f64,
+    /// A collision spring's damping over the mass (1/s).
+    pub collision_gamma: f64,
 }
 
-/// Like [`stable_dt`], for the springs as they are at positions `pos` (a deformed lattice can be
-/// stiffer than the rest shape).
-pub fn stable_dt_at(model: &Model, pos: &[Vec3], integrator: Integrator) -> f64 {
-    let (omega2, gamma) = elastic_bounds(model, pos);
-    let (kc, dc) = (
-        model.k_collision / model.mass,
-        model.d_collision / model.mass,
-    );
-    // Modes sampled log-uniformly from the softest to the stiffest.
-    let modes: Vec<(f64, f64)> = (0..=96)
-        .map(|i| 10f64.powf(-6.0 * (1.0 - i as f64 / 96.0)))
-        .flat_map(|s| [(s * omega2, s * gamma), (s * omega2 + kc, s * gamma + dc)])
-        .collect();
-    let stable = |h: f64| {
-        modes
-            .iter()
-            .all(|&(w2, g)| spectral_radius(integrator, w2, g, h) <= 1.0 + 1e-12)
-    };
-    // Scan up from a step far below the stiffest period to the first unstable one, then bisect.
-    let omega = (omega2 + kc).sqrt();
-    let practical = 1e-3 / omega;
-    if !stable(practical) {
-        return 0.0;
+impl ModeBounds {
+    /// The bounds at the lattice's rest shape.
+    pub fn at_rest(model: &Model) -> Self {
+        Self::at(model, &model.lattice.rest_positions())
     }
-    let (mut lo, mut hi) = (practical, practical * 1.25);
-    while stable(hi) {
-        lo = hi;
-        hi *= 1.25;
-        if hi > 1e6 {
-            return f64::INFINITY;
+
+    /// The bounds with the springs as they are at positions `pos` (a deformed lattice can be
+    /// stiffer than the rest shape).
+    pub fn at(model: &Model, pos: &[Vec3]) -> Self {
+        ModeBounds {
+            omega2: largest_eigenvalue(model, pos, &model.stiffness, true),
+            gamma: largest_eigenvalue(model, pos, &model.damping, false),
+            collision_omega2: model.k_collision / model.mass,
+            collision_gamma: model.d_collision / model.mass,
         }
     }
-    for _ in 0..60 {
-        let mid = 0.5 * (lo + hi);
-        if stable(mid) {
-            lo = mid;
-        } else {
-            hi = mid;
+
+    /// The largest time step (s) at which `integrator` keeps every mode from growing, by the
+    /// method in the module docs; 0 when no practical step does (Euler without damping).
+    pub fn stable_dt(&self, integrator: Integrator) -> f64 {
+        let (kc, dc) = (self.collision_omega2, self.collision_gamma);
+        // Modes sampled log-uniformly from the softest to the stiffest.
+        let modes: Vec<(f64, f64)> = (0..=96)
+            .map(|i| 10f64.powf(-6.0 * (1.0 - i as f64 / 96.0)))
+            .flat_map(|s| {
+                let (w2, g) = (s * self.omega2, s * self.gamma);
+                [(w2, g), (w2 + kc, g + dc)]
+            })
+            .collect();
+        let stable = |h: f64| {
+            modes
+                .iter()
+                .all(|&(w2, g)| spectral_radius(integrator, w2, g, h) <= 1.0 + 1e-12)
+        };
+        // Scan up from a step far below the stiffest period to the first unstable one, then
+        // bisect.
+        let practical = 1e-3 / (self.omega2 + kc).sqrt();
+        if !stable(practical) {
+            return 0.0;
         }
+        let (mut lo, mut hi) = (practical, practical * 1.25);
+        while stable(hi) {
+            lo = hi;
+            hi *= 1.25;
+            if hi > 1e6 {
+                return f64::INFINITY;
+            }
+        }
+        for _ in 0..60 {
+            let mid = 0.5 * (lo + hi);
+            if stable(mid) {
+                lo = mid;
+            } else {
+                hi = mid;
+            }
+        }
+        lo
     }
-    lo
+}
+
+/// The largest stable time step (s) of `integrator` for `model` at its rest shape
+/// ([`ModeBounds::stable_dt`]).
+pub fn stable_dt(model: &Model, integrator: Integrator) -> f64 {
+    ModeBounds::at_rest(model).stable_dt(integrator)
 }
 
 /// A time step to suggest after a blow-up: below both 90 % of the stability estimate at the rest

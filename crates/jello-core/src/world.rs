@@ -153,18 +153,19 @@ impl<'a> Reader<'a> {
     }
 
     /// The next token, or an error saying the file ended where `what` was expected.
-    fn expect(&mut self, what: &str) -> Result<Token<'a>, WorldError> {
+    fn expect(&mut self, what: &dyn Fn() -> String) -> Result<Token<'a>, WorldError> {
         match self.tokens.next_token() {
             Some(t) => Ok(t),
             None => Err(self.error(
                 self.tokens.line,
-                format!("expected {what}, but the file ends here"),
+                format!("expected {}, but the file ends here", what()),
             )),
         }
     }
 
-    /// A finite number.
-    fn number(&mut self, what: &str) -> Result<(f64, usize), WorldError> {
+    /// A finite number; `what` describes it for an error and is called only then (a file holds
+    /// up to 84 000 numbers).
+    fn number_lazy(&mut self, what: &dyn Fn() -> String) -> Result<(f64, usize), WorldError> {
         let t = self.expect(what)?;
         let value = std::str::from_utf8(t.text)
             .ok()
@@ -174,12 +175,21 @@ impl<'a> Reader<'a> {
             Some(_) => Err(self.error(
                 t.line,
                 format!(
-                    "expected {what}, found {}, which is not a finite number",
+                    "expected {}, found {}, which is not a finite number",
+                    what(),
                     show(t.text)
                 ),
             )),
-            None => Err(self.error(t.line, format!("expected {what}, found {}", show(t.text)))),
+            None => Err(self.error(
+                t.line,
+                format!("expected {}, found {}", what(), show(t.text)),
+            )),
         }
+    }
+
+    /// A finite number.
+    fn number(&mut self, what: &str) -> Result<(f64, usize), WorldError> {
+        self.number_lazy(&|| what.to_string())
     }
 
     /// A number that must satisfy `ok`, described by `rule` in the error.
@@ -199,7 +209,7 @@ impl<'a> Reader<'a> {
 
     /// A decimal integer.
     fn integer(&mut self, what: &str) -> Result<(i64, usize), WorldError> {
-        let t = self.expect(what)?;
+        let t = self.expect(&|| what.to_string())?;
         match std::str::from_utf8(t.text)
             .ok()
             .and_then(|s| s.parse::<i64>().ok())
@@ -209,10 +219,11 @@ impl<'a> Reader<'a> {
         }
     }
 
-    fn vec3(&mut self, what: &str) -> Result<Vec3, WorldError> {
-        let (x, _) = self.number(&format!("{what}, x"))?;
-        let (y, _) = self.number(&format!("{what}, y"))?;
-        let (z, _) = self.number(&format!("{what}, z"))?;
+    /// Three numbers; `what` describes the triple for an error.
+    fn vec3(&mut self, what: &dyn Fn() -> String) -> Result<Vec3, WorldError> {
+        let (x, _) = self.number_lazy(&|| format!("{}, x", what()))?;
+        let (y, _) = self.number_lazy(&|| format!("{}, y", what()))?;
+        let (z, _) = self.number_lazy(&|| format!("{}, z", what()))?;
         Ok(Vec3::new(x, y, z))
     }
 }
@@ -234,12 +245,12 @@ impl World {
             source: source_name,
         };
         if bytes.is_empty() {
-            return Err(r.error(0, "the file is empty; expected a world file".into()));
+            return Err(r.error(1, "the file is empty; expected a world file".into()));
         }
 
         // 1. Integrator.
         let what = "an integrator name (Euler, RK2, RK4, ...)";
-        let t = r.expect(what)?;
+        let t = r.expect(&|| what.to_string())?;
         let word = std::str::from_utf8(t.text)
             .ok()
             .filter(|w| w.bytes().all(|b| b.is_ascii_graphic()) && w.parse::<f64>().is_err());
@@ -279,10 +290,15 @@ impl World {
                 let (b, _) = r.number("plane coefficient b")?;
                 let (c, _) = r.number("plane coefficient c")?;
                 let (d, _) = r.number("plane coefficient d")?;
-                if a == 0.0 && b == 0.0 && c == 0.0 {
+                // The depth divides by |(a, b, c)|: it must be a finite, non-zero number.
+                let norm = Vec3::new(a, b, c).length();
+                if !(norm.is_finite() && norm > 0.0) {
                     return Err(r.error(
                         line,
-                        "expected a plane normal (a, b, c) that is not zero".into(),
+                        format!(
+                            "expected a plane normal (a, b, c) of finite, non-zero length, \
+                             found ({a}, {b}, {c}) of length {norm}"
+                        ),
                     ));
                 }
                 Some([a, b, c, d])
@@ -305,7 +321,7 @@ impl World {
                 let mut forces = Vec::with_capacity(count);
                 for n in 0..count {
                     let (i, j, k) = ijk(n, res);
-                    forces.push(r.vec3(&format!("force field node ({i}, {j}, {k}) of {res}³"))?);
+                    forces.push(r.vec3(&|| format!("force field node ({i}, {j}, {k}) of {res}³"))?);
                 }
                 Some((res, forces))
             }
@@ -321,12 +337,12 @@ impl World {
         let mut positions = Vec::with_capacity(POINTS);
         for n in 0..POINTS {
             let (i, j, k) = ijk(n, 8);
-            positions.push(r.vec3(&format!("the position of point ({i}, {j}, {k}) of 512"))?);
+            positions.push(r.vec3(&|| format!("the position of point ({i}, {j}, {k}) of 512"))?);
         }
         let mut velocities = Vec::with_capacity(POINTS);
         for n in 0..POINTS {
             let (i, j, k) = ijk(n, 8);
-            velocities.push(r.vec3(&format!("the velocity of point ({i}, {j}, {k}) of 512"))?);
+            velocities.push(r.vec3(&|| format!("the velocity of point ({i}, {j}, {k}) of 512"))?);
         }
 
         // Nothing but whitespace may follow.

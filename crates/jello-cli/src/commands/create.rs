@@ -48,8 +48,12 @@ pub struct CreateArgs {
     /// Inclined plane a x + b y + c z + d = 0, given as A,B,C,D [default: none].
     #[arg(long, value_name = "A,B,C,D", allow_hyphen_values = true)]
     pub plane: Option<Numbers<4>>,
-    /// Force field: none | uniform:FX,FY,FZ | gravity[:G] | vortex:S[:x|y|z] | radial:S | tornado:S.
-    #[arg(long, default_value = "none", allow_hyphen_values = true)]
+    #[arg(
+        long,
+        default_value = "none",
+        allow_hyphen_values = true,
+        help = "Force field: none | uniform:FX,FY,FZ | gravity[:G] | vortex:S[:x|y|z] | radial:S | tornado:S"
+    )]
     pub field: FieldSpec,
     /// Force field grid resolution (2 to 30).
     #[arg(long, default_value_t = 30, value_parser = clap::value_parser!(u32).range(2..=30))]
@@ -61,7 +65,7 @@ pub struct CreateArgs {
     #[arg(long, value_name = "RX,RY,RZ", allow_hyphen_values = true)]
     pub rotate: Option<Numbers<3>>,
     /// Where lattice point (0,0,0) sits after scaling and rotation (m); the default keeps the
-    /// original cube [0,1]³.
+    /// original cube, 0 to 1 on each axis.
     #[arg(
         long,
         value_name = "X,Y,Z",

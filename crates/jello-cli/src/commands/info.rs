@@ -4,7 +4,7 @@ use std::path::PathBuf;
 
 use clap::Args;
 use jello_core::diagnostics::{centre_of_mass, energy, max_penetration, momentum};
-use jello_core::stability::{stable_dt, stable_dt_at};
+use jello_core::stability::ModeBounds;
 use jello_core::{Integrator, ReadOptions, Simulation, SpringKind};
 
 use super::parse_integrator;
@@ -94,8 +94,11 @@ pub fn info(args: InfoArgs) -> Result<(), CliError> {
         max_penetration(m, &s.pos)
     );
     println!("stable dt      estimate per integrator (stiffest lattice mode at rest, and in this world's initial shape; see README):");
+    let (at_rest, initial) = (ModeBounds::at_rest(m), ModeBounds::at(m, &s.pos));
     for integrator in Integrator::ALL {
-        let h = stable_dt(m, integrator).min(stable_dt_at(m, &s.pos, integrator));
+        let h = at_rest
+            .stable_dt(integrator)
+            .min(initial.stable_dt(integrator));
         let verdict = if h <= 0.0 {
             "unstable at every dt (no damping)".to_string()
         } else if m.dt <= h {

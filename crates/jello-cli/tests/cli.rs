@@ -1,0 +1,527 @@
+//! End-to-end tests of the `jello` binary: each test runs it in a fresh temporary folder.
+
+use std::fs;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+use std::sync::atomic::{AtomicUsize, Ordering};
+
+use jello_core::{Integrator, ReadOptions, World};
+
+/// A fresh folder under the system temp dir, removed when dropped.
+struct TempDir(PathBuf);
+
+impl TempDir {
+    fn new(label: &str) -> Self {
+        static COUNTER: AtomicUsize = AtomicUsize::new(0);
+        let n = COUNTER.fetch_add(1, Ordering::Relaxed);
+        let path =
+            std::env::temp_dir().join(format!("jello-cli-test-{}-{n}-{label}", std::process::id()));
+        let _ = fs::remove_dir_all(&path);
+        fs::create_dir_all(&path).unwrap();
+        TempDir(path)
+    }
+
+    fn path(&self, name: &str) -> PathBuf {
+        self.0.join(name)
+    }
+
+    /// Runs `jello ARGS` in this folder.
+    fn jello(&self, args: &[&str]) -> Run {
+        let out = Command::new(env!("CARGO_BIN_EXE_jello"))
+            .args(args)
+            .current_dir(&self.0)
+            .output()
+            .expect("cannot start jello");
+        Run::new(args, out)
+    }
+
+    /// Names of the files in the folder (not recursive), sorted.
+    fn files(&self) -> Vec<String> {
+        let mut names: Vec<String> = fs::read_dir(&self.0)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect();
+        names.sort();
+        names
+    }
+
+    fn assert_no_temp_files(&self) {
+        let stray: Vec<String> = self
+            .files()
+            .into_iter()
+            .filter(|n| n.contains(".tmp-"))
+            .collect();
+        assert!(stray.is_empty(), "stray temporary files: {stray:?}");
+    }
+
+    fn write(&self, name: &str, bytes: impl AsRef<[u8]>) {
+        fs::write(self.path(name), bytes).unwrap();
+    }
+
+    fn read(&self, name: &str) -> Vec<u8> {
+        fs::read(self.path(name)).unwrap_or_else(|e| panic!("{name}: {e}"))
+    }
+
+    /// `jello create NAME EXTRA...`, which must succeed.
+    fn create(&self, name: &str, extra: &[&str]) {
+        let mut args = vec!["create", name];
+        args.extend_from_slice(extra);
+        self.jello(&args).success();
+        assert!(self.path(name).is_file());
+    }
+}
+
+impl Drop for TempDir {
+    fn drop(&mut self) {
+        let _ = fs::remove_dir_all(&self.0);
+    }
+}
+
+/// A finished run of the binary.
+struct Run {
+    args: String,
+    code: Option<i32>,
+    stdout: String,
+    stderr: String,
+}
+
+impl Run {
+    fn new(args: &[&str], out: Output) -> Self {
+        Run {
+            args: args.join(" "),
+            code: out.status.code(),
+            stdout: String::from_utf8_lossy(&out.stdout).into_owned(),
+            stderr: String::from_utf8_lossy(&out.stderr).into_owned(),
+        }
+    }
+
+    fn context(&self) -> String {
+        format!(
+            "jello {}\n--- exit {:?}\n--- stdout\n{}--- stderr\n{}",
+            self.args, self.code, self.stdout, self.stderr
+        )
+    }
+
+    fn success(&self) -> &Self {
+        assert_eq!(self.code, Some(0), "{}", self.context());
+        self.no_panic()
+    }
+
+    fn code(&self, code: i32) -> &Self {
+        assert_eq!(self.code, Some(code), "{}", self.context());
+        self.no_panic()
+    }
+
+    fn no_panic(&self) -> &Self {
+        for text in [&self.stdout, &self.stderr] {
+            assert!(!text.contains("panicked"), "{}", self.context());
+            assert!(!text.contains("RUST_BACKTRACE"), "{}", self.context());
+        }
+        self
+    }
+
+    fn stdout_has(&self, needle: &str) -> &Self {
+        assert!(
+            self.stdout.contains(needle),
+            "stdout lacks {needle:?}\n{}",
+            self.context()
+        );
+        self
+    }
+
+    fn stderr_has(&self, needle: &str) -> &Self {
+        assert!(
+            self.stderr.contains(needle),
+            "stderr lacks {needle:?}\n{}",
+            self.context()
+        );
+        self
+    }
+
+    /// The line number in `FILE:LINE:` on stderr; fails when there is none.
+    fn stderr_line_of(&self, file: &str) -> usize {
+        line_after(&self.stderr, file)
+            .unwrap_or_else(|| panic!("stderr lacks \"{file}:<line>:\"\n{}", self.context()))
+    }
+}
+
+/// The `N` of the first `FILE:N:` in `text`.
+fn line_after(text: &str, file: &str) -> Option<usize> {
+    let pat = format!("{file}:");
+    text.match_indices(&pat).find_map(|(i, _)| {
+        let rest = &text[i + pat.len()..];
+        let digits: String = rest.chars().take_while(char::is_ascii_digit).collect();
+        let after = rest[digits.len()..].chars().next();
+        match (digits.parse::<usize>(), after) {
+            (Ok(n), Some(':')) if n > 0 => Some(n),
+            _ => None,
+        }
+    })
+}
+
+fn parse_world(bytes: &[u8], name: &str) -> World {
+    World::parse(bytes, name, ReadOptions::default()).unwrap_or_else(|e| panic!("{e}"))
+}
+
+// ---------------------------------------------------------------------------------------------
+
+#[test]
+fn create_then_info() {
+    let t = TempDir::new("info");
+    let r = t.jello(&["create", "OUT.w"]);
+    r.success();
+    let text = t.read("OUT.w");
+    let w = parse_world(&text, "OUT.w");
+    assert_eq!(w.integrator, Integrator::Rk4);
+    t.jello(&["info", "OUT.w"])
+        .success()
+        .stdout_has("RK4")
+        .stdout_has("6220 springs")
+        .stdout_has("OUT.w");
+    t.assert_no_temp_files();
+}
+
+#[test]
+fn run_saves_a_world_that_parses() {
+    let t = TempDir::new("save");
+    t.create("OUT.w", &[]);
+    t.jello(&["run", "OUT.w", "--steps", "50", "--save", "S.w", "-q"])
+        .success()
+        .stdout_has("50 steps");
+    let saved = parse_world(&t.read("S.w"), "S.w");
+    let start = parse_world(&t.read("OUT.w"), "OUT.w");
+    assert_eq!(saved.integrator, start.integrator);
+    assert_eq!(saved.dt, start.dt);
+    assert_eq!(saved.positions.len(), 512);
+    t.assert_no_temp_files();
+    // The saved file runs on.
+    t.jello(&["run", "S.w", "--steps", "5", "-q"]).success();
+}
+
+#[test]
+fn run_for_a_simulated_time() {
+    let t = TempDir::new("time");
+    t.create("OUT.w", &[]);
+    t.jello(&["run", "OUT.w", "--time", "0.01", "-q"])
+        .success()
+        .stdout_has("20 steps")
+        .stdout_has("t = 0.010000 s");
+    // --steps and --time conflict.
+    let r = t.jello(&["run", "OUT.w", "--time", "0.01", "--steps", "3"]);
+    assert_ne!(r.code, Some(0), "{}", r.context());
+    r.no_panic();
+}
+
+#[test]
+fn integrator_and_dt_overrides_apply() {
+    let t = TempDir::new("override");
+    t.create("OUT.w", &[]);
+    t.jello(&[
+        "run",
+        "OUT.w",
+        "--integrator",
+        "euler",
+        "--dt",
+        "0.0001",
+        "--steps",
+        "10",
+        "--save",
+        "S.w",
+        "-q",
+    ])
+    .success()
+    .stdout_has("t = 0.001000 s");
+    let saved = parse_world(&t.read("S.w"), "S.w");
+    assert_eq!(saved.integrator, Integrator::Euler);
+    assert_eq!(saved.dt, 0.0001);
+    t.jello(&["info", "S.w"])
+        .success()
+        .stdout_has("Euler, dt = 0.0001 s");
+    // The input is untouched.
+    let start = parse_world(&t.read("OUT.w"), "OUT.w");
+    assert_eq!(start.integrator, Integrator::Rk4);
+    assert_eq!(start.dt, 0.0005);
+}
+
+fn frame_names(dir: &Path) -> Vec<String> {
+    let mut names: Vec<String> = fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    names.sort();
+    names
+}
+
+#[test]
+fn frames_in_every_format() {
+    let t = TempDir::new("frames");
+    t.create("OUT.w", &["--field", "gravity"]);
+    let (steps, every) = (50, 10);
+    for format in ["ply", "obj", "csv"] {
+        let dir = format!("frames-{format}");
+        t.jello(&[
+            "run",
+            "OUT.w",
+            "--steps",
+            &steps.to_string(),
+            "--frames",
+            &dir,
+            "--every",
+            &every.to_string(),
+            "--format",
+            format,
+            "-q",
+        ])
+        .success()
+        .stdout_has(&format!("{} frames", steps / every + 1));
+        let names = frame_names(&t.path(&dir));
+        let expected: Vec<String> = (0..=steps / every)
+            .map(|n| format!("frame_{n:06}.{format}"))
+            .collect();
+        assert_eq!(names, expected, "{format}");
+        for name in &names {
+            let text = String::from_utf8(t.read(&format!("{dir}/{name}"))).unwrap();
+            match format {
+                "ply" => {
+                    assert!(text.starts_with("ply\n"), "{name}");
+                    assert!(text.contains("element vertex 512\n"), "{name}");
+                    assert!(text.contains("end_header\n"), "{name}");
+                    let body = text.split_once("end_header\n").unwrap().1;
+                    let vertices: Vec<&str> = body.lines().take(512).collect();
+                    assert_eq!(vertices.len(), 512);
+                    for v in vertices {
+                        let xyz: Vec<f64> = v.split(' ').map(|s| s.parse().unwrap()).collect();
+                        assert_eq!(xyz.len(), 3, "{name}: {v}");
+                        assert!(xyz.iter().all(|c| c.is_finite() && c.abs() < 3.0));
+                    }
+                }
+                "obj" => {
+                    let v = text.lines().filter(|l| l.starts_with("v ")).count();
+                    assert_eq!(v, 512, "{name}");
+                    assert!(text.lines().any(|l| l.starts_with("f ")), "{name}");
+                }
+                "csv" => {
+                    let lines: Vec<&str> = text.lines().collect();
+                    assert_eq!(lines.len(), 513, "{name}");
+                    assert_eq!(lines[0], "i,j,k,x,y,z,vx,vy,vz");
+                    assert!(lines[1..].iter().all(|l| l.split(',').count() == 9));
+                    assert!(lines[1].starts_with("0,0,0,"));
+                }
+                _ => unreachable!(),
+            }
+        }
+        let dir_path = t.path(&dir);
+        let stray = frame_names(&dir_path)
+            .into_iter()
+            .filter(|n| n.contains(".tmp-"))
+            .count();
+        assert_eq!(stray, 0);
+    }
+    // Under gravity the cube falls: the last frame differs from the first.
+    let first = t.read("frames-csv/frame_000000.csv");
+    let last = t.read(&format!("frames-csv/frame_{:06}.csv", steps / every));
+    assert_ne!(first, last);
+}
+
+#[test]
+fn blow_up_exits_3_and_saves_nothing() {
+    let t = TempDir::new("blowup");
+    t.create("B.w", &["--dt", "0.05", "--k-elastic", "20000"]);
+    let r = t.jello(&["run", "B.w", "--steps", "50", "--save", "S.w", "-q"]);
+    r.code(3)
+        .stderr_has("B.w")
+        .stderr_has("blew up")
+        .stderr_has("--dt");
+    assert!(!t.path("S.w").exists(), "a blown-up run left S.w");
+    t.assert_no_temp_files();
+    // The same world with a small enough step runs: the blow-up was the step size.
+    t.jello(&["run", "B.w", "--steps", "50", "--dt", "0.0001", "-q"])
+        .success();
+}
+
+/// Writes `bytes` as `name`, runs it with `--save`, and checks the clean failure: exit 1, the
+/// file and a line named, no output file.
+fn assert_rejected(t: &TempDir, name: &str, bytes: &[u8]) -> Run {
+    t.write(name, bytes);
+    let r = t.jello(&["run", name, "--steps", "3", "--save", "X.w", "-q"]);
+    r.code(1).stderr_has(name);
+    r.stderr_line_of(name);
+    assert!(!t.path("X.w").exists(), "{name}: left X.w behind");
+    t.assert_no_temp_files();
+    // `info` refuses it the same way.
+    let i = t.jello(&["info", name]);
+    i.code(1).stderr_has(name);
+    r
+}
+
+#[test]
+fn hostile_files_fail_cleanly() {
+    let t = TempDir::new("hostile");
+    t.create("good.w", &["--field", "vortex:0.01"]);
+    let good = t.read("good.w");
+
+    let r = assert_rejected(&t, "empty.w", b"");
+    r.stderr_has("empty");
+
+    assert_rejected(&t, "blank.w", b"  \n\n\t \r\n");
+
+    // Binary garbage from a fixed-seed LCG.
+    let mut x: u64 = 0x1234_5678_9abc_def0;
+    let garbage: Vec<u8> = (0..5000)
+        .map(|_| {
+            x = x
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (x >> 56) as u8
+        })
+        .collect();
+    assert_rejected(&t, "garbage.w", &garbage);
+    assert_rejected(&t, "nul.w", &[0u8; 100]);
+
+    // Truncated at several places.
+    for (n, cut) in [3, 20, good.len() / 3, good.len() / 2, good.len() - 3]
+        .into_iter()
+        .enumerate()
+    {
+        let name = format!("truncated-{n}.w");
+        let r = assert_rejected(&t, &name, &good[..cut]);
+        let line = r.stderr_line_of(&name);
+        let lines = good[..cut].iter().filter(|&&b| b == b'\n').count() + 1;
+        assert!(line <= lines, "{}", r.context());
+    }
+
+    // NaN (and friends) in the mass, on line 4.
+    let text = String::from_utf8(good.clone()).unwrap();
+    let mut lines: Vec<&str> = text.lines().collect();
+    for (n, bad) in ["nan", "inf", "-1e400", "-0.5"].into_iter().enumerate() {
+        lines[3] = bad;
+        let name = format!("mass-{n}.w");
+        let r = assert_rejected(&t, &name, lines.join("\n").as_bytes());
+        assert_eq!(r.stderr_line_of(&name), 4, "{}", r.context());
+    }
+
+    // Trailing data after the velocities.
+    let mut trailing = good.clone();
+    trailing.extend_from_slice(b"extra\n");
+    let r = assert_rejected(&t, "trailing.w", &trailing);
+    let total_lines = good.iter().filter(|&&b| b == b'\n').count();
+    assert_eq!(r.stderr_line_of("trailing.w"), total_lines + 1);
+
+    // None of that touched the good file, which still runs.
+    assert_eq!(t.read("good.w"), good);
+    t.jello(&["run", "good.w", "--steps", "2", "-q"]).success();
+}
+
+#[test]
+fn a_failed_run_keeps_an_existing_save_file() {
+    let t = TempDir::new("keep");
+    t.create("good.w", &[]);
+    t.write("X.w", b"precious");
+    t.write("bad.w", b"RK4\n0.0005 nan\n");
+    t.jello(&["run", "bad.w", "--steps", "3", "--save", "X.w", "-q"])
+        .code(1)
+        .stderr_has("bad.w:2:");
+    assert_eq!(t.read("X.w"), b"precious");
+    t.assert_no_temp_files();
+}
+
+#[test]
+fn nonexistent_input_file() {
+    let t = TempDir::new("missing");
+    t.jello(&["run", "missing.w", "--steps", "1", "--save", "X.w"])
+        .code(1)
+        .stderr_has("missing.w");
+    assert!(!t.path("X.w").exists());
+    t.jello(&["info", "missing.w"])
+        .code(1)
+        .stderr_has("missing.w");
+    // A folder is not a world file either.
+    fs::create_dir(t.path("dir.w")).unwrap();
+    t.jello(&["run", "dir.w", "--steps", "1"])
+        .code(1)
+        .stderr_has("dir.w");
+}
+
+#[test]
+fn create_refuses_to_overwrite_without_force() {
+    let t = TempDir::new("overwrite");
+    t.create("OUT.w", &[]);
+    t.write("OUT.w", b"mine");
+    t.jello(&["create", "OUT.w"])
+        .code(1)
+        .stderr_has("OUT.w")
+        .stderr_has("--force");
+    assert_eq!(t.read("OUT.w"), b"mine");
+    t.jello(&["create", "OUT.w", "--force"]).success();
+    parse_world(&t.read("OUT.w"), "OUT.w");
+    t.assert_no_temp_files();
+}
+
+#[test]
+fn unknown_integrator_is_listed_and_overridable() {
+    let t = TempDir::new("ipc");
+    t.create("OUT.w", &[]);
+    let text = String::from_utf8(t.read("OUT.w")).unwrap();
+    let (first, rest) = text.split_once('\n').unwrap();
+    assert_eq!(first, "RK4");
+    t.write("ipc.w", format!("IPC\n{rest}"));
+    let r = t.jello(&["run", "ipc.w", "--steps", "5", "--save", "S.w", "-q"]);
+    r.code(1)
+        .stderr_has("ipc.w:1:")
+        .stderr_has("IPC")
+        .stderr_has("Euler")
+        .stderr_has("RK2")
+        .stderr_has("RK4");
+    assert!(!t.path("S.w").exists());
+    t.jello(&[
+        "run",
+        "ipc.w",
+        "--steps",
+        "5",
+        "--integrator",
+        "rk4",
+        "--save",
+        "S.w",
+        "-q",
+    ])
+    .success();
+    let saved = parse_world(&t.read("S.w"), "S.w");
+    assert_eq!(saved.integrator, Integrator::Rk4);
+    t.jello(&["info", "ipc.w"]).code(1).stderr_has("RK4");
+    t.jello(&["info", "ipc.w", "--integrator", "rk4"])
+        .success()
+        .stdout_has("RK4");
+    // An unknown name on the command line is refused too, listing the known ones.
+    let r = t.jello(&["run", "OUT.w", "--integrator", "IPC"]);
+    assert_ne!(r.code, Some(0), "{}", r.context());
+    r.no_panic().stderr_has("RK4");
+}
+
+#[test]
+fn nonstandard_worlds_from_the_wild_fail_cleanly() {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/worlds/nonstandard");
+    if !dir.is_dir() {
+        eprintln!(
+            "skipping: {} is absent (the shared world corpus is not here)",
+            dir.display()
+        );
+        return;
+    }
+    let t = TempDir::new("nonstandard");
+    let mut files: Vec<PathBuf> = fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.is_file())
+        .collect();
+    files.sort();
+    assert!(!files.is_empty(), "{} is empty", dir.display());
+    for file in &files {
+        let path = file.to_str().unwrap();
+        let name = file.file_name().unwrap().to_str().unwrap();
+        let r = t.jello(&["run", path, "--steps", "1", "--save", "X.w", "-q"]);
+        r.code(1).stderr_has(name);
+        r.stderr_line_of(name);
+        assert!(!t.path("X.w").exists(), "{name}: left X.w behind");
+    }
+    t.assert_no_temp_files();
+}
