@@ -24,6 +24,8 @@ enum Command {
     Create(commands::create::CreateArgs),
     /// Describe a world file: header, counts, energies, stable time steps.
     Info(commands::info::InfoArgs),
+    /// Measure steps/s and spring evaluations/s on the benchmark scene.
+    Bench(commands::bench::BenchArgs),
 }
 
 fn main() {
@@ -32,6 +34,7 @@ fn main() {
         Command::Run(args) => commands::run::run(args),
         Command::Create(args) => commands::create::create(args),
         Command::Info(args) => commands::info::info(args),
+        Command::Bench(args) => commands::bench::bench(args),
     };
     if let Err(e) = result {
         eprintln!("jello: error: {e}");

@@ -17,6 +17,9 @@ pub struct ForceField {
     bounds: Aabb,
     /// `res³` forces (N), `i` outermost, `k` innermost.
     forces: Vec<Vec3>,
+    /// The force when every node holds the same one (gravity, wind): interpolating equal values
+    /// gives that value, so [`ForceField::sample`] returns it without the arithmetic.
+    uniform: Option<Vec3>,
 }
 
 impl ForceField {
@@ -40,10 +43,16 @@ impl ForceField {
                 "force field node {n} is not finite"
             )));
         }
+        let first = forces[0].to_array().map(f64::to_bits);
+        let uniform = forces
+            .iter()
+            .all(|f| f.to_array().map(f64::to_bits) == first)
+            .then_some(forces[0]);
         Ok(ForceField {
             res,
             bounds,
             forces,
+            uniform,
         })
     }
 
@@ -91,8 +100,11 @@ impl ForceField {
 
     /// The force at `p`: trilinear interpolation of the 8 nodes of its cell; a point outside the
     /// box uses the point clamped into the box.
-    #[inline]
+    #[inline(always)]
     pub fn sample(&self, p: Vec3) -> Vec3 {
+        if let Some(f) = self.uniform {
+            return f;
+        }
         let b = &self.bounds;
         let q = p.clamp(b.min, b.max);
         let cells = (self.res - 1) as f64;
@@ -100,8 +112,13 @@ impl ForceField {
         let (j, fy) = cell(q.y, b.min.y, b.max.y, cells);
         let (k, fz) = cell(q.z, b.min.z, b.max.z, cells);
         let r = self.res;
-        let at =
-            |di: usize, dj: usize, dk: usize| self.forces[((i + di) * r + j + dj) * r + k + dk];
+        debug_assert!(i + 1 < r && j + 1 < r && k + 1 < r);
+        // SAFETY: `cell` clamps each index to 0..=res−2, so every corner is inside the grid.
+        let at = |di: usize, dj: usize, dk: usize| unsafe {
+            *self
+                .forces
+                .get_unchecked(((i + di) * r + j + dj) * r + k + dk)
+        };
         // Interpolate along z, then y, then x.
         let lerp = |a: Vec3, b: Vec3, t: f64| a * (1.0 - t) + b * t;
         let c00 = lerp(at(0, 0, 0), at(0, 0, 1), fz);
@@ -131,7 +148,7 @@ fn node_position(b: &Aabb, res: usize, [i, j, k]: [usize; 3]) -> Vec3 {
 
 /// Cell index along one axis (`0..cells−1`) and the fraction of the way across it, for a
 /// coordinate already clamped into `[lo, hi]`. The upper boundary belongs to the last cell.
-#[inline]
+#[inline(always)]
 fn cell(v: f64, lo: f64, hi: f64, cells: f64) -> (usize, f64) {
     let u = (v - lo) / (hi - lo) * cells;
     let i = (u.floor()).clamp(0.0, cells - 1.0);

@@ -33,6 +33,8 @@ pub mod forces;
 pub mod integrator;
 pub mod lattice;
 pub mod model;
+pub mod scenes;
+pub mod soa;
 pub mod stability;
 pub mod state;
 pub mod step;

@@ -7,30 +7,38 @@
 
 use std::fmt;
 
-use crate::forces::accelerations;
+use crate::forces::{accelerations_soa, ForceScratch};
 use crate::integrator::Integrator;
 use crate::model::Model;
+use crate::soa::Soa;
 use crate::stability;
 use crate::state::{Control, State};
 use crate::vec3::Vec3;
 
-/// Buffers the integrators work in, sized once for a model: stepping never allocates.
+/// Buffers the integrators work in, sized once for a model: stepping never allocates. All are
+/// structures of arrays (see [`crate::soa`]).
 #[derive(Clone, Debug, Default)]
 pub struct Scratch {
-    acc: Vec<Vec3>,
-    stage_pos: Vec<Vec3>,
-    stage_vel: Vec<Vec3>,
-    sum_pos: Vec<Vec3>,
-    sum_vel: Vec<Vec3>,
-    next_pos: Vec<Vec3>,
-    next_vel: Vec<Vec3>,
+    force: ForceScratch,
+    pos: Soa,
+    vel: Soa,
+    acc: Soa,
+    stage_pos: Soa,
+    stage_vel: Soa,
+    sum_pos: Soa,
+    sum_vel: Soa,
+    next_pos: Soa,
+    next_vel: Soa,
 }
 
 impl Scratch {
     /// Buffers for a model's point count.
     pub fn new(model: &Model) -> Self {
-        let z = vec![Vec3::ZERO; model.point_count()];
+        let z = Soa::zeros(model.point_count());
         Scratch {
+            force: ForceScratch::new(model),
+            pos: z.clone(),
+            vel: z.clone(),
             acc: z.clone(),
             stage_pos: z.clone(),
             stage_vel: z.clone(),
@@ -125,67 +133,157 @@ pub fn step(
         n,
         "state does not match the model's point count"
     );
-    if scratch.acc.len() != n {
+    if scratch.pos.len() != n {
         *scratch = Scratch::new(model);
     }
     let dt = model.dt;
-    let (p, v) = (&state.pos[..], &state.vel[..]);
     let s = scratch;
-    match model.integrator {
-        Integrator::Euler => {
-            accelerations(model, p, v, control, &mut s.acc);
-            for i in 0..n {
-                s.next_pos[i] = p[i] + v[i] * dt;
-                s.next_vel[i] = v[i] + s.acc[i] * dt;
+    s.pos.copy_from(&state.pos);
+    s.vel.copy_from(&state.vel);
+    let (p, v) = (&s.pos, &s.vel);
+    // Component by component: out = a + b·h.
+    fn axpy(out: &mut Soa, a: &Soa, b: &Soa, h: f64) {
+        for (o, (a, b)) in [
+            (&mut out.x, (&a.x, &b.x)),
+            (&mut out.y, (&a.y, &b.y)),
+            (&mut out.z, (&a.z, &b.z)),
+        ] {
+            for ((o, a), b) in o.iter_mut().zip(a.iter()).zip(b.iter()) {
+                *o = a + b * h;
             }
         }
+    }
+    match model.integrator {
+        Integrator::Euler => {
+            accelerations_soa(model, p, v, control, &mut s.acc, &mut s.force);
+            axpy(&mut s.next_pos, p, v, dt);
+            axpy(&mut s.next_vel, v, &s.acc, dt);
+        }
         Integrator::SymplecticEuler => {
-            accelerations(model, p, v, control, &mut s.acc);
-            for i in 0..n {
-                s.next_vel[i] = v[i] + s.acc[i] * dt;
-                s.next_pos[i] = p[i] + s.next_vel[i] * dt;
-            }
+            accelerations_soa(model, p, v, control, &mut s.acc, &mut s.force);
+            axpy(&mut s.next_vel, v, &s.acc, dt);
+            axpy(&mut s.next_pos, p, &s.next_vel, dt);
         }
         Integrator::Rk2 => {
             // Midpoint: k1 at y, then the whole step with the slope at y + dt/2·k1.
             let h = dt * 0.5;
-            accelerations(model, p, v, control, &mut s.acc);
-            for i in 0..n {
-                s.stage_pos[i] = p[i] + v[i] * h;
-                s.stage_vel[i] = v[i] + s.acc[i] * h;
-            }
-            accelerations(model, &s.stage_pos, &s.stage_vel, control, &mut s.acc);
-            for i in 0..n {
-                s.next_pos[i] = p[i] + s.stage_vel[i] * dt;
-                s.next_vel[i] = v[i] + s.acc[i] * dt;
-            }
+            accelerations_soa(model, p, v, control, &mut s.acc, &mut s.force);
+            axpy(&mut s.stage_pos, p, v, h);
+            axpy(&mut s.stage_vel, v, &s.acc, h);
+            accelerations_soa(
+                model,
+                &s.stage_pos,
+                &s.stage_vel,
+                control,
+                &mut s.acc,
+                &mut s.force,
+            );
+            axpy(&mut s.next_pos, p, &s.stage_vel, dt);
+            axpy(&mut s.next_vel, v, &s.acc, dt);
         }
         Integrator::Rk4 => {
             // Stages at y, y + dt/2·k1, y + dt/2·k2, y + dt·k3; the sums accumulate
             // k1 + 2k2 + 2k3 + k4 in that order. A stage's position slope is its velocity.
             let h = dt * 0.5;
-            accelerations(model, p, v, control, &mut s.acc);
-            for i in 0..n {
-                s.sum_pos[i] = v[i];
-                s.sum_vel[i] = s.acc[i];
-                s.stage_pos[i] = p[i] + v[i] * h;
-                s.stage_vel[i] = v[i] + s.acc[i] * h;
-            }
+            accelerations_soa(model, p, v, control, &mut s.acc, &mut s.force);
+            s.sum_pos.copy_from_soa(v);
+            s.sum_vel.copy_from_soa(&s.acc);
+            axpy(&mut s.stage_pos, p, v, h);
+            axpy(&mut s.stage_vel, v, &s.acc, h);
             for stage_step in [h, dt] {
-                accelerations(model, &s.stage_pos, &s.stage_vel, control, &mut s.acc);
-                for i in 0..n {
-                    let (kp, kv) = (s.stage_vel[i], s.acc[i]);
-                    s.sum_pos[i] += kp * 2.0;
-                    s.sum_vel[i] += kv * 2.0;
-                    s.stage_pos[i] = p[i] + kp * stage_step;
-                    s.stage_vel[i] = v[i] + kv * stage_step;
+                accelerations_soa(
+                    model,
+                    &s.stage_pos,
+                    &s.stage_vel,
+                    control,
+                    &mut s.acc,
+                    &mut s.force,
+                );
+                let comps = [
+                    (
+                        &mut s.sum_pos.x,
+                        &mut s.sum_vel.x,
+                        &mut s.stage_pos.x,
+                        &mut s.stage_vel.x,
+                        &p.x,
+                        &v.x,
+                        &s.acc.x,
+                    ),
+                    (
+                        &mut s.sum_pos.y,
+                        &mut s.sum_vel.y,
+                        &mut s.stage_pos.y,
+                        &mut s.stage_vel.y,
+                        &p.y,
+                        &v.y,
+                        &s.acc.y,
+                    ),
+                    (
+                        &mut s.sum_pos.z,
+                        &mut s.sum_vel.z,
+                        &mut s.stage_pos.z,
+                        &mut s.stage_vel.z,
+                        &p.z,
+                        &v.z,
+                        &s.acc.z,
+                    ),
+                ];
+                for (sum_p, sum_v, sp, sv, p, v, a) in comps {
+                    for i in 0..n {
+                        let (kp, kv) = (sv[i], a[i]);
+                        sum_p[i] += kp * 2.0;
+                        sum_v[i] += kv * 2.0;
+                        sp[i] = p[i] + kp * stage_step;
+                        sv[i] = v[i] + kv * stage_step;
+                    }
                 }
             }
-            accelerations(model, &s.stage_pos, &s.stage_vel, control, &mut s.acc);
+            accelerations_soa(
+                model,
+                &s.stage_pos,
+                &s.stage_vel,
+                control,
+                &mut s.acc,
+                &mut s.force,
+            );
             let w = dt / 6.0;
-            for i in 0..n {
-                s.next_pos[i] = p[i] + (s.sum_pos[i] + s.stage_vel[i]) * w;
-                s.next_vel[i] = v[i] + (s.sum_vel[i] + s.acc[i]) * w;
+            let comps = [
+                (
+                    &mut s.next_pos.x,
+                    &mut s.next_vel.x,
+                    &s.sum_pos.x,
+                    &s.sum_vel.x,
+                    &s.stage_vel.x,
+                    &s.acc.x,
+                    &p.x,
+                    &v.x,
+                ),
+                (
+                    &mut s.next_pos.y,
+                    &mut s.next_vel.y,
+                    &s.sum_pos.y,
+                    &s.sum_vel.y,
+                    &s.stage_vel.y,
+                    &s.acc.y,
+                    &p.y,
+                    &v.y,
+                ),
+                (
+                    &mut s.next_pos.z,
+                    &mut s.next_vel.z,
+                    &s.sum_pos.z,
+                    &s.sum_vel.z,
+                    &s.stage_vel.z,
+                    &s.acc.z,
+                    &p.z,
+                    &v.z,
+                ),
+            ];
+            for (np, nv, sum_p, sum_v, k4p, k4v, p, v) in comps {
+                for i in 0..n {
+                    np[i] = p[i] + (sum_p[i] + k4p[i]) * w;
+                    nv[i] = v[i] + (sum_v[i] + k4v[i]) * w;
+                }
             }
         }
     }
@@ -204,8 +302,8 @@ pub fn step(
             escape_margin: model.escape_margin,
         });
     }
-    std::mem::swap(&mut state.pos, &mut s.next_pos);
-    std::mem::swap(&mut state.vel, &mut s.next_vel);
+    s.next_pos.copy_to(&mut state.pos);
+    s.next_vel.copy_to(&mut state.vel);
     state.time += dt;
     state.steps += 1;
     Ok(())
@@ -213,8 +311,9 @@ pub fn step(
 
 /// The first point whose position or velocity is not finite, or that is further outside the box
 /// than the escape margin.
-fn find_blow_up(model: &Model, pos: &[Vec3], vel: &[Vec3]) -> Option<(usize, BlowUpCause)> {
-    pos.iter().zip(vel).enumerate().find_map(|(i, (&p, &v))| {
+fn find_blow_up(model: &Model, pos: &Soa, vel: &Soa) -> Option<(usize, BlowUpCause)> {
+    (0..pos.len()).find_map(|i| {
+        let (p, v) = (pos.get(i), vel.get(i));
         if !(p.is_finite() && v.is_finite()) {
             Some((i, BlowUpCause::NonFinite))
         } else if model.bounds.excursion(p) > model.escape_margin {

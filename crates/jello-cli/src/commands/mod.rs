@@ -1,5 +1,6 @@
 //! The subcommands of `jello`.
 
+pub mod bench;
 pub mod create;
 pub mod info;
 pub mod run;

@@ -1,0 +1,134 @@
+//! `jello bench`: steps per second and spring evaluations per second on the benchmark scene.
+
+use std::time::{Duration, Instant};
+
+use clap::Args;
+use jello_core::{scenes, Integrator, Simulation};
+
+use super::{parse_integrator, parse_positive};
+use crate::error::CliError;
+
+/// Arguments of `jello bench`.
+#[derive(Args, Debug)]
+pub struct BenchArgs {
+    /// Points per side of the N×N×N lattice.
+    #[arg(long, default_value_t = 8, value_parser = clap::value_parser!(u64).range(2..=512))]
+    pub size: u64,
+    /// Integrator (Euler, RK2, RK4, SymplecticEuler).
+    #[arg(long, value_parser = parse_integrator, default_value = "RK4")]
+    pub integrator: Integrator,
+    /// Worker threads (1 = the calling thread only).
+    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u64).range(1..=256))]
+    pub threads: u64,
+    /// Measured time, after a warm-up (s).
+    #[arg(long, value_parser = parse_positive, default_value_t = 3.0)]
+    pub seconds: f64,
+    /// Print one JSON object instead of text.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// What one benchmark run measured.
+struct Measurement {
+    points: usize,
+    springs: usize,
+    steps: u64,
+    wall: f64,
+}
+
+/// Runs the benchmark scene (see [`scenes::benchmark`]) and prints the rates.
+pub fn bench(args: BenchArgs) -> Result<(), CliError> {
+    let threads = args.threads as usize;
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .map_err(|e| CliError::input(format!("cannot start {threads} threads: {e}")))?;
+    let m = pool.install(|| measure(args.size as usize, args.integrator, args.seconds))?;
+
+    let steps_per_s = m.steps as f64 / m.wall;
+    let evals_per_s = (m.springs * args.integrator.force_evaluations()) as f64 * steps_per_s;
+    let peak = peak_rss_mib();
+    if args.json {
+        println!(
+            "{{\"impl\": \"jello\", \"size\": {}, \"points\": {}, \"springs\": {}, \"integrator\": \"{}\", \
+             \"threads\": {threads}, \"steps\": {}, \"seconds\": {:.3}, \"steps_per_s\": {:.1}, \
+             \"spring_evals_per_s\": {:.1}, \"peak_rss_mib\": {}, \"version\": \"{}\"}}",
+            args.size,
+            m.points,
+            m.springs,
+            args.integrator,
+            m.steps,
+            m.wall,
+            steps_per_s,
+            evals_per_s,
+            peak.map_or("null".to_string(), |p| format!("{p:.1}")),
+            env!("CARGO_PKG_VERSION")
+        );
+    } else {
+        println!(
+            "{n}³ lattice ({} points, {} springs), {}, {threads} thread(s): {:.0} steps/s, {:.1} M spring evaluations/s \
+             ({} steps in {:.2} s{})",
+            m.points,
+            m.springs,
+            args.integrator,
+            steps_per_s,
+            evals_per_s / 1e6,
+            m.steps,
+            m.wall,
+            peak.map_or(String::new(), |p| format!(", peak memory {p:.0} MiB")),
+            n = args.size
+        );
+    }
+    Ok(())
+}
+
+/// Warms up for a tenth of the time (at least a few steps), then steps for about `seconds`.
+/// A run that blows up starts again from the initial state (it never does at the scene's dt).
+fn measure(n: usize, integrator: Integrator, seconds: f64) -> Result<Measurement, CliError> {
+    let (model, state) =
+        scenes::benchmark(n, integrator).map_err(|e| CliError::input(e.to_string()))?;
+    let (points, springs) = (model.point_count(), model.springs.len());
+    let initial = state.clone();
+    let mut sim = Simulation::new(model, state);
+    let advance = |sim: &mut Simulation, steps: u64| -> Result<(), CliError> {
+        for _ in 0..steps {
+            if let Err(e) = sim.step() {
+                return Err(CliError::blow_up(format!("benchmark scene blew up: {e}")));
+            }
+        }
+        Ok(())
+    };
+
+    // Warm-up: caches, page faults, thread start-up; also sizes the batches.
+    let warm = Duration::from_secs_f64((seconds * 0.1).clamp(0.05, 1.0));
+    let start = Instant::now();
+    let mut warm_steps = 0u64;
+    while start.elapsed() < warm || warm_steps < 3 {
+        advance(&mut sim, 1)?;
+        warm_steps += 1;
+    }
+    let per_step = start.elapsed().as_secs_f64() / warm_steps as f64;
+    let batch = ((0.05 / per_step) as u64).max(1);
+
+    sim.state = initial;
+    let start = Instant::now();
+    let mut steps = 0u64;
+    while start.elapsed().as_secs_f64() < seconds {
+        advance(&mut sim, batch)?;
+        steps += batch;
+    }
+    Ok(Measurement {
+        points,
+        springs,
+        steps,
+        wall: start.elapsed().as_secs_f64(),
+    })
+}
+
+/// Peak resident memory of this process (MiB), from /proc on Linux.
+fn peak_rss_mib() -> Option<f64> {
+    let status = std::fs::read_to_string("/proc/self/status").ok()?;
+    let line = status.lines().find(|l| l.starts_with("VmHWM:"))?;
+    let kib: f64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kib / 1024.0)
+}
