@@ -130,6 +130,11 @@ impl ForceField {
         lerp(c0, c1, fx)
     }
 
+    /// The force everywhere, when every node holds the same one.
+    pub fn uniform(&self) -> Option<Vec3> {
+        self.uniform
+    }
+
     /// Largest node force magnitude (N).
     pub fn max_magnitude(&self) -> f64 {
         self.forces.iter().map(|f| f.length()).fold(0.0, f64::max)

@@ -526,34 +526,55 @@ fn point_forces_impl(
     let [ax, ay, az] = acc;
     let len = ax.len();
     let (ay, az) = (&mut ay[..len], &mut az[..len]);
+    let r = start..start + len;
+    let (px, py, pz) = (&p.x[r.clone()], &p.y[r.clone()], &p.z[r.clone()]);
+    let (vx, vy, vz) = (&v.x[r.clone()], &v.y[r.clone()], &v.z[r.clone()]);
+    let (sx, sy, sz) = (
+        &spring.x[r.clone()],
+        &spring.y[r.clone()],
+        &spring.z[r.clone()],
+    );
     let (kc, dc, mass) = (model.k_collision, model.d_collision, model.mass);
     let (lo, hi) = (model.bounds.min, model.bounds.max);
-    // The plane's constants, once: the value's coefficients, the side, |(a, b, c)|, the inward
-    // unit normal.
+
+    // Spring force plus field. A uniform field (or none) is a constant; any other is sampled
+    // point by point first.
+    let constant = match &model.field {
+        None => Some(Vec3::ZERO),
+        Some(field) => field.uniform(),
+    };
+    if let (None, Some(field)) = (constant, &model.field) {
+        for t in 0..len {
+            let f = Vec3::new(sx[t], sy[t], sz[t]) + field.sample(Vec3::new(px[t], py[t], pz[t]));
+            (ax[t], ay[t], az[t]) = (f.x, f.y, f.z);
+        }
+    }
+    // Then walls, plane and control, over the mass: branch-free, so it vectorises.
     let plane = model
         .plane
         .map(|pl| (pl, pl.normal_length(), pl.inward_normal()));
+    let control = (!control.forces.is_empty()).then(|| &control.forces[r.clone()]);
     for t in 0..len {
-        let i = start + t;
-        let (pi, vi) = (p.get(i), v.get(i));
-        let mut f = spring.get(i);
-        if let Some(field) = &model.field {
-            f += field.sample(pi);
-        }
-        // Walls: `kCollision·depth·n − dCollision (v·n) n` with n = ±axis; as selects, so the
-        // loop stays branch-free.
+        let mut f = match constant {
+            Some(c) => Vec3::new(sx[t], sy[t], sz[t]) + c,
+            None => Vec3::new(ax[t], ay[t], az[t]),
+        };
+        let (pi, vi) = (
+            Vec3::new(px[t], py[t], pz[t]),
+            Vec3::new(vx[t], vy[t], vz[t]),
+        );
+        // Walls: `kCollision·depth·n − dCollision (v·n) n` with n = ±axis.
         f.x += wall(pi.x, vi.x, lo.x, hi.x, kc, dc);
         f.y += wall(pi.y, vi.y, lo.y, hi.y, kc, dc);
         f.z += wall(pi.z, vi.z, lo.z, hi.z, kc, dc);
         if let Some((pl, norm, n)) = plane {
             let s = pl.value(pi);
-            let inside = s * pl.side < 0.0;
             let depth = s.abs() / norm;
             let push = n * (kc * depth) - n * (dc * vi.dot(n));
-            f += if inside { push } else { Vec3::ZERO };
+            f += if s * pl.side < 0.0 { push } else { Vec3::ZERO };
         }
-        if !control.forces.is_empty() {
-            f += control.forces[i];
+        if let Some(c) = control {
+            f += c[t];
         }
         let a = f / mass;
         (ax[t], ay[t], az[t]) = (a.x, a.y, a.z);

@@ -50,17 +50,19 @@ impl Soa {
 
     /// Copies from an array of vectors of the same length.
     pub fn copy_from(&mut self, aos: &[Vec3]) {
-        debug_assert_eq!(aos.len(), self.len());
+        let n = aos.len();
+        let (x, y, z) = (&mut self.x[..n], &mut self.y[..n], &mut self.z[..n]);
         for (i, v) in aos.iter().enumerate() {
-            self.set(i, *v);
+            (x[i], y[i], z[i]) = (v.x, v.y, v.z);
         }
     }
 
     /// Copies into an array of vectors of the same length.
     pub fn copy_to(&self, aos: &mut [Vec3]) {
-        debug_assert_eq!(aos.len(), self.len());
+        let n = aos.len();
+        let (x, y, z) = (&self.x[..n], &self.y[..n], &self.z[..n]);
         for (i, v) in aos.iter_mut().enumerate() {
-            *v = self.get(i);
+            *v = Vec3::new(x[i], y[i], z[i]);
         }
     }
 
