@@ -232,22 +232,20 @@ fn spring_forces(model: &Model, p: &Soa, v: &Soa, scratch: &mut ForceScratch) {
 
     #[cfg(feature = "parallel")]
     if model.point_count() >= PARALLEL_MIN_POINTS {
-        spring
-            .x
-            .par_chunks_mut(chunk_len)
-            .zip(spring.y.par_chunks_mut(chunk_len))
-            .zip(spring.z.par_chunks_mut(chunk_len))
+        let [sx, sy, sz] = spring.parts_mut();
+        sx.par_chunks_mut(chunk_len)
+            .zip(sy.par_chunks_mut(chunk_len))
+            .zip(sz.par_chunks_mut(chunk_len))
             .zip(halos.par_iter_mut().zip(rows.par_iter_mut()))
             .enumerate()
             .for_each(work);
         add_halos(&grid, spring, halos);
         return;
     }
-    spring
-        .x
-        .chunks_mut(chunk_len)
-        .zip(spring.y.chunks_mut(chunk_len))
-        .zip(spring.z.chunks_mut(chunk_len))
+    let [sx, sy, sz] = spring.parts_mut();
+    sx.chunks_mut(chunk_len)
+        .zip(sy.chunks_mut(chunk_len))
+        .zip(sz.chunks_mut(chunk_len))
         .zip(halos.iter_mut().zip(rows.iter_mut()))
         .enumerate()
         .for_each(work);
@@ -264,11 +262,11 @@ fn add_halos(grid: &Grid, spring: &mut Soa, halos: &[Soa]) {
             continue;
         }
         let len = end - start;
-        for (f, h) in [
-            (&mut spring.x, &halo.x),
-            (&mut spring.y, &halo.y),
-            (&mut spring.z, &halo.z),
-        ] {
+        for (f, h) in spring
+            .parts_mut()
+            .into_iter()
+            .zip([halo.x(), halo.y(), halo.z()])
+        {
             for (a, b) in f[start..end].iter_mut().zip(&h[..len]) {
                 *a += *b;
             }
@@ -398,7 +396,7 @@ fn chunk_springs_impl(
                 }
                 if cut < len {
                     // The rest of the run lies in the planes after the chunk.
-                    let h = [&mut halo.x[..], &mut halo.y[..], &mut halo.z[..]];
+                    let h = halo.parts_mut();
                     add_run(h, (b + cut) - halo_base, tail(row, cut), len - cut, -1.0);
                 }
                 t += len;
@@ -417,7 +415,7 @@ struct SpringConst {
 
 /// The components of `row` from element `from` on.
 fn tail(row: &Soa, from: usize) -> [&[f64]; 3] {
-    [&row.x[from..], &row.y[from..], &row.z[from..]]
+    [&row.x()[from..], &row.y()[from..], &row.z()[from..]]
 }
 
 /// Forces on the points `a .. a + len` from the springs joining them to `b .. b + len`:
@@ -436,12 +434,13 @@ fn spring_run(
     mask: &[f64],
     row: &mut Soa,
 ) {
-    let (xa, ya, za) = (&p.x[a..a + len], &p.y[a..a + len], &p.z[a..a + len]);
-    let (xb, yb, zb) = (&p.x[b..b + len], &p.y[b..b + len], &p.z[b..b + len]);
-    let (ua, va, wa) = (&v.x[a..a + len], &v.y[a..a + len], &v.z[a..a + len]);
-    let (ub, vb, wb) = (&v.x[b..b + len], &v.y[b..b + len], &v.z[b..b + len]);
+    let (xa, ya, za) = (&p.x()[a..a + len], &p.y()[a..a + len], &p.z()[a..a + len]);
+    let (xb, yb, zb) = (&p.x()[b..b + len], &p.y()[b..b + len], &p.z()[b..b + len]);
+    let (ua, va, wa) = (&v.x()[a..a + len], &v.y()[a..a + len], &v.z()[a..a + len]);
+    let (ub, vb, wb) = (&v.x()[b..b + len], &v.y()[b..b + len], &v.z()[b..b + len]);
     let mask = &mask[..len];
-    let (fx, fy, fz) = (&mut row.x[..len], &mut row.y[..len], &mut row.z[..len]);
+    let [fx, fy, fz] = row.parts_mut();
+    let (fx, fy, fz) = (&mut fx[..len], &mut fy[..len], &mut fz[..len]);
     for t in 0..len {
         let (dx, dy, dz) = (xa[t] - xb[t], ya[t] - yb[t], za[t] - zb[t]);
         let l2 = dx * dx + dy * dy + dz * dz;
@@ -485,15 +484,15 @@ fn point_forces(model: &Model, p: &Soa, v: &Soa, control: &Control, spring: &Soa
     };
     #[cfg(feature = "parallel")]
     if model.point_count() >= PARALLEL_MIN_POINTS {
-        acc.x
-            .par_chunks_mut(BLOCK)
-            .zip(acc.y.par_chunks_mut(BLOCK))
-            .zip(acc.z.par_chunks_mut(BLOCK))
+        let [ax, ay, az] = acc.parts_mut();
+        ax.par_chunks_mut(BLOCK)
+            .zip(ay.par_chunks_mut(BLOCK))
+            .zip(az.par_chunks_mut(BLOCK))
             .enumerate()
             .for_each(|(c, ((x, y), z))| work(c * BLOCK, [x, y, z]));
         return;
     }
-    work(0, [&mut acc.x[..], &mut acc.y[..], &mut acc.z[..]]);
+    work(0, acc.parts_mut());
 }
 
 /// [`point_forces_impl`] compiled for AVX-512 (floors and selects in vector registers); the
@@ -527,12 +526,12 @@ fn point_forces_impl(
     let len = ax.len();
     let (ay, az) = (&mut ay[..len], &mut az[..len]);
     let r = start..start + len;
-    let (px, py, pz) = (&p.x[r.clone()], &p.y[r.clone()], &p.z[r.clone()]);
-    let (vx, vy, vz) = (&v.x[r.clone()], &v.y[r.clone()], &v.z[r.clone()]);
+    let (px, py, pz) = (&p.x()[r.clone()], &p.y()[r.clone()], &p.z()[r.clone()]);
+    let (vx, vy, vz) = (&v.x()[r.clone()], &v.y()[r.clone()], &v.z()[r.clone()]);
     let (sx, sy, sz) = (
-        &spring.x[r.clone()],
-        &spring.y[r.clone()],
-        &spring.z[r.clone()],
+        &spring.x()[r.clone()],
+        &spring.y()[r.clone()],
+        &spring.z()[r.clone()],
     );
     let (kc, dc, mass) = (model.k_collision, model.d_collision, model.mass);
     let (lo, hi) = (model.bounds.min, model.bounds.max);

@@ -3,55 +3,87 @@
 
 use crate::vec3::Vec3;
 
-/// `n` 3-vectors as three arrays of `n` components each.
+/// `n` 3-vectors as one buffer of `3n` numbers: all x components, then all y, then all z.
+/// Element-wise arithmetic on whole vectors (the integrators' updates) is then one loop over the
+/// buffer.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Soa {
-    /// x components.
-    pub x: Vec<f64>,
-    /// y components.
-    pub y: Vec<f64>,
-    /// z components.
-    pub z: Vec<f64>,
+    data: Vec<f64>,
+    n: usize,
 }
 
 impl Soa {
     /// `n` zero vectors.
     pub fn zeros(n: usize) -> Self {
         Soa {
-            x: vec![0.0; n],
-            y: vec![0.0; n],
-            z: vec![0.0; n],
+            data: vec![0.0; 3 * n],
+            n,
         }
     }
 
     /// Number of vectors.
     pub fn len(&self) -> usize {
-        self.x.len()
+        self.n
     }
 
     /// True when there are no vectors.
     pub fn is_empty(&self) -> bool {
-        self.x.is_empty()
+        self.n == 0
+    }
+
+    /// x components.
+    #[inline]
+    pub fn x(&self) -> &[f64] {
+        &self.data[..self.n]
+    }
+
+    /// y components.
+    #[inline]
+    pub fn y(&self) -> &[f64] {
+        &self.data[self.n..2 * self.n]
+    }
+
+    /// z components.
+    #[inline]
+    pub fn z(&self) -> &[f64] {
+        &self.data[2 * self.n..]
+    }
+
+    /// The x, y and z components, mutable.
+    #[inline]
+    pub fn parts_mut(&mut self) -> [&mut [f64]; 3] {
+        let (x, yz) = self.data.split_at_mut(self.n);
+        let (y, z) = yz.split_at_mut(self.n);
+        [x, y, z]
+    }
+
+    /// All `3n` numbers.
+    #[inline]
+    pub fn all(&self) -> &[f64] {
+        &self.data
+    }
+
+    /// All `3n` numbers, mutable.
+    #[inline]
+    pub fn all_mut(&mut self) -> &mut [f64] {
+        &mut self.data
     }
 
     /// Vector `i`.
     #[inline]
     pub fn get(&self, i: usize) -> Vec3 {
-        Vec3::new(self.x[i], self.y[i], self.z[i])
-    }
-
-    /// Sets vector `i`.
-    #[inline]
-    pub fn set(&mut self, i: usize, v: Vec3) {
-        self.x[i] = v.x;
-        self.y[i] = v.y;
-        self.z[i] = v.z;
+        let n = self.n;
+        Vec3::new(self.data[i], self.data[n + i], self.data[2 * n + i])
     }
 
     /// Copies from an array of vectors of the same length.
     pub fn copy_from(&mut self, aos: &[Vec3]) {
-        let n = aos.len();
-        let (x, y, z) = (&mut self.x[..n], &mut self.y[..n], &mut self.z[..n]);
+        let [x, y, z] = self.parts_mut();
+        let (x, y, z) = (
+            &mut x[..aos.len()],
+            &mut y[..aos.len()],
+            &mut z[..aos.len()],
+        );
         for (i, v) in aos.iter().enumerate() {
             (x[i], y[i], z[i]) = (v.x, v.y, v.z);
         }
@@ -60,7 +92,7 @@ impl Soa {
     /// Copies into an array of vectors of the same length.
     pub fn copy_to(&self, aos: &mut [Vec3]) {
         let n = aos.len();
-        let (x, y, z) = (&self.x[..n], &self.y[..n], &self.z[..n]);
+        let (x, y, z) = (&self.x()[..n], &self.y()[..n], &self.z()[..n]);
         for (i, v) in aos.iter_mut().enumerate() {
             *v = Vec3::new(x[i], y[i], z[i]);
         }
@@ -75,15 +107,11 @@ impl Soa {
 
     /// Copies another structure of arrays of the same length, without allocating.
     pub fn copy_from_soa(&mut self, other: &Soa) {
-        self.x.copy_from_slice(&other.x);
-        self.y.copy_from_slice(&other.y);
-        self.z.copy_from_slice(&other.z);
+        self.data.copy_from_slice(&other.data);
     }
 
     /// Sets every component to 0.
     pub fn fill_zero(&mut self) {
-        self.x.fill(0.0);
-        self.y.fill(0.0);
-        self.z.fill(0.0);
+        self.data.fill(0.0);
     }
 }

@@ -7,13 +7,16 @@
 
 use std::fmt;
 
-use crate::forces::{accelerations_soa, ForceScratch};
+use crate::forces::{accelerations_soa, ForceScratch, PARALLEL_MIN_POINTS};
 use crate::integrator::Integrator;
 use crate::model::Model;
 use crate::soa::Soa;
+
 use crate::stability;
 use crate::state::{Control, State};
 use crate::vec3::Vec3;
+#[cfg(feature = "parallel")]
+use rayon::prelude::*;
 
 /// Buffers the integrators work in, sized once for a model: stepping never allocates. All are
 /// structures of arrays (see [`crate::soa`]).
@@ -186,52 +189,37 @@ unsafe fn integrate_avx512(
 
 /// One step of the integrator from `state` into `s.next_pos` and `s.next_vel`; whether the
 /// result is sound (every value finite, no point beyond the escape margin).
+///
+/// The updates between force passes are element-wise over whole structure-of-arrays buffers
+/// (x, y and z alike), so each is one loop, split into blocks for threads on large lattices.
 #[inline(always)]
 fn integrate(model: &Model, state: &State, control: &Control, s: &mut Scratch) -> bool {
-    let n = model.point_count();
     let dt = model.dt;
+    let par = model.point_count() >= PARALLEL_MIN_POINTS;
     s.pos.copy_from(&state.pos);
     s.vel.copy_from(&state.vel);
     let (p, v) = (&s.pos, &s.vel);
-    // Component by component: out = a + b·h.
-    fn axpy(out: &mut Soa, a: &Soa, b: &Soa, h: f64) {
-        for (o, (a, b)) in [
-            (&mut out.x, (&a.x, &b.x)),
-            (&mut out.y, (&a.y, &b.y)),
-            (&mut out.z, (&a.z, &b.z)),
-        ] {
-            for ((o, a), b) in o.iter_mut().zip(a.iter()).zip(b.iter()) {
-                *o = a + b * h;
-            }
-        }
-    }
     match model.integrator {
         Integrator::Euler => {
             accelerations_soa(model, p, v, control, &mut s.acc, &mut s.force);
-            axpy(&mut s.next_pos, p, v, dt);
-            axpy(&mut s.next_vel, v, &s.acc, dt);
+            axpy(par, s.next_pos.all_mut(), p.all(), v.all(), dt);
+            axpy(par, s.next_vel.all_mut(), v.all(), s.acc.all(), dt);
         }
         Integrator::SymplecticEuler => {
             accelerations_soa(model, p, v, control, &mut s.acc, &mut s.force);
-            axpy(&mut s.next_vel, v, &s.acc, dt);
-            axpy(&mut s.next_pos, p, &s.next_vel, dt);
+            axpy(par, s.next_vel.all_mut(), v.all(), s.acc.all(), dt);
+            axpy(par, s.next_pos.all_mut(), p.all(), s.next_vel.all(), dt);
         }
         Integrator::Rk2 => {
             // Midpoint: k1 at y, then the whole step with the slope at y + dt/2·k1.
             let h = dt * 0.5;
             accelerations_soa(model, p, v, control, &mut s.acc, &mut s.force);
-            axpy(&mut s.stage_pos, p, v, h);
-            axpy(&mut s.stage_vel, v, &s.acc, h);
-            accelerations_soa(
-                model,
-                &s.stage_pos,
-                &s.stage_vel,
-                control,
-                &mut s.acc,
-                &mut s.force,
-            );
-            axpy(&mut s.next_pos, p, &s.stage_vel, dt);
-            axpy(&mut s.next_vel, v, &s.acc, dt);
+            axpy(par, s.stage_pos.all_mut(), p.all(), v.all(), h);
+            axpy(par, s.stage_vel.all_mut(), v.all(), s.acc.all(), h);
+            let (sp, sv) = (&s.stage_pos, &s.stage_vel);
+            accelerations_soa(model, sp, sv, control, &mut s.acc, &mut s.force);
+            axpy(par, s.next_pos.all_mut(), p.all(), sv.all(), dt);
+            axpy(par, s.next_vel.all_mut(), v.all(), s.acc.all(), dt);
         }
         Integrator::Rk4 => {
             // Stages at y, y + dt/2·k1, y + dt/2·k2, y + dt·k3; the sums accumulate
@@ -240,120 +228,160 @@ fn integrate(model: &Model, state: &State, control: &Control, s: &mut Scratch) -
             accelerations_soa(model, p, v, control, &mut s.acc, &mut s.force);
             s.sum_pos.copy_from_soa(v);
             s.sum_vel.copy_from_soa(&s.acc);
-            axpy(&mut s.stage_pos, p, v, h);
-            axpy(&mut s.stage_vel, v, &s.acc, h);
+            axpy(par, s.stage_pos.all_mut(), p.all(), v.all(), h);
+            axpy(par, s.stage_vel.all_mut(), v.all(), s.acc.all(), h);
             for stage_step in [h, dt] {
-                accelerations_soa(
-                    model,
-                    &s.stage_pos,
-                    &s.stage_vel,
-                    control,
-                    &mut s.acc,
-                    &mut s.force,
+                let (sp, sv) = (&s.stage_pos, &s.stage_vel);
+                accelerations_soa(model, sp, sv, control, &mut s.acc, &mut s.force);
+                let sums = [s.sum_pos.all_mut(), s.sum_vel.all_mut()];
+                let stage = [s.stage_pos.all_mut(), s.stage_vel.all_mut()];
+                rk4_stage(
+                    par,
+                    sums,
+                    stage,
+                    [p.all(), v.all(), s.acc.all()],
+                    stage_step,
                 );
-                let comps = [
-                    (
-                        &mut s.sum_pos.x,
-                        &mut s.sum_vel.x,
-                        &mut s.stage_pos.x,
-                        &mut s.stage_vel.x,
-                        &p.x,
-                        &v.x,
-                        &s.acc.x,
-                    ),
-                    (
-                        &mut s.sum_pos.y,
-                        &mut s.sum_vel.y,
-                        &mut s.stage_pos.y,
-                        &mut s.stage_vel.y,
-                        &p.y,
-                        &v.y,
-                        &s.acc.y,
-                    ),
-                    (
-                        &mut s.sum_pos.z,
-                        &mut s.sum_vel.z,
-                        &mut s.stage_pos.z,
-                        &mut s.stage_vel.z,
-                        &p.z,
-                        &v.z,
-                        &s.acc.z,
-                    ),
-                ];
-                for (sum_p, sum_v, sp, sv, p, v, a) in comps {
-                    // As slices of length n: the loop then vectorises.
-                    let (sum_p, sum_v, sp, sv) =
-                        (&mut sum_p[..n], &mut sum_v[..n], &mut sp[..n], &mut sv[..n]);
-                    let (p, v, a) = (&p[..n], &v[..n], &a[..n]);
-                    for i in 0..n {
-                        let (kp, kv) = (sv[i], a[i]);
-                        sum_p[i] += kp * 2.0;
-                        sum_v[i] += kv * 2.0;
-                        sp[i] = p[i] + kp * stage_step;
-                        sv[i] = v[i] + kv * stage_step;
-                    }
-                }
             }
-            accelerations_soa(
-                model,
-                &s.stage_pos,
-                &s.stage_vel,
-                control,
-                &mut s.acc,
-                &mut s.force,
-            );
-            let w = dt / 6.0;
-            let comps = [
-                (
-                    &mut s.next_pos.x,
-                    &mut s.next_vel.x,
-                    &s.sum_pos.x,
-                    &s.sum_vel.x,
-                    &s.stage_vel.x,
-                    &s.acc.x,
-                    &p.x,
-                    &v.x,
-                ),
-                (
-                    &mut s.next_pos.y,
-                    &mut s.next_vel.y,
-                    &s.sum_pos.y,
-                    &s.sum_vel.y,
-                    &s.stage_vel.y,
-                    &s.acc.y,
-                    &p.y,
-                    &v.y,
-                ),
-                (
-                    &mut s.next_pos.z,
-                    &mut s.next_vel.z,
-                    &s.sum_pos.z,
-                    &s.sum_vel.z,
-                    &s.stage_vel.z,
-                    &s.acc.z,
-                    &p.z,
-                    &v.z,
-                ),
-            ];
-            for (np, nv, sum_p, sum_v, k4p, k4v, p, v) in comps {
-                let (np, nv) = (&mut np[..n], &mut nv[..n]);
-                let (sum_p, sum_v, k4p, k4v, p, v) = (
-                    &sum_p[..n],
-                    &sum_v[..n],
-                    &k4p[..n],
-                    &k4v[..n],
-                    &p[..n],
-                    &v[..n],
-                );
-                for i in 0..n {
-                    np[i] = p[i] + (sum_p[i] + k4p[i]) * w;
-                    nv[i] = v[i] + (sum_v[i] + k4v[i]) * w;
-                }
-            }
+            let (sp, sv) = (&s.stage_pos, &s.stage_vel);
+            accelerations_soa(model, sp, sv, control, &mut s.acc, &mut s.force);
+            let next = [s.next_pos.all_mut(), s.next_vel.all_mut()];
+            let sums = [s.sum_pos.all(), s.sum_vel.all()];
+            let k4 = [s.stage_vel.all(), s.acc.all()];
+            rk4_finish(par, next, sums, k4, [p.all(), v.all()], dt / 6.0);
         }
     }
-
     is_sound(model, &s.next_pos, &s.next_vel)
+}
+
+/// Element-wise passes are split into blocks of this many numbers for threads.
+#[cfg(feature = "parallel")]
+const BLOCK: usize = 16 * 1024;
+
+/// `out = a + b·h`, element by element.
+#[inline(always)]
+fn axpy(par: bool, out: &mut [f64], a: &[f64], b: &[f64], h: f64) {
+    let body = |out: &mut [f64], a: &[f64], b: &[f64]| {
+        let (a, b) = (&a[..out.len()], &b[..out.len()]);
+        for i in 0..out.len() {
+            out[i] = a[i] + b[i] * h;
+        }
+    };
+    #[cfg(feature = "parallel")]
+    if par {
+        (
+            out.par_chunks_mut(BLOCK),
+            a.par_chunks(BLOCK),
+            b.par_chunks(BLOCK),
+        )
+            .into_par_iter()
+            .for_each(|(o, a, b)| body(o, a, b));
+        return;
+    }
+    let _ = par;
+    body(out, a, b);
+}
+
+/// An RK4 middle stage once its slope `(k_p, k_v) = (stage velocity, acceleration)` is known:
+/// add twice the slope to the sums, then move the stage to `y + stage_step·k`.
+#[inline(always)]
+fn rk4_stage(
+    par: bool,
+    sums: [&mut [f64]; 2],
+    stage: [&mut [f64]; 2],
+    [p, v, a]: [&[f64]; 3],
+    stage_step: f64,
+) {
+    let body = |sum_p: &mut [f64],
+                sum_v: &mut [f64],
+                sp: &mut [f64],
+                sv: &mut [f64],
+                p: &[f64],
+                v: &[f64],
+                a: &[f64]| {
+        let n = sum_p.len();
+        let (sum_v, sp, sv) = (&mut sum_v[..n], &mut sp[..n], &mut sv[..n]);
+        let (p, v, a) = (&p[..n], &v[..n], &a[..n]);
+        for i in 0..n {
+            let (kp, kv) = (sv[i], a[i]);
+            sum_p[i] += kp * 2.0;
+            sum_v[i] += kv * 2.0;
+            sp[i] = p[i] + kp * stage_step;
+            sv[i] = v[i] + kv * stage_step;
+        }
+    };
+    let ([sum_p, sum_v], [sp, sv]) = (sums, stage);
+    #[cfg(feature = "parallel")]
+    if par {
+        (
+            sum_p.par_chunks_mut(BLOCK),
+            sum_v.par_chunks_mut(BLOCK),
+            sp.par_chunks_mut(BLOCK),
+            sv.par_chunks_mut(BLOCK),
+            p.par_chunks(BLOCK),
+            v.par_chunks(BLOCK),
+            a.par_chunks(BLOCK),
+        )
+            .into_par_iter()
+            .for_each(|(a0, a1, a2, a3, b0, b1, b2)| body(a0, a1, a2, a3, b0, b1, b2));
+        return;
+    }
+    let _ = par;
+    body(sum_p, sum_v, sp, sv, p, v, a);
+}
+
+/// The end of an RK4 step: `y + dt/6·(k1 + 2k2 + 2k3 + k4)` from the sums and `k4`.
+#[inline(always)]
+fn rk4_finish(
+    par: bool,
+    next: [&mut [f64]; 2],
+    sums: [&[f64]; 2],
+    k4: [&[f64]; 2],
+    [p, v]: [&[f64]; 2],
+    w: f64,
+) {
+    let body = |np: &mut [f64],
+                nv: &mut [f64],
+                sum_p: &[f64],
+                sum_v: &[f64],
+                k4p: &[f64],
+                k4v: &[f64],
+                p: &[f64],
+                v: &[f64]| {
+        let n = np.len();
+        let nv = &mut nv[..n];
+        let (sum_p, sum_v, k4p, k4v, p, v) = (
+            &sum_p[..n],
+            &sum_v[..n],
+            &k4p[..n],
+            &k4v[..n],
+            &p[..n],
+            &v[..n],
+        );
+        for i in 0..n {
+            np[i] = p[i] + (sum_p[i] + k4p[i]) * w;
+            nv[i] = v[i] + (sum_v[i] + k4v[i]) * w;
+        }
+    };
+    let ([np, nv], [sum_p, sum_v], [k4p, k4v]) = (next, sums, k4);
+    #[cfg(feature = "parallel")]
+    if par {
+        (
+            np.par_chunks_mut(BLOCK),
+            nv.par_chunks_mut(BLOCK),
+            sum_p.par_chunks(BLOCK),
+            sum_v.par_chunks(BLOCK),
+            k4p.par_chunks(BLOCK),
+            k4v.par_chunks(BLOCK),
+            p.par_chunks(BLOCK),
+            v.par_chunks(BLOCK),
+        )
+            .into_par_iter()
+            .for_each(|(a0, a1, b0, b1, b2, b3, b4, b5)| body(a0, a1, b0, b1, b2, b3, b4, b5));
+        return;
+    }
+    let _ = par;
+    body(np, nv, sum_p, sum_v, k4p, k4v, p, v);
 }
 
 /// True when every position and velocity is finite and no point is further outside the box than
@@ -364,14 +392,16 @@ fn is_sound(model: &Model, pos: &Soa, vel: &Soa) -> bool {
     let (lo, hi, m) = (model.bounds.min, model.bounds.max, model.escape_margin);
     let mut bad = false;
     for (c, v, lo, hi) in [
-        (&pos.x, &vel.x, lo.x, hi.x),
-        (&pos.y, &vel.y, lo.y, hi.y),
-        (&pos.z, &vel.z, lo.z, hi.z),
+        (pos.x(), vel.x(), lo.x, hi.x),
+        (pos.y(), vel.y(), lo.y, hi.y),
+        (pos.z(), vel.z(), lo.z, hi.z),
     ] {
         let (lo, hi) = (lo - m, hi + m);
         for (&c, &v) in c.iter().zip(v.iter()) {
-            // NaN fails every comparison, so it is caught too.
-            bad |= !(c >= lo && c <= hi) | !(v.abs() <= f64::MAX);
+            // NaN fails every comparison, so it is caught too; an infinite velocity is not
+            // finite.
+            let inside = c >= lo && c <= hi;
+            bad |= !inside | !v.is_finite();
         }
     }
     !bad
