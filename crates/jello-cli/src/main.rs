@@ -1,4 +1,4 @@
-//! `jello`: run, create and inspect jello worlds from the terminal.
+//! `jello`: run, create and inspect jello worlds from the terminal, and view them in a browser.
 
 mod commands;
 mod error;
@@ -24,6 +24,8 @@ enum Command {
     Create(commands::create::CreateArgs),
     /// Describe a world file: header, counts, energies, stable time steps.
     Info(commands::info::InfoArgs),
+    /// Serve the browser viewer on 127.0.0.1 and print its URL.
+    View(commands::view::ViewArgs),
 }
 
 fn main() {
@@ -32,6 +34,7 @@ fn main() {
         Command::Run(args) => commands::run::run(args),
         Command::Create(args) => commands::create::create(args),
         Command::Info(args) => commands::info::info(args),
+        Command::View(args) => commands::view::view(args),
     };
     if let Err(e) = result {
         eprintln!("jello: error: {e}");

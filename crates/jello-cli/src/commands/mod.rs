@@ -3,6 +3,7 @@
 pub mod create;
 pub mod info;
 pub mod run;
+pub mod view;
 
 use jello_core::Integrator;
 
