@@ -25,10 +25,10 @@ if ! command -v node >/dev/null 2>&1; then
   exit 1
 fi
 
-cargo build --release --target wasm32-unknown-unknown -p jello-wasm
+cargo build --profile wasm --target wasm32-unknown-unknown -p jello-wasm
 rm -rf web/src/wasm
 wasm-bindgen --target web --out-dir web/src/wasm \
-  target/wasm32-unknown-unknown/release/jello_wasm.wasm
+  target/wasm32-unknown-unknown/wasm/jello_wasm.wasm
 
 cd web
 if [ ! -d node_modules ] || [ package-lock.json -nt node_modules ]; then

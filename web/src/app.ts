@@ -113,6 +113,10 @@ export class App implements PanelHost {
     return webmType() !== undefined;
   }
 
+  get worldName(): string {
+    return this.sim.name;
+  }
+
   parameters(): Parameters {
     return this.runner.parameters();
   }

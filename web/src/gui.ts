@@ -9,6 +9,8 @@ import type { RenderMode } from './render';
 export interface PanelHost {
   integratorNames: string[];
   examples: string[];
+  /** Name of the loaded world (selected in the examples list when it is one). */
+  readonly worldName: string;
   parameters(): Parameters;
   /** Applies parameters; returns an error message (and changes nothing) when they are invalid. */
   setParameters(p: Parameters): string | undefined;
@@ -40,6 +42,7 @@ export class Panel {
   private readonly fieldController: Controller;
   private readonly sequenceButton: Controller;
   private readonly videoButton: Controller;
+  private readonly choice = { example: '' };
 
   constructor(
     private readonly host: PanelHost,
@@ -63,10 +66,9 @@ export class Panel {
     sim.add(host, 'reset').name('reset to loaded world (r)');
 
     const worlds = this.gui.addFolder('World');
-    const choice = { example: host.examples[0] ?? '' };
     if (host.examples.length > 0) {
       worlds
-        .add(choice, 'example', host.examples)
+        .add(this.choice, 'example', host.examples)
         .name('examples')
         .onChange((name: string) => host.loadExample(name));
     }
@@ -121,6 +123,7 @@ export class Panel {
 
   /** Shows the app's current values (after a load, a reset or a key press). */
   refresh(): void {
+    this.choice.example = this.host.examples.includes(this.host.worldName) ? this.host.worldName : '';
     Object.assign(this.params, this.host.parameters());
     this.paramControllers.forEach((c) => c.updateDisplay());
     Object.assign(this.view, {
