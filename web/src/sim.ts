@@ -15,7 +15,7 @@ export async function loadCore(): Promise<void> {
 const MAX_FRAME_GAP = 0.25;
 /** Stepping time one frame may spend (ms) before the backlog is dropped and the simulation runs
  *  slower than real time; keeps the page responsive for worlds too heavy for this machine. */
-const STEP_BUDGET_MS = 22;
+const STEP_BUDGET_MS = 40;
 /** Most steps per call into the core, so the time budget is checked often. */
 const MAX_CHUNK = 32;
 /** Simulated time between refreshes of drag forces (s): the pull acts like a spring, so it is
