@@ -1,19 +1,25 @@
 # The few verbs a newcomer needs.
-#   make run    build, then run the default world and print its summary
-#   make test   everything CI runs: format, lints, docs, all tests, examples up to date
+#   make run    build everything (binary, wasm, web bundle), then serve the viewer on the default
+#               world: `jello view examples/jello.w` prints the URL to open
+#   make test   everything CI runs: format, lints, docs, all tests, examples up to date, and the
+#               viewer's browser tests (Playwright + Chromium)
 #   make fuzz   fuzz the world-file parser (installs cargo-fuzz and nightly when missing)
 
 JELLO := target/release/jello
 WORLD ?= examples/jello.w
+PORT ?= 7878
 FUZZ_SECONDS ?= 60
 
-.PHONY: build run test examples fuzz
+.PHONY: build web run test examples fuzz
 
 build:
 	cargo build --release
 
-run: build
-	$(JELLO) run $(WORLD)
+web:
+	scripts/web.sh
+
+run: build web
+	$(JELLO) view $(WORLD) --port $(PORT)
 
 test:
 	cargo fmt --all --check
@@ -22,6 +28,7 @@ test:
 	cargo build --release
 	scripts/make-examples.sh --check
 	cargo test --workspace
+	scripts/web-test.sh
 
 examples: build
 	scripts/make-examples.sh

@@ -1,4 +1,4 @@
-//! `jello`: run, create and inspect jello worlds from the terminal.
+//! `jello`: run, create and inspect jello worlds from the terminal, and view them in a browser.
 
 mod commands;
 mod error;
@@ -26,6 +26,8 @@ enum Command {
     Info(commands::info::InfoArgs),
     /// Measure steps/s and spring evaluations/s on the benchmark scene.
     Bench(commands::bench::BenchArgs),
+    /// Serve the browser viewer on 127.0.0.1 and print its URL.
+    View(commands::view::ViewArgs),
 }
 
 fn main() {
@@ -35,6 +37,7 @@ fn main() {
         Command::Create(args) => commands::create::create(args),
         Command::Info(args) => commands::info::info(args),
         Command::Bench(args) => commands::bench::bench(args),
+        Command::View(args) => commands::view::view(args),
     };
     if let Err(e) = result {
         eprintln!("jello: error: {e}");

@@ -1,0 +1,72 @@
+// Measures the viewer in headless Chromium on this machine (README, "Measurements"):
+//   1. the classic world (examples/jello.w) in the running viewer at speed 1: frame rate, steps/s
+//      and the real-time factor (simulated seconds per wall second) from the page's readout;
+//   2. raw stepping speed of the wasm core on that world, nothing drawn;
+//   3. n×n×n cubes (JelloSim.cube(n), the panel's "build n³ cube"): real-time factor in the
+//      running viewer, to find the largest n that keeps up with the wall clock.
+// Usage: node bench/measure.mjs [SECONDS_PER_RUN]   (after scripts/web.sh and cargo build --release)
+import { launch, openViewer } from '../tests/browser.mjs';
+import { ROOT, startViewer } from '../tests/server.mjs';
+import { join } from 'node:path';
+
+const seconds = Number(process.argv[2] ?? 8);
+const server = await startViewer([join(ROOT, 'examples', 'jello.w')]);
+const browser = await launch();
+try {
+  const { page, errors } = await openViewer(browser.context, server.url);
+
+  /** Average fps, steps/s and real-time factor over `seconds`, after a 2 s warm-up. */
+  const run = async () => {
+    await page.waitForTimeout(2000);
+    return page.evaluate(async (seconds) => {
+      const app = window.jello;
+      const t0 = performance.now();
+      const [s0, f0] = [app.sim.steps, app.sim.time];
+      let frames = 0;
+      await new Promise((done) => {
+        const tick = () => (performance.now() - t0 < seconds * 1000 ? (frames++, requestAnimationFrame(tick)) : done());
+        requestAnimationFrame(tick);
+      });
+      const wall = (performance.now() - t0) / 1000;
+      return {
+        fps: frames / wall,
+        stepsPerSecond: (app.sim.steps - s0) / wall,
+        realTime: (app.sim.time - f0) / wall,
+        dt: app.sim.dt,
+        blownUp: app.sim.blownUp,
+      };
+    }, seconds);
+  };
+  const fmt = (r) =>
+    `${r.fps.toFixed(1)} fps, ${Math.round(r.stepsPerSecond)} steps/s at dt ${r.dt}, ${r.realTime.toFixed(2)}× real time${r.blownUp ? ' (BLEW UP)' : ''}`;
+
+  console.log(`classic jello.w, lit:        ${fmt(await run())}`);
+  await page.keyboard.press('v');
+  console.log(`classic jello.w, wireframe:  ${fmt(await run())}`);
+  await page.keyboard.press('v');
+
+  const raw = await page.evaluate(async (seconds) => {
+    const app = window.jello;
+    app.paused = true;
+    const text = await (await fetch('examples/jello.w')).text();
+    const sim = app.sim.constructor.fromWorld(text, 'jello.w');
+    const t0 = performance.now();
+    let steps = 0;
+    while (performance.now() - t0 < seconds * 1000) steps += sim.step(100);
+    const rate = steps / ((performance.now() - t0) / 1000);
+    sim.free();
+    app.paused = false;
+    return rate;
+  }, Math.min(seconds, 5));
+  console.log(`classic jello.w, core only:  ${Math.round(raw)} steps/s = ${(raw * 0.0005).toFixed(2)}× real time`);
+
+  for (const n of [6, 7, 8, 9, 10, 11, 12, 14, 16]) {
+    await page.evaluate((n) => window.jello.loadCube(n), n);
+    const r = await run();
+    console.log(`cube ${String(n).padStart(2)}³ = ${String(n ** 3).padStart(4)} points: ${fmt(r)}`);
+  }
+  if (errors.length) console.log('page errors:', errors);
+} finally {
+  await browser.close();
+  await server.stop();
+}

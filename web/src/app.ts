@@ -1,0 +1,360 @@
+// The app: ties the simulation glue, the renderer, the panel, interaction and capture together,
+// and runs the frame loop (step to follow the wall clock, draw, capture).
+import { FrameSequence, SEQUENCE_FPS, SEQUENCE_MAX, VideoRecorder, download, webmType } from './capture';
+import { Panel, type PanelHost } from './gui';
+import { Interaction, type InteractionSettings } from './interact';
+import { Viewer, type RenderMode } from './render';
+import { JelloSim, Runner, parseWorld, sceneData, type Parameters } from './sim';
+import { Banners, Readout, acceptDroppedFiles } from './ui';
+
+/** Largest world file accepted (bytes), as in the command line: a classic file with a 30³ field
+ *  is under 1 MiB. */
+const MAX_WORLD_BYTES = 64 << 20;
+
+/** What `jello view` tells the page (config.json). */
+export interface ServerConfig {
+  /** URL of the world given on the command line, and its file name. */
+  world?: { url: string; name: string };
+  /** File names of the example worlds, served under `examples/`. */
+  examples: string[];
+}
+
+export class App implements PanelHost {
+  readonly viewer: Viewer;
+  readonly runner: Runner;
+  readonly interactionHandler: Interaction;
+  readonly banners: Banners;
+  readonly readout: Readout;
+  readonly integratorNames = JelloSim.integratorNames();
+  panel!: Panel;
+
+  private sequence: FrameSequence | undefined;
+  private sequenceNeedsFrame = false;
+  private readonly video = new VideoRecorder();
+  private shownBlowUp = false;
+  /** Positions changed since the picture was last updated. */
+  private dirty = true;
+  private lastFrame = performance.now();
+  private readonly fileInput: HTMLInputElement;
+
+  constructor(
+    canvas: HTMLCanvasElement,
+    initial: JelloSim,
+    readonly examples: string[],
+  ) {
+    this.viewer = new Viewer(canvas);
+    this.runner = new Runner(initial);
+    this.interactionHandler = new Interaction(this.viewer, () => this.runner);
+    this.viewer.addOverlay(this.interactionHandler.indicator);
+    this.banners = new Banners(document.getElementById('banners')!);
+    this.readout = new Readout(document.getElementById('readout')!);
+
+    this.fileInput = document.createElement('input');
+    this.fileInput.type = 'file';
+    this.fileInput.accept = '.w,text/plain';
+    this.fileInput.id = 'world-file';
+    this.fileInput.hidden = true;
+    this.fileInput.addEventListener('change', () => {
+      const file = this.fileInput.files?.[0];
+      if (file) void this.loadFile(file);
+      this.fileInput.value = '';
+    });
+    document.body.append(this.fileInput);
+    acceptDroppedFiles(document.body, (file) => void this.loadFile(file));
+
+    this.showWorld();
+    this.panel = new Panel(this, document.getElementById('panel')!);
+    this.viewer.renderer.setAnimationLoop(() => this.frame());
+  }
+
+  get sim(): JelloSim {
+    return this.runner.sim;
+  }
+
+  // ---- PanelHost: the state the panel and keys change ----
+
+  get speed(): number {
+    return this.runner.speed;
+  }
+  set speed(s: number) {
+    this.runner.speed = s;
+  }
+  get paused(): boolean {
+    return this.runner.paused;
+  }
+  set paused(p: boolean) {
+    this.runner.paused = p;
+  }
+  get mode(): RenderMode {
+    return this.viewer.mode;
+  }
+  set mode(m: RenderMode) {
+    this.viewer.mode = m;
+    this.viewer.applyVisibility();
+  }
+  get showKind(): boolean[] {
+    // A proxy-free view: the panel writes elements, so visibility is re-applied each frame.
+    return this.viewer.showKind;
+  }
+  get showField(): boolean {
+    return this.viewer.showField;
+  }
+  set showField(on: boolean) {
+    this.viewer.showField = on;
+    this.viewer.applyVisibility();
+  }
+  get hasField(): boolean {
+    return this.viewer.hasField();
+  }
+  get interaction(): InteractionSettings {
+    return this.interactionHandler.settings;
+  }
+  get canRecordVideo(): boolean {
+    return webmType() !== undefined;
+  }
+
+  get worldName(): string {
+    return this.sim.name;
+  }
+
+  parameters(): Parameters {
+    return this.runner.parameters();
+  }
+
+  setParameters(p: Parameters): string | undefined {
+    try {
+      this.runner.setParameters(p);
+      this.afterBlowUpCleared();
+      return undefined;
+    } catch (e) {
+      const message = errorMessage(e);
+      this.banners.show('error', `Parameters not applied: ${message}`);
+      return message;
+    }
+  }
+
+  reset(): void {
+    this.sim.reset();
+    this.afterBlowUpCleared();
+    this.dirty = true;
+    this.panel.refresh();
+  }
+
+  stepOnce(): void {
+    this.paused = true;
+    if (this.runner.stepOnce() > 0) this.dirty = true;
+  }
+
+  loadExample(name: string): void {
+    void this.loadUrl(`examples/${encodeURIComponent(name)}`, name);
+  }
+
+  openFilePicker(): void {
+    this.fileInput.click();
+  }
+
+  save(): void {
+    try {
+      const text = this.sim.toWorldText();
+      const base = this.sim.name.replace(/\.w$/i, '').replace(/[^\w.-]+/g, '_') || 'jello';
+      download(new Blob([text], { type: 'text/plain' }), `${base}-t${this.sim.time.toFixed(3)}.w`);
+    } catch (e) {
+      this.banners.show('error', `Cannot save: ${errorMessage(e)}`);
+    }
+  }
+
+  loadCube(n: number): void {
+    try {
+      this.replaceSim(JelloSim.cube(n));
+    } catch (e) {
+      this.banners.show('error', errorMessage(e));
+    }
+  }
+
+  resetCamera(): void {
+    this.viewer.resetCamera();
+  }
+
+  screenshot(): void {
+    this.viewer
+      .snapshot()
+      .then((png) => download(png, 'jello.png'))
+      .catch((e: unknown) => this.banners.show('error', `Screenshot failed: ${errorMessage(e)}`));
+  }
+
+  toggleSequence(): void {
+    if (this.sequence) {
+      void this.finishSequence();
+      return;
+    }
+    this.sequence = new FrameSequence();
+    this.sequenceNeedsFrame = true;
+    this.updateRecordingUi();
+  }
+
+  toggleVideo(): void {
+    if (this.video.recording) {
+      this.video
+        .stop()
+        .then((webm) => download(webm, 'jello.webm'))
+        .catch((e: unknown) => this.banners.show('error', `Video failed: ${errorMessage(e)}`))
+        .finally(() => this.updateRecordingUi());
+      return;
+    }
+    try {
+      this.video.start(this.viewer.canvas);
+    } catch (e) {
+      this.banners.show('error', errorMessage(e));
+    }
+    this.updateRecordingUi();
+  }
+
+  // ---- Loading worlds ----
+
+  /** Loads world text; on error shows it and keeps the running world. */
+  loadText(text: string, name: string): boolean {
+    let sim: JelloSim;
+    try {
+      sim = parseWorld(text, name);
+    } catch (e) {
+      this.banners.show('error', `Could not load ${name}: ${errorMessage(e)}. The current world keeps running.`);
+      return false;
+    }
+    this.replaceSim(sim);
+    return true;
+  }
+
+  async loadFile(file: File): Promise<void> {
+    if (file.size > MAX_WORLD_BYTES) {
+      this.banners.show('error', `${file.name}: larger than ${MAX_WORLD_BYTES >> 20} MiB, which no world file is`);
+      return;
+    }
+    this.loadText(await file.text(), file.name);
+  }
+
+  async loadUrl(url: string, name: string): Promise<void> {
+    try {
+      const response = await fetch(url);
+      if (!response.ok) throw new Error(`${response.status} ${response.statusText}`);
+      this.loadText(await response.text(), name);
+    } catch (e) {
+      this.banners.show('error', `Could not fetch ${name}: ${errorMessage(e)}`);
+    }
+  }
+
+  private replaceSim(sim: JelloSim): void {
+    this.interactionHandler.cancel();
+    this.runner.forceHook = undefined;
+    this.runner.replace(sim);
+    this.banners.clear('error');
+    this.afterBlowUpCleared();
+    this.showWorld();
+    this.panel.refresh();
+  }
+
+  private showWorld(): void {
+    this.viewer.setScene(sceneData(this.sim));
+    if (!this.viewer.hasField()) this.viewer.showField = false;
+    this.viewer.applyVisibility();
+    this.viewer.updatePositions(this.sim.positions());
+    document.title = `Jello — ${this.sim.name}`;
+    const world = document.getElementById('world-name');
+    if (world) world.textContent = this.sim.name;
+  }
+
+  private afterBlowUpCleared(): void {
+    if (!this.sim.blownUp) {
+      this.shownBlowUp = false;
+      this.banners.clear('blowup');
+    }
+  }
+
+  // ---- The frame loop ----
+
+  private frame(): void {
+    const now = performance.now();
+    const wall = (now - this.lastFrame) / 1000;
+    this.lastFrame = now;
+    this.viewer.applyVisibility();
+
+    let steps = 0;
+    if (this.sequence) {
+      // Recording frames: draw, keep the frame, then advance exactly one frame of simulated time.
+      if (this.dirty) this.viewer.updatePositions(this.sim.positions());
+      this.dirty = false;
+      if (this.sequenceNeedsFrame) {
+        this.sequence.add(this.viewer.snapshot()); // renders, then encodes
+        this.sequenceNeedsFrame = false;
+        this.updateRecordingUi();
+        if (this.sequence.full) void this.finishSequence();
+      } else {
+        this.viewer.render();
+      }
+      if (this.sequence && !this.paused && !this.sim.blownUp) {
+        steps = this.runner.advanceExactly(1 / SEQUENCE_FPS);
+        this.sequenceNeedsFrame = steps > 0;
+        this.dirty = steps > 0;
+      }
+    } else {
+      steps = this.runner.advance(wall);
+      if (steps > 0) this.dirty = true;
+      if (this.dirty) this.viewer.updatePositions(this.sim.positions());
+      this.dirty = false;
+      this.viewer.render();
+    }
+    this.checkBlowUp();
+    this.readout.frame(steps, this.sim.dt, () => this.status());
+  }
+
+  private status(): string {
+    const state = this.sim.blownUp ? 'blown up' : this.paused ? 'paused' : 'running';
+    return `t = ${this.sim.time.toFixed(3)} s · step ${this.sim.steps} · ${state}`;
+  }
+
+  private checkBlowUp(): void {
+    if (!this.sim.blownUp || this.shownBlowUp) return;
+    this.shownBlowUp = true;
+    const suggested = this.sim.suggestedDt();
+    const actions = [{ label: 'Reset', run: () => this.reset() }];
+    if (suggested !== undefined) {
+      actions.unshift({
+        label: `Use dt = ${suggested} s and reset`,
+        run: () => {
+          this.reset();
+          this.setParameters({ ...this.parameters(), dt: suggested });
+          this.panel.refresh();
+        },
+      });
+    }
+    this.banners.show('blowup', this.sim.blowUpMessage() ?? 'The simulation blew up.', actions);
+  }
+
+  private async finishSequence(): Promise<void> {
+    const sequence = this.sequence;
+    this.sequence = undefined;
+    this.updateRecordingUi();
+    if (!sequence || sequence.count === 0) return;
+    try {
+      download(await sequence.zip(), 'jello-frames.zip');
+      this.banners.show('info', `Saved ${sequence.count} frames (${SEQUENCE_FPS} per simulated second) as jello-frames.zip.`);
+    } catch (e) {
+      this.banners.show('error', `Frame capture failed: ${errorMessage(e)}`);
+    }
+  }
+
+  private updateRecordingUi(): void {
+    const parts: string[] = [];
+    if (this.sequence) parts.push(`Recording frames: ${this.sequence.count}/${SEQUENCE_MAX} (space stops)`);
+    if (this.video.recording) parts.push('Recording WebM video');
+    if (parts.length > 0) this.banners.show('info', parts.join(' · '));
+    else this.banners.clear('info');
+    this.panel?.setRecordingLabels(
+      this.sequence ? 'stop frames and download zip (space)' : 'record frames (space)',
+      this.video.recording ? 'stop video and download' : 'record WebM video',
+    );
+  }
+}
+
+export function errorMessage(e: unknown): string {
+  return e instanceof Error ? e.message : String(e);
+}

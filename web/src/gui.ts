@@ -1,0 +1,144 @@
+// The lil-gui panel: simulation parameters, worlds (examples, load, save), view toggles,
+// interaction settings and capture. It holds no logic of its own: every control calls the app.
+import GUI, { type Controller } from 'lil-gui';
+import type { Parameters } from './sim';
+import type { InteractionSettings } from './interact';
+import type { RenderMode } from './render';
+
+/** What the panel drives; the app implements it. */
+export interface PanelHost {
+  integratorNames: string[];
+  examples: string[];
+  /** Name of the loaded world (selected in the examples list when it is one). */
+  readonly worldName: string;
+  parameters(): Parameters;
+  /** Applies parameters; returns an error message (and changes nothing) when they are invalid. */
+  setParameters(p: Parameters): string | undefined;
+  speed: number;
+  paused: boolean;
+  mode: RenderMode;
+  showKind: boolean[];
+  showField: boolean;
+  readonly hasField: boolean;
+  interaction: InteractionSettings;
+  reset(): void;
+  stepOnce(): void;
+  loadExample(name: string): void;
+  openFilePicker(): void;
+  save(): void;
+  loadCube(n: number): void;
+  resetCamera(): void;
+  screenshot(): void;
+  toggleSequence(): void;
+  toggleVideo(): void;
+  readonly canRecordVideo: boolean;
+}
+
+export class Panel {
+  readonly gui: GUI;
+  private readonly params: Parameters;
+  private readonly paramControllers: Controller[] = [];
+  private readonly view: { mode: RenderMode; structural: boolean; shear: boolean; bend: boolean; field: boolean };
+  private readonly fieldController: Controller;
+  private readonly sequenceButton: Controller;
+  private readonly videoButton: Controller;
+  private readonly choice = { example: '' };
+
+  constructor(
+    private readonly host: PanelHost,
+    container: HTMLElement,
+  ) {
+    this.gui = new GUI({ container, title: 'Jello' });
+    this.params = { ...host.parameters() };
+
+    const sim = this.gui.addFolder('Simulation');
+    const apply = () => this.applyParameters();
+    this.paramControllers.push(
+      sim.add(this.params, 'integrator', host.integratorNames).name('integrator').onChange(apply),
+      sim.add(this.params, 'dt').name('dt (s)').decimals(6).onFinishChange(apply),
+      sim.add(this.params, 'stiffness').name('k elastic (N/m)').decimals(3).onFinishChange(apply),
+      sim.add(this.params, 'damping').name('d elastic (N·s/m)').decimals(4).onFinishChange(apply),
+      sim.add(this.params, 'mass').name('mass/point (kg)').decimals(7).onFinishChange(apply),
+    );
+    sim.add(host, 'speed', 0.05, 4, 0.05).name('speed ×').listen();
+    sim.add(host, 'paused').name('paused (p)').listen();
+    sim.add(host, 'stepOnce').name('single step (n)');
+    sim.add(host, 'reset').name('reset to loaded world (r)');
+
+    const worlds = this.gui.addFolder('World');
+    if (host.examples.length > 0) {
+      worlds
+        .add(this.choice, 'example', host.examples)
+        .name('examples')
+        .onChange((name: string) => host.loadExample(name));
+    }
+    worlds.add(host, 'openFilePicker').name('load .w file… (or drop one)');
+    worlds.add(host, 'save').name('save state as .w');
+    const cube = { n: 12, build: () => host.loadCube(cube.n) };
+    worlds.add(cube, 'n', 2, 40, 1).name('lattice n (n³ cube)');
+    worlds.add(cube, 'build').name('build n³ cube under gravity');
+
+    const view = this.gui.addFolder('View');
+    this.view = {
+      mode: host.mode,
+      structural: host.showKind[0],
+      shear: host.showKind[1],
+      bend: host.showKind[2],
+      field: host.showField,
+    };
+    view
+      .add(this.view, 'mode', ['lit', 'wireframe'])
+      .name('mode (v)')
+      .onChange((m: RenderMode) => (host.mode = m));
+    (['structural', 'shear', 'bend'] as const).forEach((kind, i) =>
+      view
+        .add(this.view, kind)
+        .name(`${kind} (${'shb'[i]})`)
+        .onChange((on: boolean) => (host.showKind[i] = on)),
+    );
+    this.fieldController = view
+      .add(this.view, 'field')
+      .name('force field arrows (f)')
+      .onChange((on: boolean) => (host.showField = on));
+    view.add(host, 'resetCamera').name('reset camera (e)');
+
+    const drag = this.gui.addFolder('Interaction');
+    drag.add(host.interaction, 'pullStiffness', 1, 300, 1).name('pull stiffness (N/m)');
+    drag.add(host.interaction, 'falloffRadius', 0, 1, 0.01).name('falloff radius (m)');
+    drag.add(host.interaction, 'pushStrength', 1, 100, 1).name('push (m/s² per m)');
+
+    const capture = this.gui.addFolder('Capture');
+    capture.add(host, 'screenshot').name('screenshot (PNG)');
+    this.sequenceButton = capture.add(host, 'toggleSequence').name('record frames (space)');
+    this.videoButton = capture.add(host, 'toggleVideo').name('record WebM video');
+    if (!host.canRecordVideo) this.videoButton.name('WebM video: not supported here').disable();
+    this.refresh();
+  }
+
+  private applyParameters(): void {
+    const error = this.host.setParameters({ ...this.params });
+    if (error) Object.assign(this.params, this.host.parameters());
+    this.paramControllers.forEach((c) => c.updateDisplay());
+  }
+
+  /** Shows the app's current values (after a load, a reset or a key press). */
+  refresh(): void {
+    this.choice.example = this.host.examples.includes(this.host.worldName) ? this.host.worldName : '';
+    Object.assign(this.params, this.host.parameters());
+    this.paramControllers.forEach((c) => c.updateDisplay());
+    Object.assign(this.view, {
+      mode: this.host.mode,
+      structural: this.host.showKind[0],
+      shear: this.host.showKind[1],
+      bend: this.host.showKind[2],
+      field: this.host.showField,
+    });
+    this.gui.controllersRecursive().forEach((c) => c.updateDisplay());
+    this.fieldController.enable(this.host.hasField);
+  }
+
+  setRecordingLabels(sequence: string, video: string | undefined): void {
+    this.sequenceButton.name(sequence);
+    if (video !== undefined && this.host.canRecordVideo) this.videoButton.name(video);
+  }
+}

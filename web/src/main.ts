@@ -1,0 +1,67 @@
+// Entry point: load the core, ask the server what to show, start the app.
+import './style.css';
+import { App, errorMessage, type ServerConfig } from './app';
+import { bindKeys, KEYS } from './keys';
+import { JelloSim, loadCore } from './sim';
+
+/** `config.json` from `jello view`; without it (a plain static server, `vite dev`) no examples
+ *  and the classic cube. */
+async function serverConfig(): Promise<ServerConfig> {
+  try {
+    const r = await fetch('config.json');
+    if (r.ok && r.headers.get('content-type')?.includes('json')) return (await r.json()) as ServerConfig;
+  } catch {
+    // No server config: fall through.
+  }
+  return { examples: [] };
+}
+
+/** The world to start with: the one given to `jello view`, else the classic example, else the
+ *  classic cube at rest under gravity. */
+async function firstWorld(config: ServerConfig): Promise<{ sim: JelloSim; error?: string }> {
+  const candidates = [config.world, config.examples.includes('jello.w') ? { url: 'examples/jello.w', name: 'jello.w' } : undefined];
+  let error: string | undefined;
+  for (const c of candidates) {
+    if (!c) continue;
+    try {
+      const r = await fetch(c.url);
+      if (!r.ok) throw new Error(`${r.status} ${r.statusText}`);
+      return { sim: JelloSim.fromWorld(await r.text(), c.name), error };
+    } catch (e) {
+      error = `Could not load ${c.name}: ${errorMessage(e)}`;
+    }
+  }
+  return { sim: JelloSim.cube(8), error };
+}
+
+function fillHelp(): void {
+  const list = document.getElementById('help-keys');
+  if (!list) return;
+  for (const [key, what] of KEYS) {
+    const dt = document.createElement('dt');
+    dt.textContent = key;
+    const dd = document.createElement('dd');
+    dd.textContent = what;
+    list.append(dt, dd);
+  }
+}
+
+async function main(): Promise<void> {
+  fillHelp();
+  await loadCore();
+  const config = await serverConfig();
+  const { sim, error } = await firstWorld(config);
+  const canvas = document.getElementById('view') as HTMLCanvasElement;
+  const app = new App(canvas, sim, config.examples);
+  bindKeys(app);
+  if (error) app.banners.show('error', error);
+  // A handle for the console and the tests: `jello.sim.time`, `jello.paused`, …
+  (window as unknown as { jello: App }).jello = app;
+  document.body.dataset.ready = 'true';
+}
+
+main().catch((e: unknown) => {
+  const el = document.getElementById('banners');
+  if (el) el.textContent = `Jello could not start: ${errorMessage(e)}`;
+  throw e;
+});
