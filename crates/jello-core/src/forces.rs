@@ -274,44 +274,21 @@ fn add_halos(grid: &Grid, spring: &mut Soa, halos: &[Soa]) {
     }
 }
 
-/// The springs whose first point lies in planes `i0 .. i0 + CHUNK_PLANES`, into `own` (forces on
-/// those planes, zeroed here) and `halo` (forces on the two planes after them).
-#[allow(clippy::too_many_arguments)]
-fn chunk_springs(
-    grid: &Grid,
-    masks: &[Vec<f64>; 4],
-    p: &Soa,
-    v: &Soa,
-    i0: usize,
-    own: [&mut [f64]; 3],
-    halo: &mut Soa,
-    row: &mut Soa,
-) {
-    #[cfg(target_arch = "x86_64")]
-    if std::arch::is_x86_feature_detected!("avx512f") {
-        // SAFETY: the CPU supports the features enabled for this function.
-        unsafe { chunk_springs_avx512(grid, masks, p, v, i0, own, halo, row) };
-        return;
+crate::simd::multiversion! {
+    /// The springs whose first point lies in planes `i0 .. i0 + CHUNK_PLANES`, into `own` (forces
+    /// on those planes, zeroed here) and `halo` (forces on the two planes after them).
+    fn chunk_springs(
+        grid: &Grid,
+        masks: &[Vec<f64>; 4],
+        p: &Soa,
+        v: &Soa,
+        i0: usize,
+        own: [&mut [f64]; 3],
+        halo: &mut Soa,
+        row: &mut Soa,
+    ) {
+        chunk_springs_impl(grid, masks, p, v, i0, own, halo, row)
     }
-    chunk_springs_impl(grid, masks, p, v, i0, own, halo, row);
-}
-
-/// The same code compiled for AVX-512. Only element-wise IEEE operations are involved (no
-/// reassociation, no fused multiply-add: Rust never contracts), so the results are identical.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f,avx512dq,avx512vl,avx2")]
-#[allow(clippy::too_many_arguments)]
-unsafe fn chunk_springs_avx512(
-    grid: &Grid,
-    masks: &[Vec<f64>; 4],
-    p: &Soa,
-    v: &Soa,
-    i0: usize,
-    own: [&mut [f64]; 3],
-    halo: &mut Soa,
-    row: &mut Soa,
-) {
-    chunk_springs_impl(grid, masks, p, v, i0, own, halo, row);
 }
 
 /// Walks the springs of each plane of the chunk, stencil entry by stencil entry. For one entry
@@ -474,13 +451,7 @@ fn add_run(f: [&mut [f64]; 3], at: usize, row: [&[f64]; 3], len: usize, sign: f6
 fn point_forces(model: &Model, p: &Soa, v: &Soa, control: &Control, spring: &Soa, acc: &mut Soa) {
     const BLOCK: usize = 4096;
     let work = |start: usize, a: [&mut [f64]; 3]| {
-        #[cfg(target_arch = "x86_64")]
-        if std::arch::is_x86_feature_detected!("avx512f") {
-            // SAFETY: the CPU supports the features enabled for this function.
-            unsafe { point_forces_avx512(model, p, v, control, spring, start, a) };
-            return;
-        }
-        point_forces_impl(model, p, v, control, spring, start, a);
+        point_forces_block(model, p, v, control, spring, start, a)
     };
     #[cfg(feature = "parallel")]
     if model.point_count() >= PARALLEL_MIN_POINTS {
@@ -495,20 +466,19 @@ fn point_forces(model: &Model, p: &Soa, v: &Soa, control: &Control, spring: &Soa
     work(0, acc.parts_mut());
 }
 
-/// [`point_forces_impl`] compiled for AVX-512 (floors and selects in vector registers); the
-/// same IEEE operations, so the same results.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f,avx512dq,avx512vl,avx2")]
-unsafe fn point_forces_avx512(
-    model: &Model,
-    p: &Soa,
-    v: &Soa,
-    control: &Control,
-    spring: &Soa,
-    start: usize,
-    acc: [&mut [f64]; 3],
-) {
-    point_forces_impl(model, p, v, control, spring, start, acc);
+crate::simd::multiversion! {
+    /// [`point_forces_impl`], compiled for AVX-512 too (floors and selects in vector registers).
+    fn point_forces_block(
+        model: &Model,
+        p: &Soa,
+        v: &Soa,
+        control: &Control,
+        spring: &Soa,
+        start: usize,
+        acc: [&mut [f64]; 3],
+    ) {
+        point_forces_impl(model, p, v, control, spring, start, acc)
+    }
 }
 
 /// Accelerations of the points `start .. start + acc[0].len()`.

@@ -34,6 +34,7 @@ pub mod integrator;
 pub mod lattice;
 pub mod model;
 pub mod scenes;
+mod simd;
 pub mod soa;
 pub mod stability;
 pub mod state;

@@ -3,6 +3,32 @@
 
 use crate::vec3::Vec3;
 
+/// Vectors per block when copying on several threads.
+#[cfg(feature = "parallel")]
+const BLOCK: usize = 8 * 1024;
+
+crate::simd::multiversion! {
+    /// `(x, y, z)[i] = aos[i]`.
+    fn gather(x: &mut [f64], y: &mut [f64], z: &mut [f64], aos: &[Vec3]) {
+        let n = aos.len();
+        let (x, y, z) = (&mut x[..n], &mut y[..n], &mut z[..n]);
+        for (i, v) in aos.iter().enumerate() {
+            (x[i], y[i], z[i]) = (v.x, v.y, v.z);
+        }
+    }
+}
+
+crate::simd::multiversion! {
+    /// `aos[i] = (x, y, z)[i]`.
+    fn scatter(aos: &mut [Vec3], x: &[f64], y: &[f64], z: &[f64]) {
+        let n = aos.len();
+        let (x, y, z) = (&x[..n], &y[..n], &z[..n]);
+        for (i, v) in aos.iter_mut().enumerate() {
+            *v = Vec3::new(x[i], y[i], z[i]);
+        }
+    }
+}
+
 /// `n` 3-vectors as one buffer of `3n` numbers: all x components, then all y, then all z.
 /// Element-wise arithmetic on whole vectors (the integrators' updates) is then one loop over the
 /// buffer.
@@ -79,23 +105,43 @@ impl Soa {
     /// Copies from an array of vectors of the same length.
     pub fn copy_from(&mut self, aos: &[Vec3]) {
         let [x, y, z] = self.parts_mut();
-        let (x, y, z) = (
-            &mut x[..aos.len()],
-            &mut y[..aos.len()],
-            &mut z[..aos.len()],
-        );
-        for (i, v) in aos.iter().enumerate() {
-            (x[i], y[i], z[i]) = (v.x, v.y, v.z);
-        }
+        gather(x, y, z, aos);
     }
 
     /// Copies into an array of vectors of the same length.
     pub fn copy_to(&self, aos: &mut [Vec3]) {
-        let n = aos.len();
-        let (x, y, z) = (&self.x()[..n], &self.y()[..n], &self.z()[..n]);
-        for (i, v) in aos.iter_mut().enumerate() {
-            *v = Vec3::new(x[i], y[i], z[i]);
-        }
+        scatter(aos, self.x(), self.y(), self.z());
+    }
+
+    /// [`Soa::copy_from`] in blocks on the rayon pool's threads.
+    #[cfg(feature = "parallel")]
+    pub fn par_copy_from(&mut self, aos: &[Vec3]) {
+        use rayon::prelude::*;
+        let [x, y, z] = self.parts_mut();
+        let blocks = (
+            x.par_chunks_mut(BLOCK),
+            y.par_chunks_mut(BLOCK),
+            z.par_chunks_mut(BLOCK),
+            aos.par_chunks(BLOCK),
+        );
+        blocks
+            .into_par_iter()
+            .for_each(|(x, y, z, aos)| gather(x, y, z, aos));
+    }
+
+    /// [`Soa::copy_to`] in blocks on the rayon pool's threads.
+    #[cfg(feature = "parallel")]
+    pub fn par_copy_to(&self, aos: &mut [Vec3]) {
+        use rayon::prelude::*;
+        let blocks = (
+            aos.par_chunks_mut(BLOCK),
+            self.x().par_chunks(BLOCK),
+            self.y().par_chunks(BLOCK),
+            self.z().par_chunks(BLOCK),
+        );
+        blocks
+            .into_par_iter()
+            .for_each(|(aos, x, y, z)| scatter(aos, x, y, z));
     }
 
     /// A new structure of arrays holding `aos`.

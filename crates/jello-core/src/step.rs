@@ -140,16 +140,6 @@ pub fn step(
         *scratch = Scratch::new(model);
     }
     let dt = model.dt;
-    // The same code compiled for AVX-512 where the CPU has it: element-wise IEEE arithmetic
-    // only, so the results are identical.
-    #[cfg(target_arch = "x86_64")]
-    let sound = if std::arch::is_x86_feature_detected!("avx512f") {
-        // SAFETY: the CPU supports the features enabled for this function.
-        unsafe { integrate_avx512(model, state, control, scratch) }
-    } else {
-        integrate(model, state, control, scratch)
-    };
-    #[cfg(not(target_arch = "x86_64"))]
     let sound = integrate(model, state, control, scratch);
 
     // Step boundary: accept the new state only if it is sound.
@@ -169,35 +159,46 @@ pub fn step(
             escape_margin: model.escape_margin,
         });
     }
-    s.next_pos.copy_to(&mut state.pos);
-    s.next_vel.copy_to(&mut state.vel);
+    #[cfg(feature = "parallel")]
+    if model.point_count() >= PARALLEL_MIN_POINTS {
+        s.next_pos.par_copy_to(&mut state.pos);
+        s.next_vel.par_copy_to(&mut state.vel);
+    } else {
+        s.next_pos.copy_to(&mut state.pos);
+        s.next_vel.copy_to(&mut state.vel);
+    }
+    #[cfg(not(feature = "parallel"))]
+    {
+        s.next_pos.copy_to(&mut state.pos);
+        s.next_vel.copy_to(&mut state.vel);
+    }
     state.time += dt;
     state.steps += 1;
     Ok(())
-}
-
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f,avx512dq,avx512vl,avx2")]
-unsafe fn integrate_avx512(
-    model: &Model,
-    state: &State,
-    control: &Control,
-    s: &mut Scratch,
-) -> bool {
-    integrate(model, state, control, s)
 }
 
 /// One step of the integrator from `state` into `s.next_pos` and `s.next_vel`; whether the
 /// result is sound (every value finite, no point beyond the escape margin).
 ///
 /// The updates between force passes are element-wise over whole structure-of-arrays buffers
-/// (x, y and z alike), so each is one loop, split into blocks for threads on large lattices.
-#[inline(always)]
+/// (x, y and z alike), so each is one loop, split into blocks for threads on large lattices;
+/// every loop body is compiled for AVX-512 too (`multiversion!`).
 fn integrate(model: &Model, state: &State, control: &Control, s: &mut Scratch) -> bool {
     let dt = model.dt;
     let par = model.point_count() >= PARALLEL_MIN_POINTS;
-    s.pos.copy_from(&state.pos);
-    s.vel.copy_from(&state.vel);
+    #[cfg(feature = "parallel")]
+    if par {
+        s.pos.par_copy_from(&state.pos);
+        s.vel.par_copy_from(&state.vel);
+    } else {
+        s.pos.copy_from(&state.pos);
+        s.vel.copy_from(&state.vel);
+    }
+    #[cfg(not(feature = "parallel"))]
+    {
+        s.pos.copy_from(&state.pos);
+        s.vel.copy_from(&state.vel);
+    }
     let (p, v) = (&s.pos, &s.vel);
     match model.integrator {
         Integrator::Euler => {
@@ -258,15 +259,18 @@ fn integrate(model: &Model, state: &State, control: &Control, s: &mut Scratch) -
 #[cfg(feature = "parallel")]
 const BLOCK: usize = 16 * 1024;
 
-/// `out = a + b·h`, element by element.
-#[inline(always)]
-fn axpy(par: bool, out: &mut [f64], a: &[f64], b: &[f64], h: f64) {
-    let body = |out: &mut [f64], a: &[f64], b: &[f64]| {
+crate::simd::multiversion! {
+    /// `out = a + b·h`, element by element.
+    fn axpy_block(out: &mut [f64], a: &[f64], b: &[f64], h: f64) {
         let (a, b) = (&a[..out.len()], &b[..out.len()]);
         for i in 0..out.len() {
             out[i] = a[i] + b[i] * h;
         }
-    };
+    }
+}
+
+/// `out = a + b·h`, element by element, in blocks on threads when `par`.
+fn axpy(par: bool, out: &mut [f64], a: &[f64], b: &[f64], h: f64) {
     #[cfg(feature = "parallel")]
     if par {
         (
@@ -275,30 +279,26 @@ fn axpy(par: bool, out: &mut [f64], a: &[f64], b: &[f64], h: f64) {
             b.par_chunks(BLOCK),
         )
             .into_par_iter()
-            .for_each(|(o, a, b)| body(o, a, b));
+            .for_each(|(o, a, b)| axpy_block(o, a, b, h));
         return;
     }
     let _ = par;
-    body(out, a, b);
+    axpy_block(out, a, b, h);
 }
 
-/// An RK4 middle stage once its slope `(k_p, k_v) = (stage velocity, acceleration)` is known:
-/// add twice the slope to the sums, then move the stage to `y + stage_step·k`.
-#[inline(always)]
-fn rk4_stage(
-    par: bool,
-    sums: [&mut [f64]; 2],
-    stage: [&mut [f64]; 2],
-    [p, v, a]: [&[f64]; 3],
-    stage_step: f64,
-) {
-    let body = |sum_p: &mut [f64],
-                sum_v: &mut [f64],
-                sp: &mut [f64],
-                sv: &mut [f64],
-                p: &[f64],
-                v: &[f64],
-                a: &[f64]| {
+crate::simd::multiversion! {
+    /// An RK4 middle stage once its slope `(k_p, k_v) = (stage velocity, acceleration)` is known:
+    /// add twice the slope to the sums, then move the stage to `y + stage_step·k`.
+    fn rk4_stage_block(
+        sum_p: &mut [f64],
+        sum_v: &mut [f64],
+        sp: &mut [f64],
+        sv: &mut [f64],
+        p: &[f64],
+        v: &[f64],
+        a: &[f64],
+        stage_step: f64,
+    ) {
         let n = sum_p.len();
         let (sum_v, sp, sv) = (&mut sum_v[..n], &mut sp[..n], &mut sv[..n]);
         let (p, v, a) = (&p[..n], &v[..n], &a[..n]);
@@ -309,11 +309,20 @@ fn rk4_stage(
             sp[i] = p[i] + kp * stage_step;
             sv[i] = v[i] + kv * stage_step;
         }
-    };
-    let ([sum_p, sum_v], [sp, sv]) = (sums, stage);
+    }
+}
+
+/// [`rk4_stage_block`] over whole buffers, in blocks on threads when `par`.
+fn rk4_stage(
+    par: bool,
+    [sum_p, sum_v]: [&mut [f64]; 2],
+    [sp, sv]: [&mut [f64]; 2],
+    [p, v, a]: [&[f64]; 3],
+    stage_step: f64,
+) {
     #[cfg(feature = "parallel")]
     if par {
-        (
+        let blocks = (
             sum_p.par_chunks_mut(BLOCK),
             sum_v.par_chunks_mut(BLOCK),
             sp.par_chunks_mut(BLOCK),
@@ -321,52 +330,55 @@ fn rk4_stage(
             p.par_chunks(BLOCK),
             v.par_chunks(BLOCK),
             a.par_chunks(BLOCK),
-        )
+        );
+        blocks
             .into_par_iter()
-            .for_each(|(a0, a1, a2, a3, b0, b1, b2)| body(a0, a1, a2, a3, b0, b1, b2));
+            .for_each(|(s0, s1, s2, s3, p, v, a)| {
+                rk4_stage_block(s0, s1, s2, s3, p, v, a, stage_step)
+            });
         return;
     }
     let _ = par;
-    body(sum_p, sum_v, sp, sv, p, v, a);
+    rk4_stage_block(sum_p, sum_v, sp, sv, p, v, a, stage_step);
 }
 
-/// The end of an RK4 step: `y + dt/6·(k1 + 2k2 + 2k3 + k4)` from the sums and `k4`.
-#[inline(always)]
-fn rk4_finish(
-    par: bool,
-    next: [&mut [f64]; 2],
-    sums: [&[f64]; 2],
-    k4: [&[f64]; 2],
-    [p, v]: [&[f64]; 2],
-    w: f64,
-) {
-    let body = |np: &mut [f64],
-                nv: &mut [f64],
-                sum_p: &[f64],
-                sum_v: &[f64],
-                k4p: &[f64],
-                k4v: &[f64],
-                p: &[f64],
-                v: &[f64]| {
+crate::simd::multiversion! {
+    /// The end of an RK4 step: `y + dt/6·(k1 + 2k2 + 2k3 + k4)` from the sums and `k4`, with
+    /// `w = dt/6`.
+    fn rk4_finish_block(
+        np: &mut [f64],
+        nv: &mut [f64],
+        sum_p: &[f64],
+        sum_v: &[f64],
+        k4p: &[f64],
+        k4v: &[f64],
+        p: &[f64],
+        v: &[f64],
+        w: f64,
+    ) {
         let n = np.len();
         let nv = &mut nv[..n];
-        let (sum_p, sum_v, k4p, k4v, p, v) = (
-            &sum_p[..n],
-            &sum_v[..n],
-            &k4p[..n],
-            &k4v[..n],
-            &p[..n],
-            &v[..n],
-        );
+        let (sum_p, sum_v, k4p, k4v) = (&sum_p[..n], &sum_v[..n], &k4p[..n], &k4v[..n]);
+        let (p, v) = (&p[..n], &v[..n]);
         for i in 0..n {
             np[i] = p[i] + (sum_p[i] + k4p[i]) * w;
             nv[i] = v[i] + (sum_v[i] + k4v[i]) * w;
         }
-    };
-    let ([np, nv], [sum_p, sum_v], [k4p, k4v]) = (next, sums, k4);
+    }
+}
+
+/// [`rk4_finish_block`] over whole buffers, in blocks on threads when `par`.
+fn rk4_finish(
+    par: bool,
+    [np, nv]: [&mut [f64]; 2],
+    [sum_p, sum_v]: [&[f64]; 2],
+    [k4p, k4v]: [&[f64]; 2],
+    [p, v]: [&[f64]; 2],
+    w: f64,
+) {
     #[cfg(feature = "parallel")]
     if par {
-        (
+        let blocks = (
             np.par_chunks_mut(BLOCK),
             nv.par_chunks_mut(BLOCK),
             sum_p.par_chunks(BLOCK),
@@ -375,19 +387,22 @@ fn rk4_finish(
             k4v.par_chunks(BLOCK),
             p.par_chunks(BLOCK),
             v.par_chunks(BLOCK),
-        )
+        );
+        blocks
             .into_par_iter()
-            .for_each(|(a0, a1, b0, b1, b2, b3, b4, b5)| body(a0, a1, b0, b1, b2, b3, b4, b5));
+            .for_each(|(np, nv, sp, sv, kp, kv, p, v)| {
+                rk4_finish_block(np, nv, sp, sv, kp, kv, p, v, w)
+            });
         return;
     }
     let _ = par;
-    body(np, nv, sum_p, sum_v, k4p, k4v, p, v);
+    rk4_finish_block(np, nv, sum_p, sum_v, k4p, k4v, p, v, w);
 }
 
+crate::simd::multiversion! {
 /// True when every position and velocity is finite and no point is further outside the box than
 /// the escape margin. Branch-free over all points, so it vectorises; [`find_blow_up`] then names
 /// the point when it is false.
-#[inline(always)]
 fn is_sound(model: &Model, pos: &Soa, vel: &Soa) -> bool {
     let (lo, hi, m) = (model.bounds.min, model.bounds.max, model.escape_margin);
     let mut bad = false;
@@ -405,6 +420,7 @@ fn is_sound(model: &Model, pos: &Soa, vel: &Soa) -> bool {
         }
     }
     !bad
+}
 }
 
 /// The first point whose position or velocity is not finite, or that is further outside the box
