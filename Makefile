@@ -4,13 +4,14 @@
 #   make test   everything CI runs: format, lints, docs, all tests, examples up to date, and the
 #               viewer's browser tests (Playwright + Chromium)
 #   make fuzz   fuzz the world-file parser (installs cargo-fuzz and nightly when missing)
+#   make bench  Jello against NumPy, Numba, Taichi and Warp; rewrites BENCHMARKS.md
 
 JELLO := target/release/jello
 WORLD ?= examples/jello.w
 PORT ?= 7878
 FUZZ_SECONDS ?= 60
 
-.PHONY: build web run test examples fuzz
+.PHONY: build web run test examples fuzz bench
 
 build:
 	cargo build --release
@@ -35,3 +36,6 @@ examples: build
 
 fuzz:
 	scripts/fuzz.sh $(FUZZ_SECONDS)
+
+bench:
+	scripts/benchmarks.sh
