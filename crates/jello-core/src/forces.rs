@@ -1,10 +1,11 @@
 //! The one force routine: springs, force field, box and plane penalties, control forces.
 //!
 //! Springs are evaluated once each, by the lattice stencil rather than from a spring list: for
-//! each point plane `i`, each of the 16 half-stencil offsets and each row `j`, the springs of a
-//! row join contiguous runs of points, so the loop over `k` runs over contiguous memory and
-//! vectorises. A row's forces go to a small buffer, then are added to the first points and
-//! subtracted from the second (Newton's third law), each a plain vectorisable loop.
+//! each chunk of planes and each of the 16 half-stencil offsets, the springs join one contiguous
+//! run of points to the same run shifted, so the loop runs over contiguous memory and vectorises
+//! (pairs in the run that are no springs are masked to zero force). A block of forces goes to a
+//! small buffer, then is added to the first points and subtracted from the second (Newton's third
+//! law), each a plain vectorisable loop.
 //!
 //! Threads work on fixed chunks of [`CHUNK_PLANES`] planes. A chunk writes its own planes and a
 //! private halo for the (at most two) planes after it, which is added once every chunk is done.
@@ -67,19 +68,26 @@ pub struct ForceScratch {
     rows: Vec<Soa>,
     /// Per `dk + 1` (dk = −1, 0, 1, 2): 1 where a point's column `k` has a partner at `k + dk`,
     /// else 0, for every point of a plane.
-    masks: [Vec<f64>; 4],
+    masks: Masks,
 }
+
+/// Per stencil class `(dj, dk)` (index `(dj + 1)·4 + dk + 1`, both in −1..=2): for every point
+/// of a chunk of [`CHUNK_PLANES`] planes, 1 where the point at `(j + dj, k + dk)` exists, else 0.
+type Masks = Vec<Vec<f64>>;
 
 impl ForceScratch {
     /// Buffers for `model`.
     pub fn new(model: &Model) -> Self {
         let [nx, ny, nz] = model.lattice.counts;
         let chunks = nx.div_ceil(CHUNK_PLANES);
-        let mask = |dk: isize| -> Vec<f64> {
-            (0..ny * nz)
+        let chunk = CHUNK_PLANES.min(nx) * ny * nz;
+        let mask = |dj: isize, dk: isize| -> Vec<f64> {
+            (0..chunk)
                 .map(|t| {
+                    let j = ((t / nz) % ny) as isize + dj;
                     let k = (t % nz) as isize + dk;
-                    if (0..nz as isize).contains(&k) {
+                    let inside = (0..ny as isize).contains(&j) && (0..nz as isize).contains(&k);
+                    if inside {
                         1.0
                     } else {
                         0.0
@@ -87,11 +95,12 @@ impl ForceScratch {
                 })
                 .collect()
         };
+        let masks = (0..16).map(|c| mask(c / 4 - 1, c % 4 - 1)).collect();
         ForceScratch {
             spring: Soa::zeros(model.point_count()),
             halos: vec![Soa::zeros(HALO_PLANES * ny * nz); chunks],
-            rows: vec![Soa::zeros(RUN_BLOCK.min(ny * nz)); chunks],
-            masks: [mask(-1), mask(0), mask(1), mask(2)],
+            rows: vec![Soa::zeros(RUN_BLOCK.min(CHUNK_PLANES.min(nx) * ny * nz)); chunks],
+            masks,
         }
     }
 
@@ -106,8 +115,8 @@ impl ForceScratch {
             && self
                 .rows
                 .first()
-                .is_none_or(|r| r.len() == RUN_BLOCK.min(ny * nz))
-            && self.masks[0].len() == ny * nz
+                .is_none_or(|r| r.len() == RUN_BLOCK.min(CHUNK_PLANES.min(nx) * ny * nz))
+            && self.masks[0].len() == CHUNK_PLANES.min(nx) * ny * nz
     }
 }
 
@@ -279,7 +288,7 @@ crate::simd::multiversion! {
     /// on those planes, zeroed here) and `halo` (forces on the two planes after them).
     fn chunk_springs(
         grid: &Grid,
-        masks: &[Vec<f64>; 4],
+        masks: &Masks,
         p: &Soa,
         v: &Soa,
         i0: usize,
@@ -291,17 +300,16 @@ crate::simd::multiversion! {
     }
 }
 
-/// Walks the springs of each plane of the chunk, stencil entry by stencil entry. For one entry
-/// `(di, dj, dk)` the first points of its springs in plane `i` form one contiguous run of the
-/// plane (from row `j_lo`, column `k_lo` to row `j_hi − 1`, column `k_hi − 1`), and the second
-/// points the same run shifted by a constant. Where `dk ≠ 0`, the run also holds pairs that wrap
-/// from the end of one row to the start of the next: those are no springs, and their force is
-/// multiplied by 0 (the masks), which keeps the loop branch-free and vectorised.
+/// Walks the springs of the chunk stencil entry by stencil entry, in blocks of the row buffer's
+/// length. For one entry `(di, dj, dk)` the first points of its springs form one contiguous run
+/// through the chunk's planes, and the second points the same run shifted by a constant. The run
+/// also holds pairs that wrap from the end of a row or plane into the next: those are no springs,
+/// and their force is multiplied by 0 (the masks), which keeps the loop branch-free and vectorised.
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
 fn chunk_springs_impl(
     grid: &Grid,
-    masks: &[Vec<f64>; 4],
+    masks: &Masks,
     p: &Soa,
     v: &Soa,
     i0: usize,
@@ -320,64 +328,57 @@ fn chunk_springs_impl(
     halo.fill_zero();
     let block = row.len();
 
-    for i in i0..i0 + own_planes {
-        for (s, &([di, dj, dk], kind)) in STENCIL.iter().enumerate() {
-            let i2 = i + di as usize;
-            if i2 >= nx {
-                continue;
-            }
-            let (j_lo, j_hi) = (
-                dj.min(0).unsigned_abs(),
-                ny.saturating_sub(dj.max(0) as usize),
-            );
-            let (k_lo, k_hi) = (
-                dk.min(0).unsigned_abs(),
-                nz.saturating_sub(dk.max(0) as usize),
-            );
-            if j_lo >= j_hi || k_lo >= k_hi {
-                continue;
-            }
-            let (t_start, t_end) = (j_lo * nz + k_lo, (j_hi - 1) * nz + k_hi);
-            let shift = ((di * ny as isize + dj) * nz as isize + dk) as usize;
-            let mask = &masks[(dk + 1) as usize][..];
-            let spring = SpringConst {
-                k: grid.stiffness[kind],
-                d: grid.damping[kind],
-                rest: grid.rest[s],
-            };
-            let mut t = t_start;
-            while t < t_end {
-                let len = block.min(t_end - t);
-                let (a, b) = (i * plane + t, i * plane + t + shift);
-                let mask = &mask[t..t + len];
-                // Forces to the row buffer, then added to the first points and subtracted from
-                // the second (Newton's third law). Two plain loops vectorise where one loop
-                // writing both would not: the two runs may overlap.
-                spring_run(p, v, a, b, len, spring, mask, row);
+    // Stencil entry by entry: the first ends of an entry's springs in the whole chunk form one
+    // contiguous run (from plane i0, row j_lo, column k_lo to the last plane with a partner,
+    // row j_hi − 1, column k_hi − 1), and the second ends the same run shifted. Pairs in the run
+    // that are no springs (a row or plane wrapping into the next) get force 0 from the masks.
+    for (s, &([di, dj, dk], kind)) in STENCIL.iter().enumerate() {
+        let i_end = (i0 + own_planes).min(nx.saturating_sub(di as usize));
+        let (j_lo, j_hi) = (
+            dj.min(0).unsigned_abs(),
+            ny.saturating_sub(dj.max(0) as usize),
+        );
+        let (k_lo, k_hi) = (
+            dk.min(0).unsigned_abs(),
+            nz.saturating_sub(dk.max(0) as usize),
+        );
+        if i_end <= i0 || j_lo >= j_hi || k_lo >= k_hi {
+            continue;
+        }
+        let t_start = j_lo * nz + k_lo;
+        let t_end = (i_end - 1 - i0) * plane + (j_hi - 1) * nz + k_hi;
+        let shift = ((di * ny as isize + dj) * nz as isize + dk) as usize;
+        let mask = &masks[((dj + 1) * 4 + dk + 1) as usize];
+        let spring = SpringConst {
+            k: grid.stiffness[kind],
+            d: grid.damping[kind],
+            rest: grid.rest[s],
+        };
+        let mut t = t_start;
+        while t < t_end {
+            let len = block.min(t_end - t);
+            let (a, b) = (base + t, base + t + shift);
+            // Forces to the row buffer, then added to the first points and subtracted from the
+            // second (Newton's third law). Two plain loops vectorise where one loop writing both
+            // would not: the two runs may overlap.
+            spring_run(p, v, a, b, len, spring, &mask[t..t + len], row);
+            add_run([&mut *ox, &mut *oy, &mut *oz], t, tail(row, 0), len, 1.0);
+            let cut = halo_base.saturating_sub(b).min(len);
+            if cut > 0 {
                 add_run(
                     [&mut *ox, &mut *oy, &mut *oz],
-                    a - base,
+                    b - base,
                     tail(row, 0),
-                    len,
-                    1.0,
+                    cut,
+                    -1.0,
                 );
-                let cut = halo_base.saturating_sub(b).min(len);
-                if cut > 0 {
-                    add_run(
-                        [&mut *ox, &mut *oy, &mut *oz],
-                        b - base,
-                        tail(row, 0),
-                        cut,
-                        -1.0,
-                    );
-                }
-                if cut < len {
-                    // The rest of the run lies in the planes after the chunk.
-                    let h = halo.parts_mut();
-                    add_run(h, (b + cut) - halo_base, tail(row, cut), len - cut, -1.0);
-                }
-                t += len;
             }
+            if cut < len {
+                // The rest of the run lies in the planes after the chunk.
+                let h = halo.parts_mut();
+                add_run(h, (b + cut) - halo_base, tail(row, cut), len - cut, -1.0);
+            }
+            t += len;
         }
     }
 }
