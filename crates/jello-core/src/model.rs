@@ -49,16 +49,6 @@ impl Aabb {
         }
     }
 
-    /// True when `p` lies in the box or on its boundary.
-    pub fn contains(&self, p: Vec3) -> bool {
-        p.x >= self.min.x
-            && p.x <= self.max.x
-            && p.y >= self.min.y
-            && p.y <= self.max.y
-            && p.z >= self.min.z
-            && p.z <= self.max.z
-    }
-
     /// Distance from `p` to the box (0 inside), measured per axis as the largest excursion.
     pub fn excursion(&self, p: Vec3) -> f64 {
         let out = |v: f64, lo: f64, hi: f64| (lo - v).max(v - hi).max(0.0);
