@@ -7,18 +7,20 @@
 //! small buffer, then is added to the first points and subtracted from the second (Newton's third
 //! law), each a plain vectorisable loop.
 //!
-//! Threads work on fixed chunks of [`CHUNK_PLANES`] planes. A chunk writes its own planes and a
-//! private halo for the (at most two) planes after it, which is added once every chunk is done.
-//! The chunking does not depend on the thread count, so neither does any sum: results are bit
-//! for bit the same on 1 thread or many.
+//! The lattice is cut into fixed chunks of [`CHUNK_PLANES`] planes. A chunk writes the forces on
+//! its own planes and a private halo for the (at most two) planes after it, which the next chunk
+//! adds to its own before its points' accelerations are computed. That happens right after the
+//! chunk's springs, fused with the caller's update ([`force_pass`]), while the chunk is in cache.
+//! Threads take contiguous ranges of chunks; the chunking does not depend on the thread count, so
+//! neither does any sum: results are bit for bit the same on 1 thread or many.
+
+use std::ops::Range;
 
 use crate::model::Model;
 use crate::soa::Soa;
+use crate::split::Split;
 use crate::state::Control;
 use crate::vec3::Vec3;
-
-#[cfg(feature = "parallel")]
-use rayon::prelude::*;
 
 /// Point planes (constant `i`) per chunk of spring work. Fixed, so results never depend on the
 /// number of threads.
@@ -66,13 +68,14 @@ pub struct ForceScratch {
     halos: Vec<Soa>,
     /// Per chunk: the forces of one block of springs.
     rows: Vec<Soa>,
-    /// Per `dk + 1` (dk = −1, 0, 1, 2): 1 where a point's column `k` has a partner at `k + dk`,
-    /// else 0, for every point of a plane.
+    /// Which pairs of a run are springs, per stencil class (see [`Masks`]).
     masks: Masks,
 }
 
 /// Per stencil class `(dj, dk)` (index `(dj + 1)·4 + dk + 1`, both in −1..=2): for every point
-/// of a chunk of [`CHUNK_PLANES`] planes, 1 where the point at `(j + dj, k + dk)` exists, else 0.
+/// `u` of a plane, 1 where the point at `(j + dj, k + dk)` exists, else 0; then repeated for one
+/// row buffer's length, so that the mask of any block of a run starting at chunk offset `t` is
+/// the slice from `t mod plane`. One plane, not a whole chunk, so the masks stay in cache.
 type Masks = Vec<Vec<f64>>;
 
 impl ForceScratch {
@@ -80,10 +83,12 @@ impl ForceScratch {
     pub fn new(model: &Model) -> Self {
         let [nx, ny, nz] = model.lattice.counts;
         let chunks = nx.div_ceil(CHUNK_PLANES);
-        let chunk = CHUNK_PLANES.min(nx) * ny * nz;
+        let plane = ny * nz;
+        let row_len = RUN_BLOCK.min(CHUNK_PLANES.min(nx) * plane);
         let mask = |dj: isize, dk: isize| -> Vec<f64> {
-            (0..chunk)
-                .map(|t| {
+            (0..plane + row_len)
+                .map(|u| {
+                    let t = u % plane;
                     let j = ((t / nz) % ny) as isize + dj;
                     let k = (t % nz) as isize + dk;
                     let inside = (0..ny as isize).contains(&j) && (0..nz as isize).contains(&k);
@@ -99,24 +104,22 @@ impl ForceScratch {
         ForceScratch {
             spring: Soa::zeros(model.point_count()),
             halos: vec![Soa::zeros(HALO_PLANES * ny * nz); chunks],
-            rows: vec![Soa::zeros(RUN_BLOCK.min(CHUNK_PLANES.min(nx) * ny * nz)); chunks],
+            rows: vec![Soa::zeros(row_len); chunks],
             masks,
         }
     }
 
     fn fits(&self, model: &Model) -> bool {
         let [nx, ny, nz] = model.lattice.counts;
+        let row_len = RUN_BLOCK.min(CHUNK_PLANES.min(nx) * ny * nz);
         self.spring.len() == model.point_count()
             && self.halos.len() == nx.div_ceil(CHUNK_PLANES)
             && self
                 .halos
                 .first()
                 .is_none_or(|h| h.len() == HALO_PLANES * ny * nz)
-            && self
-                .rows
-                .first()
-                .is_none_or(|r| r.len() == RUN_BLOCK.min(CHUNK_PLANES.min(nx) * ny * nz))
-            && self.masks[0].len() == CHUNK_PLANES.min(nx) * ny * nz
+            && self.rows.first().is_none_or(|r| r.len() == row_len)
+            && self.masks[0].len() == ny * nz + row_len
     }
 }
 
@@ -126,7 +129,7 @@ impl ForceScratch {
 /// (SPEC.md): the sum of its spring forces, plus the interpolated force field, plus one penalty
 /// spring per box wall it is strictly outside of, plus the plane penalty when it is on the
 /// forbidden side, plus the control force. This form allocates its buffers; the integrators use
-/// [`accelerations_soa`] with buffers of their own.
+/// [`force_pass`] with buffers of their own, fused with their updates.
 pub fn accelerations(
     model: &Model,
     pos: &[Vec3],
@@ -156,9 +159,71 @@ pub fn accelerations_soa(
     acc: &mut Soa,
     scratch: &mut ForceScratch,
 ) {
+    force_pass(
+        model,
+        p,
+        v,
+        control,
+        scratch,
+        acc.parts_mut(),
+        &|_, out: [&mut [f64]; 3], a| {
+            for (out, a) in out.into_iter().zip(a) {
+                out.copy_from_slice(a);
+            }
+            true
+        },
+    );
+}
+
+/// What the acceleration of a block of points depends on besides the model: their positions,
+/// velocities, spring forces and control forces.
+#[derive(Clone, Copy)]
+pub struct PointInputs<'a> {
+    /// Positions (m), x, y and z.
+    pub pos: [&'a [f64]; 3],
+    /// Velocities (m/s), x, y and z.
+    pub vel: [&'a [f64]; 3],
+    /// Sum of the spring forces (N), x, y and z.
+    pub spring: [&'a [f64]; 3],
+    /// Control force on each point (N), or `None` for no control forces.
+    pub control: Option<&'a [Vec3]>,
+}
+
+/// The points `r` of a structure-of-arrays buffer, as x, y and z.
+pub fn range3(s: &Soa, r: Range<usize>) -> [&[f64]; 3] {
+    [&s.x()[r.clone()], &s.y()[r.clone()], &s.z()[r]]
+}
+
+/// One force evaluation at positions `p` and velocities `v`, fused with what the caller does
+/// with the accelerations.
+///
+/// The spring pass runs chunk by chunk of [`CHUNK_PLANES`] planes. As soon as a chunk's spring
+/// forces are complete (its own springs plus the halo of the chunk before it), the accelerations
+/// of its points are computed, block by block, into the chunk's row buffer and handed to
+/// `update(first_point, outs, acc)` with the block's part of `outs`. So the caller's per-point
+/// outputs (an integrator's next stage) are written while the chunk is still in cache, and
+/// accelerations never go through memory. `p` and `v` are read until the last chunk is done, so
+/// `outs` must be other buffers (the borrow checker sees to it).
+///
+/// Threads take contiguous ranges of chunks. Every chunk is computed the same way whichever
+/// thread runs it, so results do not depend on the thread count. Returns whether every `update`
+/// returned true.
+pub fn force_pass<T, U>(
+    model: &Model,
+    p: &Soa,
+    v: &Soa,
+    control: &Control,
+    scratch: &mut ForceScratch,
+    outs: T,
+    update: &U,
+) -> bool
+where
+    T: Split,
+    U: Fn(usize, T, [&[f64]; 3]) -> bool + Sync,
+{
     let n = model.point_count();
     assert!(
-        p.len() == n && v.len() == n && acc.len() == n,
+        p.len() == n && v.len() == n && outs.points() == n,
         "buffers must have the point count"
     );
     assert!(
@@ -168,8 +233,205 @@ pub fn accelerations_soa(
     if !scratch.fits(model) {
         *scratch = ForceScratch::new(model);
     }
-    spring_forces(model, p, v, scratch);
-    point_forces(model, p, v, control, &scratch.spring, acc);
+    let grid = Grid::new(model);
+    let chunks = grid.nx.div_ceil(CHUNK_PLANES);
+    let ForceScratch {
+        spring,
+        halos,
+        rows,
+        masks,
+    } = scratch;
+    let pass = Pass {
+        model,
+        grid,
+        masks,
+        p,
+        v,
+        control,
+        update,
+    };
+    // Ranges of chunks for threads: two per thread, for balance.
+    #[cfg(feature = "parallel")]
+    let ranges = if n >= PARALLEL_MIN_POINTS {
+        2 * rayon::current_num_threads()
+    } else {
+        1
+    };
+    #[cfg(not(feature = "parallel"))]
+    let ranges = 1;
+    let own = spring.parts_mut();
+    pass.chunks(0..chunks, own, halos, rows, outs, false, ranges)
+        .0
+}
+
+/// What every chunk of a [`force_pass`] shares.
+struct Pass<'a, U> {
+    model: &'a Model,
+    grid: Grid,
+    masks: &'a Masks,
+    p: &'a Soa,
+    v: &'a Soa,
+    control: &'a Control,
+    update: &'a U,
+}
+
+impl<U> Pass<'_, U> {
+    /// Points per chunk (the last chunk may have fewer).
+    fn chunk_len(&self) -> usize {
+        CHUNK_PLANES * self.grid.ny * self.grid.nz
+    }
+
+    /// The chunks `range`, split into `ranges` contiguous ranges run on the rayon pool.
+    ///
+    /// `own` holds the spring forces of the points of these chunks, `halos` and `rows` their
+    /// buffers, and `outs` the outputs of their points, except those of the first chunk when
+    /// `defer_first`: the halo that chunk needs comes from a chunk another thread computes, so
+    /// the caller completes it once both are done. Returns whether every update returned true,
+    /// and the spring forces of the first chunk.
+    #[allow(clippy::too_many_arguments)]
+    fn chunks<'o, T>(
+        &self,
+        range: Range<usize>,
+        own: [&'o mut [f64]; 3],
+        halos: &mut [Soa],
+        rows: &mut [Soa],
+        outs: T,
+        defer_first: bool,
+        ranges: usize,
+    ) -> (bool, [&'o mut [f64]; 3])
+    where
+        T: Split,
+        U: Fn(usize, T, [&[f64]; 3]) -> bool + Sync,
+    {
+        let chunk_len = self.chunk_len();
+        #[cfg(feature = "parallel")]
+        if ranges > 1 && range.len() >= 2 {
+            let mid = range.start + range.len() / 2;
+            let left = mid - range.start;
+            let (own_left, own_right) = own.split_at(left * chunk_len);
+            let (halos_left, halos_right) = halos.split_at_mut(left);
+            let (rows_left, rows_right) = rows.split_at_mut(left);
+            let deferred = if defer_first { chunk_len } else { 0 };
+            let (outs_left, outs_right) = outs.split_at(left * chunk_len - deferred);
+            let (outs_mid, outs_right) = outs_right.split_at(chunk_len.min(own_right.points()));
+            let ((ok_left, first), (ok_right, own_mid)) = rayon::join(
+                || {
+                    let r = range.start..mid;
+                    let (o, h, w) = (own_left, halos_left, rows_left);
+                    self.chunks(r, o, h, w, outs_left, defer_first, ranges / 2)
+                },
+                || {
+                    let r = mid..range.end;
+                    let (o, h, w) = (own_right, halos_right, rows_right);
+                    self.chunks(r, o, h, w, outs_right, true, ranges - ranges / 2)
+                },
+            );
+            let ok_mid = self.complete(
+                mid,
+                own_mid,
+                Some(&halos[left - 1]),
+                &mut rows[left],
+                outs_mid,
+            );
+            return (ok_left & ok_right & ok_mid, first);
+        }
+        let _ = ranges;
+        // One chunk after the other: a chunk's halo is ready when the next one is completed.
+        let first_len = chunk_len.min(own[0].len());
+        let (mut first, mut own_rest) = own.split_at(first_len);
+        let mut outs_rest = outs;
+        let mut all = true;
+        for c in range.clone() {
+            let i = c - range.start;
+            let own_c = if i == 0 {
+                first.each_mut().map(|f| &mut **f)
+            } else {
+                let len = chunk_len.min(own_rest.points());
+                let (own_c, rest) = own_rest.split_at(len);
+                own_rest = rest;
+                own_c
+            };
+            let (halo, row) = (&mut halos[i], &mut rows[i]);
+            let [fx, fy, fz] = own_c;
+            let (g, masks, p, v) = (&self.grid, self.masks, self.p, self.v);
+            chunk_springs(g, masks, p, v, c * CHUNK_PLANES, [fx, fy, fz], halo, row);
+            if i == 0 && defer_first {
+                continue;
+            }
+            debug_assert!(
+                i > 0 || c == 0,
+                "only a range from chunk 0 completes its first chunk"
+            );
+            let halo_before = (i > 0).then(|| &halos[i - 1]);
+            let (outs_c, rest) = outs_rest.split_at(fx.len());
+            outs_rest = rest;
+            all &= self.complete(c, [fx, fy, fz], halo_before, row, outs_c);
+        }
+        (all, first)
+    }
+
+    /// Completes chunk `c`: adds the halo of the chunk before to its spring forces `own`, then
+    /// computes its points' accelerations block by block and hands them to the update with the
+    /// block's part of `outs`.
+    fn complete<T>(
+        &self,
+        c: usize,
+        own: [&mut [f64]; 3],
+        halo_before: Option<&Soa>,
+        row: &mut Soa,
+        outs: T,
+    ) -> bool
+    where
+        T: Split,
+        U: Fn(usize, T, [&[f64]; 3]) -> bool + Sync,
+    {
+        let [fx, fy, fz] = own;
+        if let Some(h) = halo_before {
+            for (f, h) in [&mut *fx, &mut *fy, &mut *fz]
+                .into_iter()
+                .zip([h.x(), h.y(), h.z()])
+            {
+                let len = f.len().min(h.len());
+                add_into(&mut f[..len], &h[..len]);
+            }
+        }
+        let base = c * self.chunk_len();
+        let len = fx.len();
+        let control = (!self.control.forces.is_empty()).then(|| &self.control.forces[..]);
+        let mut outs = outs;
+        let mut all = true;
+        let mut t = 0;
+        while t < len {
+            let n = row.len().min(len - t);
+            let (block_outs, rest) = outs.split_at(n);
+            outs = rest;
+            let r = base + t..base + t + n;
+            let point = PointInputs {
+                pos: range3(self.p, r.clone()),
+                vel: range3(self.v, r.clone()),
+                spring: [&fx[t..t + n], &fy[t..t + n], &fz[t..t + n]],
+                control: control.map(|c| &c[r.clone()]),
+            };
+            // The row buffer is free once the chunk's springs are done.
+            let [ax, ay, az] = row.parts_mut();
+            let acc = [&mut ax[..n], &mut ay[..n], &mut az[..n]];
+            block_accelerations(self.model, point, acc);
+            let acc = [&row.x()[..n], &row.y()[..n], &row.z()[..n]];
+            all &= (self.update)(r.start, block_outs, acc);
+            t += n;
+        }
+        all
+    }
+}
+
+crate::simd::multiversion! {
+    /// `f += h`, element by element.
+    fn add_into(f: &mut [f64], h: &[f64]) {
+        let h = &h[..f.len()];
+        for i in 0..f.len() {
+            f[i] += h[i];
+        }
+    }
 }
 
 /// Lattice dimensions and the spring constants per kind.
@@ -200,85 +462,6 @@ impl Grid {
             stiffness: model.stiffness,
             damping: model.damping,
             rest,
-        }
-    }
-}
-
-/// One chunk's share of the spring pass: its index, its slices of the x, y and z forces, its
-/// halo and its row buffer.
-type ChunkWork<'a> = (
-    usize,
-    (
-        ((&'a mut [f64], &'a mut [f64]), &'a mut [f64]),
-        (&'a mut Soa, &'a mut Soa),
-    ),
-);
-
-/// All spring forces into `scratch.spring`.
-fn spring_forces(model: &Model, p: &Soa, v: &Soa, scratch: &mut ForceScratch) {
-    let grid = Grid::new(model);
-    let plane = grid.ny * grid.nz;
-    let chunk_len = CHUNK_PLANES * plane;
-    let ForceScratch {
-        spring,
-        halos,
-        rows,
-        masks,
-    } = scratch;
-    let masks = &*masks;
-    let work = |(c, (((fx, fy), fz), (halo, row))): ChunkWork<'_>| {
-        chunk_springs(
-            &grid,
-            masks,
-            p,
-            v,
-            c * CHUNK_PLANES,
-            [fx, fy, fz],
-            halo,
-            row,
-        );
-    };
-
-    #[cfg(feature = "parallel")]
-    if model.point_count() >= PARALLEL_MIN_POINTS {
-        let [sx, sy, sz] = spring.parts_mut();
-        sx.par_chunks_mut(chunk_len)
-            .zip(sy.par_chunks_mut(chunk_len))
-            .zip(sz.par_chunks_mut(chunk_len))
-            .zip(halos.par_iter_mut().zip(rows.par_iter_mut()))
-            .enumerate()
-            .for_each(work);
-        add_halos(&grid, spring, halos);
-        return;
-    }
-    let [sx, sy, sz] = spring.parts_mut();
-    sx.chunks_mut(chunk_len)
-        .zip(sy.chunks_mut(chunk_len))
-        .zip(sz.chunks_mut(chunk_len))
-        .zip(halos.iter_mut().zip(rows.iter_mut()))
-        .enumerate()
-        .for_each(work);
-    add_halos(&grid, spring, halos);
-}
-
-/// Adds each chunk's halo to the planes after it, in chunk order.
-fn add_halos(grid: &Grid, spring: &mut Soa, halos: &[Soa]) {
-    let plane = grid.ny * grid.nz;
-    for (c, halo) in halos.iter().enumerate() {
-        let start = (c + 1) * CHUNK_PLANES * plane;
-        let end = (start + HALO_PLANES * plane).min(spring.len());
-        if start >= end {
-            continue;
-        }
-        let len = end - start;
-        for (f, h) in spring
-            .parts_mut()
-            .into_iter()
-            .zip([halo.x(), halo.y(), halo.z()])
-        {
-            for (a, b) in f[start..end].iter_mut().zip(&h[..len]) {
-                *a += *b;
-            }
         }
     }
 }
@@ -361,7 +544,8 @@ fn chunk_springs_impl(
             // Forces to the row buffer, then added to the first points and subtracted from the
             // second (Newton's third law). Two plain loops vectorise where one loop writing both
             // would not: the two runs may overlap.
-            spring_run(p, v, a, b, len, spring, &mask[t..t + len], row);
+            let m = t % plane;
+            spring_run(p, v, a, b, len, spring, &mask[m..m + len], row);
             add_run([&mut *ox, &mut *oy, &mut *oz], t, tail(row, 0), len, 1.0);
             let cut = halo_base.saturating_sub(b).min(len);
             if cut > 0 {
@@ -448,62 +632,24 @@ fn add_run(f: [&mut [f64]; 3], at: usize, row: [&[f64]; 3], len: usize, sign: f6
     }
 }
 
-/// Per point: spring force plus field, walls, plane and control, over the mass.
-fn point_forces(model: &Model, p: &Soa, v: &Soa, control: &Control, spring: &Soa, acc: &mut Soa) {
-    const BLOCK: usize = 4096;
-    let work = |start: usize, a: [&mut [f64]; 3]| {
-        point_forces_block(model, p, v, control, spring, start, a)
-    };
-    #[cfg(feature = "parallel")]
-    if model.point_count() >= PARALLEL_MIN_POINTS {
-        let [ax, ay, az] = acc.parts_mut();
-        ax.par_chunks_mut(BLOCK)
-            .zip(ay.par_chunks_mut(BLOCK))
-            .zip(az.par_chunks_mut(BLOCK))
-            .enumerate()
-            .for_each(|(c, ((x, y), z))| work(c * BLOCK, [x, y, z]));
-        return;
-    }
-    work(0, acc.parts_mut());
-}
-
 crate::simd::multiversion! {
-    /// [`point_forces_impl`], compiled for AVX-512 too (floors and selects in vector registers).
-    fn point_forces_block(
-        model: &Model,
-        p: &Soa,
-        v: &Soa,
-        control: &Control,
-        spring: &Soa,
-        start: usize,
-        acc: [&mut [f64]; 3],
-    ) {
-        point_forces_impl(model, p, v, control, spring, start, acc)
+    /// Accelerations of a block of points once their spring forces are known: spring force plus
+    /// field, walls, plane and control, over the mass. Compiled for AVX-512 too (floors and
+    /// selects in vector registers).
+    pub fn block_accelerations(model: &Model, point: PointInputs<'_>, acc: [&mut [f64]; 3]) {
+        block_accelerations_impl(model, point, acc)
     }
 }
 
-/// Accelerations of the points `start .. start + acc[0].len()`.
 #[inline(always)]
-fn point_forces_impl(
-    model: &Model,
-    p: &Soa,
-    v: &Soa,
-    control: &Control,
-    spring: &Soa,
-    start: usize,
-    acc: [&mut [f64]; 3],
-) {
+fn block_accelerations_impl(model: &Model, point: PointInputs<'_>, acc: [&mut [f64]; 3]) {
     let [ax, ay, az] = acc;
     let len = ax.len();
     let (ay, az) = (&mut ay[..len], &mut az[..len]);
-    let r = start..start + len;
-    let (px, py, pz) = (&p.x()[r.clone()], &p.y()[r.clone()], &p.z()[r.clone()]);
-    let (vx, vy, vz) = (&v.x()[r.clone()], &v.y()[r.clone()], &v.z()[r.clone()]);
-    let (sx, sy, sz) = (
-        &spring.x()[r.clone()],
-        &spring.y()[r.clone()],
-        &spring.z()[r.clone()],
-    );
+    let [px, py, pz] = point.pos.map(|c| &c[..len]);
+    let [vx, vy, vz] = point.vel.map(|c| &c[..len]);
+    let [sx, sy, sz] = point.spring.map(|c| &c[..len]);
+    let control = point.control.map(|c| &c[..len]);
     let (kc, dc, mass) = (model.k_collision, model.d_collision, model.mass);
     let (lo, hi) = (model.bounds.min, model.bounds.max);
 
@@ -523,7 +669,6 @@ fn point_forces_impl(
     let plane = model
         .plane
         .map(|pl| (pl, pl.normal_length(), pl.inward_normal()));
-    let control = (!control.forces.is_empty()).then(|| &control.forces[r.clone()]);
     for t in 0..len {
         let mut f = match constant {
             Some(c) => Vec3::new(sx[t], sy[t], sz[t]) + c,

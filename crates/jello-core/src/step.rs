@@ -7,7 +7,7 @@
 
 use std::fmt;
 
-use crate::forces::{accelerations_soa, ForceScratch, PARALLEL_MIN_POINTS};
+use crate::forces::{force_pass, range3, ForceScratch, PARALLEL_MIN_POINTS};
 use crate::integrator::Integrator;
 use crate::model::Model;
 use crate::soa::Soa;
@@ -15,8 +15,6 @@ use crate::soa::Soa;
 use crate::stability;
 use crate::state::{Control, State};
 use crate::vec3::Vec3;
-#[cfg(feature = "parallel")]
-use rayon::prelude::*;
 
 /// Buffers the integrators work in, sized once for a model: stepping never allocates. All are
 /// structures of arrays (see [`crate::soa`]).
@@ -25,9 +23,10 @@ pub struct Scratch {
     force: ForceScratch,
     pos: Soa,
     vel: Soa,
-    acc: Soa,
-    stage_pos: Soa,
-    stage_vel: Soa,
+    /// Positions and velocities of the stage a force pass reads (RK2, RK4).
+    stage: (Soa, Soa),
+    /// Positions and velocities of the stage an RK4 force pass writes.
+    next_stage: (Soa, Soa),
     sum_pos: Soa,
     sum_vel: Soa,
     next_pos: Soa,
@@ -42,9 +41,8 @@ impl Scratch {
             force: ForceScratch::new(model),
             pos: z.clone(),
             vel: z.clone(),
-            acc: z.clone(),
-            stage_pos: z.clone(),
-            stage_vel: z.clone(),
+            stage: (z.clone(), z.clone()),
+            next_stage: (z.clone(), z.clone()),
             sum_pos: z.clone(),
             sum_vel: z.clone(),
             next_pos: z.clone(),
@@ -180,9 +178,10 @@ pub fn step(
 /// One step of the integrator from `state` into `s.next_pos` and `s.next_vel`; whether the
 /// result is sound (every value finite, no point beyond the escape margin).
 ///
-/// The updates between force passes are element-wise over whole structure-of-arrays buffers
-/// (x, y and z alike), so each is one loop, split into blocks for threads on large lattices;
-/// every loop body is compiled for AVX-512 too (`multiversion!`).
+/// Each force evaluation is one [`force_pass`]: the integrator's update for a block of points
+/// (and, in the last stage, the soundness check) runs right after the block's accelerations are
+/// known, while its data is in cache, and writes into buffers other than the ones the pass reads.
+/// The updates are element-wise per component and compiled for AVX-512 too (`multiversion!`).
 fn integrate(model: &Model, state: &State, control: &Control, s: &mut Scratch) -> bool {
     let dt = model.dt;
     let par = model.point_count() >= PARALLEL_MIN_POINTS;
@@ -196,68 +195,170 @@ fn integrate(model: &Model, state: &State, control: &Control, s: &mut Scratch) -
     }
     #[cfg(not(feature = "parallel"))]
     {
+        let _ = par;
         s.pos.copy_from(&state.pos);
         s.vel.copy_from(&state.vel);
     }
-    let (p, v) = (&s.pos, &s.vel);
+    let Scratch {
+        force,
+        pos,
+        vel,
+        stage,
+        next_stage,
+        sum_pos,
+        sum_vel,
+        next_pos,
+        next_vel,
+    } = s;
+    let (p, v) = (&*pos, &*vel);
+    let sound =
+        |np: &[&mut [f64]; 3], nv: &[&mut [f64]; 3]| block_is_sound(model, shared(np), shared(nv));
+    let next = (next_pos.parts_mut(), next_vel.parts_mut());
     match model.integrator {
         Integrator::Euler => {
-            accelerations_soa(model, p, v, control, &mut s.acc, &mut s.force);
-            axpy(par, s.next_pos.all_mut(), p.all(), v.all(), dt);
-            axpy(par, s.next_vel.all_mut(), v.all(), s.acc.all(), dt);
+            force_pass(model, p, v, control, force, next, &|first, (np, nv), a| {
+                let r = first..first + a[0].len();
+                let (bp, bv) = (range3(p, r.clone()), range3(v, r));
+                for c in 0..3 {
+                    axpy_block(np[c], bp[c], bv[c], dt);
+                    axpy_block(nv[c], bv[c], a[c], dt);
+                }
+                sound(&np, &nv)
+            })
         }
         Integrator::SymplecticEuler => {
-            accelerations_soa(model, p, v, control, &mut s.acc, &mut s.force);
-            axpy(par, s.next_vel.all_mut(), v.all(), s.acc.all(), dt);
-            axpy(par, s.next_pos.all_mut(), p.all(), s.next_vel.all(), dt);
+            force_pass(model, p, v, control, force, next, &|first, (np, nv), a| {
+                let r = first..first + a[0].len();
+                let (bp, bv) = (range3(p, r.clone()), range3(v, r));
+                for c in 0..3 {
+                    axpy_block(nv[c], bv[c], a[c], dt);
+                    axpy_block(np[c], bp[c], nv[c], dt);
+                }
+                sound(&np, &nv)
+            })
         }
         Integrator::Rk2 => {
             // Midpoint: k1 at y, then the whole step with the slope at y + dt/2·k1.
             let h = dt * 0.5;
-            accelerations_soa(model, p, v, control, &mut s.acc, &mut s.force);
-            axpy(par, s.stage_pos.all_mut(), p.all(), v.all(), h);
-            axpy(par, s.stage_vel.all_mut(), v.all(), s.acc.all(), h);
-            let (sp, sv) = (&s.stage_pos, &s.stage_vel);
-            accelerations_soa(model, sp, sv, control, &mut s.acc, &mut s.force);
-            axpy(par, s.next_pos.all_mut(), p.all(), sv.all(), dt);
-            axpy(par, s.next_vel.all_mut(), v.all(), s.acc.all(), dt);
+            let mid = (stage.0.parts_mut(), stage.1.parts_mut());
+            force_pass(model, p, v, control, force, mid, &|first, (sp, sv), a| {
+                let r = first..first + a[0].len();
+                let (bp, bv) = (range3(p, r.clone()), range3(v, r));
+                for c in 0..3 {
+                    axpy_block(sp[c], bp[c], bv[c], h);
+                    axpy_block(sv[c], bv[c], a[c], h);
+                }
+                true
+            });
+            let (sp, sv) = (&stage.0, &stage.1);
+            force_pass(
+                model,
+                sp,
+                sv,
+                control,
+                force,
+                next,
+                &|first, (np, nv), a| {
+                    let r = first..first + a[0].len();
+                    let (bp, bv, bsv) = (range3(p, r.clone()), range3(v, r.clone()), range3(sv, r));
+                    for c in 0..3 {
+                        axpy_block(np[c], bp[c], bsv[c], dt);
+                        axpy_block(nv[c], bv[c], a[c], dt);
+                    }
+                    sound(&np, &nv)
+                },
+            )
         }
         Integrator::Rk4 => {
             // Stages at y, y + dt/2·k1, y + dt/2·k2, y + dt·k3; the sums accumulate
-            // k1 + 2k2 + 2k3 + k4 in that order. A stage's position slope is its velocity.
+            // k1 + 2k2 + 2k3 + k4 in that order. A stage's position slope is its velocity. Each
+            // pass reads one stage and writes the next into the other pair of buffers.
             let h = dt * 0.5;
-            accelerations_soa(model, p, v, control, &mut s.acc, &mut s.force);
-            s.sum_pos.copy_from_soa(v);
-            s.sum_vel.copy_from_soa(&s.acc);
-            axpy(par, s.stage_pos.all_mut(), p.all(), v.all(), h);
-            axpy(par, s.stage_vel.all_mut(), v.all(), s.acc.all(), h);
-            for stage_step in [h, dt] {
-                let (sp, sv) = (&s.stage_pos, &s.stage_vel);
-                accelerations_soa(model, sp, sv, control, &mut s.acc, &mut s.force);
-                let sums = [s.sum_pos.all_mut(), s.sum_vel.all_mut()];
-                let stage = [s.stage_pos.all_mut(), s.stage_vel.all_mut()];
-                rk4_stage(
-                    par,
-                    sums,
-                    stage,
-                    [p.all(), v.all(), s.acc.all()],
-                    stage_step,
+            let first_stage = (
+                sum_vel.parts_mut(),
+                (stage.0.parts_mut(), stage.1.parts_mut()),
+            );
+            force_pass(
+                model,
+                p,
+                v,
+                control,
+                force,
+                first_stage,
+                &|first, (sum_v, (sp, sv)), a| {
+                    let r = first..first + a[0].len();
+                    let (bp, bv) = (range3(p, r.clone()), range3(v, r));
+                    for c in 0..3 {
+                        rk4_first_block(sum_v[c], sp[c], sv[c], bp[c], bv[c], a[c], h);
+                    }
+                    true
+                },
+            );
+            for (stage_step, second) in [(h, true), (dt, false)] {
+                let (sp, sv) = (&stage.0, &stage.1);
+                let sums = (sum_pos.parts_mut(), sum_vel.parts_mut());
+                let to = (next_stage.0.parts_mut(), next_stage.1.parts_mut());
+                force_pass(
+                    model,
+                    sp,
+                    sv,
+                    control,
+                    force,
+                    (sums, to),
+                    &|first, outs, a| {
+                        let ((sum_p, sum_v), (to_p, to_v)) = outs;
+                        let r = first..first + a[0].len();
+                        let (bp, bv, bsv) =
+                            (range3(p, r.clone()), range3(v, r.clone()), range3(sv, r));
+                        for c in 0..3 {
+                            let sums = [&mut *sum_p[c], &mut *sum_v[c]];
+                            let to = [&mut *to_p[c], &mut *to_v[c]];
+                            let (y, k) = ([bp[c], bv[c]], [bsv[c], a[c]]);
+                            rk4_middle_block(sums, to, y, k, stage_step, second);
+                        }
+                        true
+                    },
                 );
+                std::mem::swap(stage, next_stage);
             }
-            let (sp, sv) = (&s.stage_pos, &s.stage_vel);
-            accelerations_soa(model, sp, sv, control, &mut s.acc, &mut s.force);
-            let next = [s.next_pos.all_mut(), s.next_vel.all_mut()];
-            let sums = [s.sum_pos.all(), s.sum_vel.all()];
-            let k4 = [s.stage_vel.all(), s.acc.all()];
-            rk4_finish(par, next, sums, k4, [p.all(), v.all()], dt / 6.0);
+            let (sp, sv) = (&stage.0, &stage.1);
+            let (sum_p, sum_v) = (&*sum_pos, &*sum_vel);
+            force_pass(
+                model,
+                sp,
+                sv,
+                control,
+                force,
+                next,
+                &|first, (np, nv), a| {
+                    let r = first..first + a[0].len();
+                    let (bp, bv, bsv) = (
+                        range3(p, r.clone()),
+                        range3(v, r.clone()),
+                        range3(sv, r.clone()),
+                    );
+                    let (bsum_p, bsum_v) = (range3(sum_p, r.clone()), range3(sum_v, r));
+                    for c in 0..3 {
+                        let (sums, k4) = ([bsum_p[c], bsum_v[c]], [bsv[c], a[c]]);
+                        rk4_finish_block(
+                            [&mut *np[c], &mut *nv[c]],
+                            sums,
+                            k4,
+                            [bp[c], bv[c]],
+                            dt / 6.0,
+                        );
+                    }
+                    sound(&np, &nv)
+                },
+            )
         }
     }
-    is_sound(model, &s.next_pos, &s.next_vel)
 }
 
-/// Element-wise passes are split into blocks of this many numbers for threads.
-#[cfg(feature = "parallel")]
-const BLOCK: usize = 16 * 1024;
+/// A block's mutable x, y and z, read-only.
+fn shared<'a>(b: &'a [&mut [f64]; 3]) -> [&'a [f64]; 3] {
+    [&*b[0], &*b[1], &*b[2]]
+}
 
 crate::simd::multiversion! {
     /// `out = a + b·h`, element by element.
@@ -269,97 +370,80 @@ crate::simd::multiversion! {
     }
 }
 
-/// `out = a + b·h`, element by element, in blocks on threads when `par`.
-fn axpy(par: bool, out: &mut [f64], a: &[f64], b: &[f64], h: f64) {
-    #[cfg(feature = "parallel")]
-    if par {
-        (
-            out.par_chunks_mut(BLOCK),
-            a.par_chunks(BLOCK),
-            b.par_chunks(BLOCK),
-        )
-            .into_par_iter()
-            .for_each(|(o, a, b)| axpy_block(o, a, b, h));
-        return;
-    }
-    let _ = par;
-    axpy_block(out, a, b, h);
-}
-
 crate::simd::multiversion! {
-    /// An RK4 middle stage once its slope `(k_p, k_v) = (stage velocity, acceleration)` is known:
-    /// add twice the slope to the sums, then move the stage to `y + stage_step·k`.
-    fn rk4_stage_block(
-        sum_p: &mut [f64],
+    /// The first RK4 stage once `k1 = (v, a)` is known: the velocity sum starts at `a` (the
+    /// position sum starts in the second stage), and the stage moves to `y + h·k1`.
+    fn rk4_first_block(
         sum_v: &mut [f64],
         sp: &mut [f64],
         sv: &mut [f64],
         p: &[f64],
         v: &[f64],
         a: &[f64],
-        stage_step: f64,
+        h: f64,
     ) {
-        let n = sum_p.len();
-        let (sum_v, sp, sv) = (&mut sum_v[..n], &mut sp[..n], &mut sv[..n]);
-        let (p, v, a) = (&p[..n], &v[..n], &a[..n]);
+        let n = sum_v.len();
+        let (sp, sv, p, v, a) = (&mut sp[..n], &mut sv[..n], &p[..n], &v[..n], &a[..n]);
         for i in 0..n {
-            let (kp, kv) = (sv[i], a[i]);
-            sum_p[i] += kp * 2.0;
-            sum_v[i] += kv * 2.0;
-            sp[i] = p[i] + kp * stage_step;
-            sv[i] = v[i] + kv * stage_step;
+            sum_v[i] = a[i];
+            sp[i] = p[i] + v[i] * h;
+            sv[i] = v[i] + a[i] * h;
         }
     }
 }
 
-/// [`rk4_stage_block`] over whole buffers, in blocks on threads when `par`.
-fn rk4_stage(
-    par: bool,
-    [sum_p, sum_v]: [&mut [f64]; 2],
-    [sp, sv]: [&mut [f64]; 2],
-    [p, v, a]: [&[f64]; 3],
-    stage_step: f64,
-) {
-    #[cfg(feature = "parallel")]
-    if par {
-        let blocks = (
-            sum_p.par_chunks_mut(BLOCK),
-            sum_v.par_chunks_mut(BLOCK),
-            sp.par_chunks_mut(BLOCK),
-            sv.par_chunks_mut(BLOCK),
-            p.par_chunks(BLOCK),
-            v.par_chunks(BLOCK),
-            a.par_chunks(BLOCK),
-        );
-        blocks
-            .into_par_iter()
-            .for_each(|(s0, s1, s2, s3, p, v, a)| {
-                rk4_stage_block(s0, s1, s2, s3, p, v, a, stage_step)
-            });
-        return;
+crate::simd::multiversion! {
+    /// An RK4 middle stage once its slope `k = (k_p, k_v)` (the stage's velocity and
+    /// acceleration) is known: add twice the slope to the sums, and write the next stage,
+    /// `y + stage_step·k`, to `to`. In the second stage the position sum starts as `v + 2 k_p`
+    /// (k1's position slope is `v`).
+    fn rk4_middle_block(
+        sums: [&mut [f64]; 2],
+        to: [&mut [f64]; 2],
+        y: [&[f64]; 2],
+        k: [&[f64]; 2],
+        stage_step: f64,
+        second: bool,
+    ) {
+        let [sum_p, sum_v] = sums;
+        let n = sum_p.len();
+        let sum_v = &mut sum_v[..n];
+        let [to_p, to_v] = to.map(|s| &mut s[..n]);
+        let [p, v] = y.map(|s| &s[..n]);
+        let [kp, kv] = k.map(|s| &s[..n]);
+        if second {
+            for i in 0..n {
+                sum_p[i] = v[i] + kp[i] * 2.0;
+            }
+        } else {
+            for i in 0..n {
+                sum_p[i] += kp[i] * 2.0;
+            }
+        }
+        for i in 0..n {
+            sum_v[i] += kv[i] * 2.0;
+            to_p[i] = p[i] + kp[i] * stage_step;
+            to_v[i] = v[i] + kv[i] * stage_step;
+        }
     }
-    let _ = par;
-    rk4_stage_block(sum_p, sum_v, sp, sv, p, v, a, stage_step);
 }
 
 crate::simd::multiversion! {
-    /// The end of an RK4 step: `y + dt/6·(k1 + 2k2 + 2k3 + k4)` from the sums and `k4`, with
+    /// The end of an RK4 step: `y + w·(sum + k4)` with the sums of `k1 + 2k2 + 2k3` and
     /// `w = dt/6`.
     fn rk4_finish_block(
-        np: &mut [f64],
-        nv: &mut [f64],
-        sum_p: &[f64],
-        sum_v: &[f64],
-        k4p: &[f64],
-        k4v: &[f64],
-        p: &[f64],
-        v: &[f64],
+        next: [&mut [f64]; 2],
+        sums: [&[f64]; 2],
+        k4: [&[f64]; 2],
+        y: [&[f64]; 2],
         w: f64,
     ) {
+        let [np, nv] = next;
         let n = np.len();
         let nv = &mut nv[..n];
-        let (sum_p, sum_v, k4p, k4v) = (&sum_p[..n], &sum_v[..n], &k4p[..n], &k4v[..n]);
-        let (p, v) = (&p[..n], &v[..n]);
+        let [sum_p, sum_v] = sums.map(|s| &s[..n]);
+        let [k4p, k4v] = k4.map(|s| &s[..n]);
+        let [p, v] = y.map(|s| &s[..n]);
         for i in 0..n {
             np[i] = p[i] + (sum_p[i] + k4p[i]) * w;
             nv[i] = v[i] + (sum_v[i] + k4v[i]) * w;
@@ -367,49 +451,17 @@ crate::simd::multiversion! {
     }
 }
 
-/// [`rk4_finish_block`] over whole buffers, in blocks on threads when `par`.
-fn rk4_finish(
-    par: bool,
-    [np, nv]: [&mut [f64]; 2],
-    [sum_p, sum_v]: [&[f64]; 2],
-    [k4p, k4v]: [&[f64]; 2],
-    [p, v]: [&[f64]; 2],
-    w: f64,
-) {
-    #[cfg(feature = "parallel")]
-    if par {
-        let blocks = (
-            np.par_chunks_mut(BLOCK),
-            nv.par_chunks_mut(BLOCK),
-            sum_p.par_chunks(BLOCK),
-            sum_v.par_chunks(BLOCK),
-            k4p.par_chunks(BLOCK),
-            k4v.par_chunks(BLOCK),
-            p.par_chunks(BLOCK),
-            v.par_chunks(BLOCK),
-        );
-        blocks
-            .into_par_iter()
-            .for_each(|(np, nv, sp, sv, kp, kv, p, v)| {
-                rk4_finish_block(np, nv, sp, sv, kp, kv, p, v, w)
-            });
-        return;
-    }
-    let _ = par;
-    rk4_finish_block(np, nv, sum_p, sum_v, k4p, k4v, p, v, w);
-}
-
 crate::simd::multiversion! {
-/// True when every position and velocity is finite and no point is further outside the box than
-/// the escape margin. Branch-free over all points, so it vectorises; [`find_blow_up`] then names
-/// the point when it is false.
-fn is_sound(model: &Model, pos: &Soa, vel: &Soa) -> bool {
+/// True when every position and velocity of a block is finite and no point is further outside
+/// the box than the escape margin. Branch-free, so it vectorises; [`find_blow_up`] then names the
+/// point when it is false.
+fn block_is_sound(model: &Model, pos: [&[f64]; 3], vel: [&[f64]; 3]) -> bool {
     let (lo, hi, m) = (model.bounds.min, model.bounds.max, model.escape_margin);
     let mut bad = false;
     for (c, v, lo, hi) in [
-        (pos.x(), vel.x(), lo.x, hi.x),
-        (pos.y(), vel.y(), lo.y, hi.y),
-        (pos.z(), vel.z(), lo.z, hi.z),
+        (pos[0], vel[0], lo.x, hi.x),
+        (pos[1], vel[1], lo.y, hi.y),
+        (pos[2], vel[2], lo.z, hi.z),
     ] {
         let (lo, hi) = (lo - m, hi + m);
         for (&c, &v) in c.iter().zip(v.iter()) {
