@@ -62,8 +62,10 @@ const STENCIL: [([isize; 3], usize); 16] = [
 /// Buffers of the force routine, sized once for a model.
 #[derive(Clone, Debug, Default)]
 pub struct ForceScratch {
-    /// Spring forces (N) per point.
-    spring: Soa,
+    /// Spring forces (N) on the points of a chunk: two buffers per range of chunks a thread
+    /// takes, one for its first chunk (kept until the chunk before it is done) and one for the
+    /// others in turn, so they stay in cache.
+    owns: Vec<Soa>,
     /// Per chunk: forces on the [`HALO_PLANES`] planes after the chunk.
     halos: Vec<Soa>,
     /// Per chunk: the forces of one block of springs.
@@ -101,8 +103,9 @@ impl ForceScratch {
                 .collect()
         };
         let masks = (0..16).map(|c| mask(c / 4 - 1, c % 4 - 1)).collect();
+        let chunk_len = CHUNK_PLANES.min(nx) * plane;
         ForceScratch {
-            spring: Soa::zeros(model.point_count()),
+            owns: vec![Soa::zeros(chunk_len); 2 * range_count(model)],
             halos: vec![Soa::zeros(HALO_PLANES * ny * nz); chunks],
             rows: vec![Soa::zeros(row_len); chunks],
             masks,
@@ -111,8 +114,10 @@ impl ForceScratch {
 
     fn fits(&self, model: &Model) -> bool {
         let [nx, ny, nz] = model.lattice.counts;
-        let row_len = RUN_BLOCK.min(CHUNK_PLANES.min(nx) * ny * nz);
-        self.spring.len() == model.point_count()
+        let chunk_len = CHUNK_PLANES.min(nx) * ny * nz;
+        let row_len = RUN_BLOCK.min(chunk_len);
+        self.owns.len() >= 2
+            && self.owns[0].len() == chunk_len
             && self.halos.len() == nx.div_ceil(CHUNK_PLANES)
             && self
                 .halos
@@ -121,6 +126,17 @@ impl ForceScratch {
             && self.rows.first().is_none_or(|r| r.len() == row_len)
             && self.masks[0].len() == ny * nz + row_len
     }
+}
+
+/// Contiguous ranges of chunks a force pass is split into for threads: two per thread of the
+/// rayon pool, for balance, on lattices large enough to be worth it; else one.
+fn range_count(model: &Model) -> usize {
+    #[cfg(feature = "parallel")]
+    if model.point_count() >= PARALLEL_MIN_POINTS {
+        return 2 * rayon::current_num_threads();
+    }
+    let _ = model;
+    1
 }
 
 /// Acceleration of every point (m/s²) at positions `pos` and velocities `vel`, written to `acc`.
@@ -236,7 +252,7 @@ where
     let grid = Grid::new(model);
     let chunks = grid.nx.div_ceil(CHUNK_PLANES);
     let ForceScratch {
-        spring,
+        owns,
         halos,
         rows,
         masks,
@@ -250,18 +266,17 @@ where
         control,
         update,
     };
-    // Ranges of chunks for threads: two per thread, for balance.
-    #[cfg(feature = "parallel")]
-    let ranges = if n >= PARALLEL_MIN_POINTS {
-        2 * rayon::current_num_threads()
-    } else {
-        1
-    };
-    #[cfg(not(feature = "parallel"))]
-    let ranges = 1;
-    let own = spring.parts_mut();
-    pass.chunks(0..chunks, own, halos, rows, outs, false, ranges)
+    // As many ranges as the buffers allow (the pool may have grown since they were sized; the
+    // ranges only decide which thread computes what, never the results).
+    let ranges = range_count(model).min(owns.len() / 2);
+    pass.chunks(0..chunks, owns, halos, rows, outs, false, ranges)
         .0
+}
+
+/// The first `len` points of a buffer, as x, y and z.
+fn prefix(s: &mut Soa, len: usize) -> [&mut [f64]; 3] {
+    let [x, y, z] = s.parts_mut();
+    [&mut x[..len], &mut y[..len], &mut z[..len]]
 }
 
 /// What every chunk of a [`force_pass`] shares.
@@ -281,24 +296,30 @@ impl<U> Pass<'_, U> {
         CHUNK_PLANES * self.grid.ny * self.grid.nz
     }
 
+    /// Points of chunk `c`.
+    fn chunk_points(&self, c: usize) -> usize {
+        let Grid { nx, ny, nz, .. } = self.grid;
+        self.chunk_len().min(nx * ny * nz - c * self.chunk_len())
+    }
+
     /// The chunks `range`, split into `ranges` contiguous ranges run on the rayon pool.
     ///
-    /// `own` holds the spring forces of the points of these chunks, `halos` and `rows` their
-    /// buffers, and `outs` the outputs of their points, except those of the first chunk when
+    /// `owns` are two spring-force buffers per range, `halos` and `rows` the chunks' buffers,
+    /// and `outs` the outputs of the chunks' points, except those of the first chunk when
     /// `defer_first`: the halo that chunk needs comes from a chunk another thread computes, so
     /// the caller completes it once both are done. Returns whether every update returned true,
-    /// and the spring forces of the first chunk.
+    /// and the buffer holding the spring forces of the first chunk.
     #[allow(clippy::too_many_arguments)]
     fn chunks<'o, T>(
         &self,
         range: Range<usize>,
-        own: [&'o mut [f64]; 3],
+        owns: &'o mut [Soa],
         halos: &mut [Soa],
         rows: &mut [Soa],
         outs: T,
         defer_first: bool,
         ranges: usize,
-    ) -> (bool, [&'o mut [f64]; 3])
+    ) -> (bool, &'o mut Soa)
     where
         T: Split,
         U: Fn(usize, T, [&[f64]; 3]) -> bool + Sync,
@@ -308,51 +329,42 @@ impl<U> Pass<'_, U> {
         if ranges > 1 && range.len() >= 2 {
             let mid = range.start + range.len() / 2;
             let left = mid - range.start;
-            let (own_left, own_right) = own.split_at(left * chunk_len);
+            let (owns_left, owns_right) = owns.split_at_mut(2 * (ranges / 2));
             let (halos_left, halos_right) = halos.split_at_mut(left);
             let (rows_left, rows_right) = rows.split_at_mut(left);
             let deferred = if defer_first { chunk_len } else { 0 };
             let (outs_left, outs_right) = outs.split_at(left * chunk_len - deferred);
-            let (outs_mid, outs_right) = outs_right.split_at(chunk_len.min(own_right.points()));
+            let (outs_mid, outs_right) = outs_right.split_at(self.chunk_points(mid));
             let ((ok_left, first), (ok_right, own_mid)) = rayon::join(
                 || {
                     let r = range.start..mid;
-                    let (o, h, w) = (own_left, halos_left, rows_left);
+                    let (o, h, w) = (owns_left, halos_left, rows_left);
                     self.chunks(r, o, h, w, outs_left, defer_first, ranges / 2)
                 },
                 || {
                     let r = mid..range.end;
-                    let (o, h, w) = (own_right, halos_right, rows_right);
+                    let (o, h, w) = (owns_right, halos_right, rows_right);
                     self.chunks(r, o, h, w, outs_right, true, ranges - ranges / 2)
                 },
             );
-            let ok_mid = self.complete(
-                mid,
-                own_mid,
-                Some(&halos[left - 1]),
-                &mut rows[left],
-                outs_mid,
-            );
+            let own_mid = prefix(own_mid, self.chunk_points(mid));
+            let halo_before = Some(&halos[left - 1]);
+            let ok_mid = self.complete(mid, own_mid, halo_before, &mut rows[left], outs_mid);
             return (ok_left & ok_right & ok_mid, first);
         }
         let _ = ranges;
-        // One chunk after the other: a chunk's halo is ready when the next one is completed.
-        let first_len = chunk_len.min(own[0].len());
-        let (mut first, mut own_rest) = own.split_at(first_len);
+        // One chunk after the other, the first in its own buffer and the others in turn in the
+        // second: a chunk's halo is ready when the next one is completed.
+        let [first, rolling, ..] = owns else {
+            unreachable!("two buffers per range")
+        };
         let mut outs_rest = outs;
         let mut all = true;
         for c in range.clone() {
             let i = c - range.start;
-            let own_c = if i == 0 {
-                first.each_mut().map(|f| &mut **f)
-            } else {
-                let len = chunk_len.min(own_rest.points());
-                let (own_c, rest) = own_rest.split_at(len);
-                own_rest = rest;
-                own_c
-            };
+            let buffer = if i == 0 { &mut *first } else { &mut *rolling };
+            let [fx, fy, fz] = prefix(buffer, self.chunk_points(c));
             let (halo, row) = (&mut halos[i], &mut rows[i]);
-            let [fx, fy, fz] = own_c;
             let (g, masks, p, v) = (&self.grid, self.masks, self.p, self.v);
             chunk_springs(g, masks, p, v, c * CHUNK_PLANES, [fx, fy, fz], halo, row);
             if i == 0 && defer_first {
@@ -515,7 +527,8 @@ fn chunk_springs_impl(
     // contiguous run (from plane i0, row j_lo, column k_lo to the last plane with a partner,
     // row j_hi − 1, column k_hi − 1), and the second ends the same run shifted. Pairs in the run
     // that are no springs (a row or plane wrapping into the next) get force 0 from the masks.
-    for (s, &([di, dj, dk], kind)) in STENCIL.iter().enumerate() {
+    let runs: [_; 16] = std::array::from_fn(|s| {
+        let ([di, dj, dk], kind) = STENCIL[s];
         let i_end = (i0 + own_planes).min(nx.saturating_sub(di as usize));
         let (j_lo, j_hi) = (
             dj.min(0).unsigned_abs(),
@@ -526,26 +539,32 @@ fn chunk_springs_impl(
             nz.saturating_sub(dk.max(0) as usize),
         );
         if i_end <= i0 || j_lo >= j_hi || k_lo >= k_hi {
-            continue;
+            return None;
         }
         let t_start = j_lo * nz + k_lo;
         let t_end = (i_end - 1 - i0) * plane + (j_hi - 1) * nz + k_hi;
         let shift = ((di * ny as isize + dj) * nz as isize + dk) as usize;
-        let mask = &masks[((dj + 1) * 4 + dk + 1) as usize];
+        let mask = ((dj + 1) * 4 + dk + 1) as usize;
         let spring = SpringConst {
             k: grid.stiffness[kind],
             d: grid.damping[kind],
             rest: grid.rest[s],
         };
-        let mut t = t_start;
-        while t < t_end {
-            let len = block.min(t_end - t);
+        Some((t_start, t_end, shift, mask, spring))
+    });
+    let chunk_end = runs.iter().flatten().map(|r| r.1).max().unwrap_or(0);
+    let mut t0 = 0;
+    while t0 < chunk_end {
+        let t1 = t0 + block;
+        for &(t_start, t_end, shift, mask, spring) in runs.iter().flatten() {
+            let (t, e) = (t0.max(t_start), t1.min(t_end));
+            if t >= e {
+                continue;
+            }
+            let len = e - t;
             let (a, b) = (base + t, base + t + shift);
-            // Forces to the row buffer, then added to the first points and subtracted from the
-            // second (Newton's third law). Two plain loops vectorise where one loop writing both
-            // would not: the two runs may overlap.
             let m = t % plane;
-            spring_run(p, v, a, b, len, spring, &mask[m..m + len], row);
+            spring_run(p, v, a, b, len, spring, &masks[mask][m..m + len], row);
             add_run([&mut *ox, &mut *oy, &mut *oz], t, tail(row, 0), len, 1.0);
             let cut = halo_base.saturating_sub(b).min(len);
             if cut > 0 {
@@ -558,12 +577,11 @@ fn chunk_springs_impl(
                 );
             }
             if cut < len {
-                // The rest of the run lies in the planes after the chunk.
                 let h = halo.parts_mut();
                 add_run(h, (b + cut) - halo_base, tail(row, cut), len - cut, -1.0);
             }
-            t += len;
         }
+        t0 = t1;
     }
 }
 

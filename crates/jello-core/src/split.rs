@@ -1,8 +1,10 @@
 //! Per-point buffers that can be cut at a point index, so that a pass can hand each chunk or
 //! block of points its own part of several output buffers at once, without allocating.
 
-/// Per-point buffers that can be cut in two at a point index: a slice, the x, y and z parts of
-/// a structure-of-arrays buffer, or a pair of these.
+use crate::vec3::Vec3;
+
+/// Per-point buffers that can be cut in two at a point index: a slice of numbers or vectors, the
+/// x, y and z parts of a structure-of-arrays buffer, or a pair of these.
 pub trait Split: Sized + Send {
     /// Number of points.
     fn points(&self) -> usize;
@@ -11,6 +13,15 @@ pub trait Split: Sized + Send {
 }
 
 impl Split for &mut [f64] {
+    fn points(&self) -> usize {
+        self.len()
+    }
+    fn split_at(self, at: usize) -> (Self, Self) {
+        self.split_at_mut(at)
+    }
+}
+
+impl Split for &mut [Vec3] {
     fn points(&self) -> usize {
         self.len()
     }

@@ -29,8 +29,9 @@ pub struct Scratch {
     next_stage: (Soa, Soa),
     sum_pos: Soa,
     sum_vel: Soa,
-    next_pos: Soa,
-    next_vel: Soa,
+    /// The step's result, swapped into the state when it is sound.
+    next_pos: Vec<Vec3>,
+    next_vel: Vec<Vec3>,
 }
 
 impl Scratch {
@@ -45,8 +46,8 @@ impl Scratch {
             next_stage: (z.clone(), z.clone()),
             sum_pos: z.clone(),
             sum_vel: z.clone(),
-            next_pos: z.clone(),
-            next_vel: z,
+            next_pos: vec![Vec3::ZERO; model.point_count()],
+            next_vel: vec![Vec3::ZERO; model.point_count()],
         }
     }
 }
@@ -157,19 +158,10 @@ pub fn step(
             escape_margin: model.escape_margin,
         });
     }
-    #[cfg(feature = "parallel")]
-    if model.point_count() >= PARALLEL_MIN_POINTS {
-        s.next_pos.par_copy_to(&mut state.pos);
-        s.next_vel.par_copy_to(&mut state.vel);
-    } else {
-        s.next_pos.copy_to(&mut state.pos);
-        s.next_vel.copy_to(&mut state.vel);
-    }
-    #[cfg(not(feature = "parallel"))]
-    {
-        s.next_pos.copy_to(&mut state.pos);
-        s.next_vel.copy_to(&mut state.vel);
-    }
+    // The new state is in the scratch's buffers: swap them in (the old ones are overwritten by
+    // the next step).
+    std::mem::swap(&mut state.pos, &mut s.next_pos);
+    std::mem::swap(&mut state.vel, &mut s.next_vel);
     state.time += dt;
     state.steps += 1;
     Ok(())
@@ -211,30 +203,23 @@ fn integrate(model: &Model, state: &State, control: &Control, s: &mut Scratch) -
         next_vel,
     } = s;
     let (p, v) = (&*pos, &*vel);
-    let sound =
-        |np: &[&mut [f64]; 3], nv: &[&mut [f64]; 3]| block_is_sound(model, shared(np), shared(nv));
-    let next = (next_pos.parts_mut(), next_vel.parts_mut());
+    let sound = |np: &[Vec3], nv: &[Vec3]| block_is_sound(model, np, nv);
+    let next = (&mut next_pos[..], &mut next_vel[..]);
     match model.integrator {
         Integrator::Euler => {
             force_pass(model, p, v, control, force, next, &|first, (np, nv), a| {
                 let r = first..first + a[0].len();
                 let (bp, bv) = (range3(p, r.clone()), range3(v, r));
-                for c in 0..3 {
-                    axpy_block(np[c], bp[c], bv[c], dt);
-                    axpy_block(nv[c], bv[c], a[c], dt);
-                }
-                sound(&np, &nv)
+                step_end_block(np, nv, bp, bv, bv, a, dt);
+                sound(np, nv)
             })
         }
         Integrator::SymplecticEuler => {
             force_pass(model, p, v, control, force, next, &|first, (np, nv), a| {
                 let r = first..first + a[0].len();
                 let (bp, bv) = (range3(p, r.clone()), range3(v, r));
-                for c in 0..3 {
-                    axpy_block(nv[c], bv[c], a[c], dt);
-                    axpy_block(np[c], bp[c], nv[c], dt);
-                }
-                sound(&np, &nv)
+                symplectic_end_block(np, nv, bp, bv, a, dt);
+                sound(np, nv)
             })
         }
         Integrator::Rk2 => {
@@ -261,11 +246,8 @@ fn integrate(model: &Model, state: &State, control: &Control, s: &mut Scratch) -
                 &|first, (np, nv), a| {
                     let r = first..first + a[0].len();
                     let (bp, bv, bsv) = (range3(p, r.clone()), range3(v, r.clone()), range3(sv, r));
-                    for c in 0..3 {
-                        axpy_block(np[c], bp[c], bsv[c], dt);
-                        axpy_block(nv[c], bv[c], a[c], dt);
-                    }
-                    sound(&np, &nv)
+                    step_end_block(np, nv, bp, bv, bsv, a, dt);
+                    sound(np, nv)
                 },
             )
         }
@@ -338,26 +320,13 @@ fn integrate(model: &Model, state: &State, control: &Control, s: &mut Scratch) -
                         range3(sv, r.clone()),
                     );
                     let (bsum_p, bsum_v) = (range3(sum_p, r.clone()), range3(sum_v, r));
-                    for c in 0..3 {
-                        let (sums, k4) = ([bsum_p[c], bsum_v[c]], [bsv[c], a[c]]);
-                        rk4_finish_block(
-                            [&mut *np[c], &mut *nv[c]],
-                            sums,
-                            k4,
-                            [bp[c], bv[c]],
-                            dt / 6.0,
-                        );
-                    }
-                    sound(&np, &nv)
+                    let (y, sums, k4) = ([bp, bv], [bsum_p, bsum_v], [bsv, a]);
+                    rk4_end_block(np, nv, y, sums, k4, dt / 6.0);
+                    sound(np, nv)
                 },
             )
         }
     }
-}
-
-/// A block's mutable x, y and z, read-only.
-fn shared<'a>(b: &'a [&mut [f64]; 3]) -> [&'a [f64]; 3] {
-    [&*b[0], &*b[1], &*b[2]]
 }
 
 crate::simd::multiversion! {
@@ -429,59 +398,111 @@ crate::simd::multiversion! {
 }
 
 crate::simd::multiversion! {
-    /// The end of an RK4 step: `y + w·(sum + k4)` with the sums of `k1 + 2k2 + 2k3` and
-    /// `w = dt/6`.
-    fn rk4_finish_block(
-        next: [&mut [f64]; 2],
-        sums: [&[f64]; 2],
-        k4: [&[f64]; 2],
-        y: [&[f64]; 2],
-        w: f64,
+    /// The end of a step with slopes `kp` (of position) and `kv` (of velocity):
+    /// `(p + kp·dt, v + kv·dt)`, written to the next state.
+    fn step_end_block(
+        np: &mut [Vec3],
+        nv: &mut [Vec3],
+        p: [&[f64]; 3],
+        v: [&[f64]; 3],
+        kp: [&[f64]; 3],
+        kv: [&[f64]; 3],
+        dt: f64,
     ) {
-        let [np, nv] = next;
         let n = np.len();
         let nv = &mut nv[..n];
-        let [sum_p, sum_v] = sums.map(|s| &s[..n]);
-        let [k4p, k4v] = k4.map(|s| &s[..n]);
-        let [p, v] = y.map(|s| &s[..n]);
+        let ([px, py, pz], [vx, vy, vz]) = (p.map(|c| &c[..n]), v.map(|c| &c[..n]));
+        let ([kx, ky, kz], [ax, ay, az]) = (kp.map(|c| &c[..n]), kv.map(|c| &c[..n]));
         for i in 0..n {
-            np[i] = p[i] + (sum_p[i] + k4p[i]) * w;
-            nv[i] = v[i] + (sum_v[i] + k4v[i]) * w;
+            np[i] = Vec3::new(px[i] + kx[i] * dt, py[i] + ky[i] * dt, pz[i] + kz[i] * dt);
+            nv[i] = Vec3::new(vx[i] + ax[i] * dt, vy[i] + ay[i] * dt, vz[i] + az[i] * dt);
         }
     }
 }
 
 crate::simd::multiversion! {
-/// True when every position and velocity of a block is finite and no point is further outside
-/// the box than the escape margin. Branch-free, so it vectorises; [`find_blow_up`] then names the
-/// point when it is false.
-fn block_is_sound(model: &Model, pos: [&[f64]; 3], vel: [&[f64]; 3]) -> bool {
-    let (lo, hi, m) = (model.bounds.min, model.bounds.max, model.escape_margin);
-    let mut bad = false;
-    for (c, v, lo, hi) in [
-        (pos[0], vel[0], lo.x, hi.x),
-        (pos[1], vel[1], lo.y, hi.y),
-        (pos[2], vel[2], lo.z, hi.z),
-    ] {
-        let (lo, hi) = (lo - m, hi + m);
-        for (&c, &v) in c.iter().zip(v.iter()) {
-            // NaN fails every comparison, so it is caught too; an infinite velocity is not
-            // finite.
-            let inside = c >= lo && c <= hi;
-            bad |= !inside | !v.is_finite();
+    /// The end of a symplectic Euler step: the velocity first, `v + a·dt`, then the position
+    /// with the new velocity, written to the next state.
+    fn symplectic_end_block(
+        np: &mut [Vec3],
+        nv: &mut [Vec3],
+        p: [&[f64]; 3],
+        v: [&[f64]; 3],
+        a: [&[f64]; 3],
+        dt: f64,
+    ) {
+        let n = np.len();
+        let nv = &mut nv[..n];
+        let ([px, py, pz], [vx, vy, vz]) = (p.map(|c| &c[..n]), v.map(|c| &c[..n]));
+        let [ax, ay, az] = a.map(|c| &c[..n]);
+        for i in 0..n {
+            let w = Vec3::new(vx[i] + ax[i] * dt, vy[i] + ay[i] * dt, vz[i] + az[i] * dt);
+            nv[i] = w;
+            np[i] = Vec3::new(px[i] + w.x * dt, py[i] + w.y * dt, pz[i] + w.z * dt);
         }
     }
-    !bad
 }
+
+crate::simd::multiversion! {
+    /// The end of an RK4 step: `y + w·(sum + k4)` for position and velocity, with the sums of
+    /// `k1 + 2k2 + 2k3` and `w = dt/6`, written to the next state.
+    fn rk4_end_block(
+        np: &mut [Vec3],
+        nv: &mut [Vec3],
+        y: [[&[f64]; 3]; 2],
+        sums: [[&[f64]; 3]; 2],
+        k4: [[&[f64]; 3]; 2],
+        w: f64,
+    ) {
+        let n = np.len();
+        let nv = &mut nv[..n];
+        let [[px, py, pz], [vx, vy, vz]] = y.map(|y| y.map(|c| &c[..n]));
+        let [[sx, sy, sz], [tx, ty, tz]] = sums.map(|s| s.map(|c| &c[..n]));
+        let [[kx, ky, kz], [ax, ay, az]] = k4.map(|k| k.map(|c| &c[..n]));
+        for i in 0..n {
+            np[i] = Vec3::new(
+                px[i] + (sx[i] + kx[i]) * w,
+                py[i] + (sy[i] + ky[i]) * w,
+                pz[i] + (sz[i] + kz[i]) * w,
+            );
+            nv[i] = Vec3::new(
+                vx[i] + (tx[i] + ax[i]) * w,
+                vy[i] + (ty[i] + ay[i]) * w,
+                vz[i] + (tz[i] + az[i]) * w,
+            );
+        }
+    }
+}
+
+crate::simd::multiversion! {
+    /// True when every position and velocity of a block is finite and no point is further
+    /// outside the box than the escape margin. Branch-free, so it vectorises; [`find_blow_up`]
+    /// then names the point when it is false.
+    fn block_is_sound(model: &Model, pos: &[Vec3], vel: &[Vec3]) -> bool {
+        let m = model.escape_margin;
+        let (lo, hi) = (model.bounds.min, model.bounds.max);
+        let (lo, hi) = ([lo.x - m, lo.y - m, lo.z - m], [hi.x + m, hi.y + m, hi.z + m]);
+        let mut bad = false;
+        for (p, v) in pos.iter().zip(vel) {
+            // NaN fails every comparison, so it is caught too; an infinite velocity is not
+            // finite.
+            let inside = (p.x >= lo[0] && p.x <= hi[0])
+                & (p.y >= lo[1] && p.y <= hi[1])
+                & (p.z >= lo[2] && p.z <= hi[2]);
+            let finite = v.x.is_finite() & v.y.is_finite() & v.z.is_finite();
+            bad |= !inside | !finite;
+        }
+        !bad
+    }
 }
 
 /// The first point whose position or velocity is not finite, or that is further outside the box
 /// than the escape margin: by the same comparisons as [`is_sound`].
-fn find_blow_up(model: &Model, pos: &Soa, vel: &Soa) -> Option<(usize, BlowUpCause)> {
+fn find_blow_up(model: &Model, pos: &[Vec3], vel: &[Vec3]) -> Option<(usize, BlowUpCause)> {
     let (lo, hi, m) = (model.bounds.min, model.bounds.max, model.escape_margin);
     let inside = |c: f64, lo: f64, hi: f64| c >= lo - m && c <= hi + m;
     (0..pos.len()).find_map(|i| {
-        let (p, v) = (pos.get(i), vel.get(i));
+        let (p, v) = (pos[i], vel[i]);
         if !(p.is_finite() && v.is_finite()) {
             Some((i, BlowUpCause::NonFinite))
         } else if !(inside(p.x, lo.x, hi.x) && inside(p.y, lo.y, hi.y) && inside(p.z, lo.z, hi.z)) {
