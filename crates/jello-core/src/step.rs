@@ -23,11 +23,13 @@ pub struct Scratch {
     force: ForceScratch,
     pos: Soa,
     vel: Soa,
-    /// Positions and velocities of the stage a force pass reads (RK2, RK4).
-    stage: (Soa, Soa),
-    /// Positions and velocities of the stage an RK4 force pass writes.
-    next_stage: (Soa, Soa),
-    sum_pos: Soa,
+    /// Positions of the intermediate stages: RK2's midpoint; RK4's stages 2 and 4 in the first,
+    /// stage 3 in the second.
+    stage_pos: [Soa; 2],
+    /// Velocities of RK4's stages 2, 3 and 4 (RK2's midpoint in the first): all three are the
+    /// position slopes the end of the step sums, so none is overwritten.
+    stage_vel: [Soa; 3],
+    /// RK4's sum of the velocity slopes `k1 + 2k2 + 2k3` (accelerations).
     sum_vel: Soa,
     /// The step's result, swapped into the state when it is sound.
     next_pos: Vec<Vec3>,
@@ -42,9 +44,8 @@ impl Scratch {
             force: ForceScratch::new(model),
             pos: z.clone(),
             vel: z.clone(),
-            stage: (z.clone(), z.clone()),
-            next_stage: (z.clone(), z.clone()),
-            sum_pos: z.clone(),
+            stage_pos: [z.clone(), z.clone()],
+            stage_vel: [z.clone(), z.clone(), z.clone()],
             sum_vel: z.clone(),
             next_pos: vec![Vec3::ZERO; model.point_count()],
             next_vel: vec![Vec3::ZERO; model.point_count()],
@@ -195,9 +196,8 @@ fn integrate(model: &Model, state: &State, control: &Control, s: &mut Scratch) -
         force,
         pos,
         vel,
-        stage,
-        next_stage,
-        sum_pos,
+        stage_pos,
+        stage_vel,
         sum_vel,
         next_pos,
         next_vel,
@@ -225,7 +225,7 @@ fn integrate(model: &Model, state: &State, control: &Control, s: &mut Scratch) -
         Integrator::Rk2 => {
             // Midpoint: k1 at y, then the whole step with the slope at y + dt/2·k1.
             let h = dt * 0.5;
-            let mid = (stage.0.parts_mut(), stage.1.parts_mut());
+            let mid = (stage_pos[0].parts_mut(), stage_vel[0].parts_mut());
             force_pass(model, p, v, control, force, mid, &|first, (sp, sv), a| {
                 let r = first..first + a[0].len();
                 let (bp, bv) = (range3(p, r.clone()), range3(v, r));
@@ -235,7 +235,7 @@ fn integrate(model: &Model, state: &State, control: &Control, s: &mut Scratch) -
                 }
                 true
             });
-            let (sp, sv) = (&stage.0, &stage.1);
+            let (sp, sv) = (&stage_pos[0], &stage_vel[0]);
             force_pass(
                 model,
                 sp,
@@ -252,21 +252,21 @@ fn integrate(model: &Model, state: &State, control: &Control, s: &mut Scratch) -
             )
         }
         Integrator::Rk4 => {
-            // Stages at y, y + dt/2·k1, y + dt/2·k2, y + dt·k3; the sums accumulate
-            // k1 + 2k2 + 2k3 + k4 in that order. A stage's position slope is its velocity. Each
-            // pass reads one stage and writes the next into the other pair of buffers.
+            // Stages at y, y + dt/2·k1, y + dt/2·k2, y + dt·k3, each pass reading one stage and
+            // writing the next. A stage's position slope is its velocity, so the end sums the
+            // stage velocities kept in `stage_vel`; the velocity slopes (accelerations) are summed
+            // as the stages go, k1 + 2k2 + 2k3, in `sum_vel`.
             let h = dt * 0.5;
-            let first_stage = (
-                sum_vel.parts_mut(),
-                (stage.0.parts_mut(), stage.1.parts_mut()),
-            );
+            let [sp24, sp3] = stage_pos;
+            let [sv2, sv3, sv4] = stage_vel;
+            let to = (sum_vel.parts_mut(), (sp24.parts_mut(), sv2.parts_mut()));
             force_pass(
                 model,
                 p,
                 v,
                 control,
                 force,
-                first_stage,
+                to,
                 &|first, (sum_v, (sp, sv)), a| {
                     let r = first..first + a[0].len();
                     let (bp, bv) = (range3(p, r.clone()), range3(v, r));
@@ -276,52 +276,37 @@ fn integrate(model: &Model, state: &State, control: &Control, s: &mut Scratch) -
                     true
                 },
             );
-            for (stage_step, second) in [(h, true), (dt, false)] {
-                let (sp, sv) = (&stage.0, &stage.1);
-                let sums = (sum_pos.parts_mut(), sum_vel.parts_mut());
-                let to = (next_stage.0.parts_mut(), next_stage.1.parts_mut());
-                force_pass(
-                    model,
-                    sp,
-                    sv,
-                    control,
-                    force,
-                    (sums, to),
-                    &|first, outs, a| {
-                        let ((sum_p, sum_v), (to_p, to_v)) = outs;
+            let mut middle =
+                |sp: &Soa, sv: &Soa, step: f64, sum_v: &mut Soa, to_p: &mut Soa, to_v: &mut Soa| {
+                    let to = (sum_v.parts_mut(), (to_p.parts_mut(), to_v.parts_mut()));
+                    force_pass(model, sp, sv, control, force, to, &|first, outs, a| {
+                        let (sum_v, (to_p, to_v)): ([&mut [f64]; 3], _) = outs;
                         let r = first..first + a[0].len();
                         let (bp, bv, bsv) =
                             (range3(p, r.clone()), range3(v, r.clone()), range3(sv, r));
                         for c in 0..3 {
-                            let sums = [&mut *sum_p[c], &mut *sum_v[c]];
                             let to = [&mut *to_p[c], &mut *to_v[c]];
-                            let (y, k) = ([bp[c], bv[c]], [bsv[c], a[c]]);
-                            rk4_middle_block(sums, to, y, k, stage_step, second);
+                            rk4_middle_block(sum_v[c], to, [bp[c], bv[c]], [bsv[c], a[c]], step);
                         }
                         true
-                    },
-                );
-                std::mem::swap(stage, next_stage);
-            }
-            let (sp, sv) = (&stage.0, &stage.1);
-            let (sum_p, sum_v) = (&*sum_pos, &*sum_vel);
+                    })
+                };
+            middle(sp24, sv2, h, sum_vel, sp3, sv3);
+            middle(sp3, sv3, dt, sum_vel, sp24, sv4);
+            let (sv2, sv3, sum_v) = (&*sv2, &*sv3, &*sum_vel);
             force_pass(
                 model,
-                sp,
-                sv,
+                sp24,
+                sv4,
                 control,
                 force,
                 next,
                 &|first, (np, nv), a| {
                     let r = first..first + a[0].len();
-                    let (bp, bv, bsv) = (
-                        range3(p, r.clone()),
-                        range3(v, r.clone()),
-                        range3(sv, r.clone()),
-                    );
-                    let (bsum_p, bsum_v) = (range3(sum_p, r.clone()), range3(sum_v, r));
-                    let (y, sums, k4) = ([bp, bv], [bsum_p, bsum_v], [bsv, a]);
-                    rk4_end_block(np, nv, y, sums, k4, dt / 6.0);
+                    let (bp, bv) = (range3(p, r.clone()), range3(v, r.clone()));
+                    let velocities = [sv2, sv3, &*sv4].map(|s| range3(s, r.clone()));
+                    let bsum_v = range3(sum_v, r);
+                    rk4_end_block(np, nv, [bp, bv], velocities, [bsum_v, a], dt / 6.0);
                     sound(np, nv)
                 },
             )
@@ -340,8 +325,8 @@ crate::simd::multiversion! {
 }
 
 crate::simd::multiversion! {
-    /// The first RK4 stage once `k1 = (v, a)` is known: the velocity sum starts at `a` (the
-    /// position sum starts in the second stage), and the stage moves to `y + h·k1`.
+    /// The first RK4 stage once `k1 = (v, a)` is known: the acceleration sum starts at `a`, and
+    /// the next stage is `y + h·k1`.
     fn rk4_first_block(
         sum_v: &mut [f64],
         sp: &mut [f64],
@@ -363,36 +348,23 @@ crate::simd::multiversion! {
 
 crate::simd::multiversion! {
     /// An RK4 middle stage once its slope `k = (k_p, k_v)` (the stage's velocity and
-    /// acceleration) is known: add twice the slope to the sums, and write the next stage,
-    /// `y + stage_step·k`, to `to`. In the second stage the position sum starts as `v + 2 k_p`
-    /// (k1's position slope is `v`).
+    /// acceleration) is known: add twice `k_v` to the acceleration sum, and write the next stage,
+    /// `y + step·k`, to `to`.
     fn rk4_middle_block(
-        sums: [&mut [f64]; 2],
+        sum_v: &mut [f64],
         to: [&mut [f64]; 2],
         y: [&[f64]; 2],
         k: [&[f64]; 2],
-        stage_step: f64,
-        second: bool,
+        step: f64,
     ) {
-        let [sum_p, sum_v] = sums;
-        let n = sum_p.len();
-        let sum_v = &mut sum_v[..n];
+        let n = sum_v.len();
         let [to_p, to_v] = to.map(|s| &mut s[..n]);
         let [p, v] = y.map(|s| &s[..n]);
         let [kp, kv] = k.map(|s| &s[..n]);
-        if second {
-            for i in 0..n {
-                sum_p[i] = v[i] + kp[i] * 2.0;
-            }
-        } else {
-            for i in 0..n {
-                sum_p[i] += kp[i] * 2.0;
-            }
-        }
         for i in 0..n {
             sum_v[i] += kv[i] * 2.0;
-            to_p[i] = p[i] + kp[i] * stage_step;
-            to_v[i] = v[i] + kv[i] * stage_step;
+            to_p[i] = p[i] + kp[i] * step;
+            to_v[i] = v[i] + kv[i] * step;
         }
     }
 }
@@ -444,31 +416,35 @@ crate::simd::multiversion! {
 }
 
 crate::simd::multiversion! {
-    /// The end of an RK4 step: `y + w·(sum + k4)` for position and velocity, with the sums of
-    /// `k1 + 2k2 + 2k3` and `w = dt/6`, written to the next state.
+    /// The end of an RK4 step, written to the next state: the position moves by
+    /// `w·(v + 2 v2 + 2 v3 + v4)` with the stage velocities `v2, v3, v4`, the velocity by
+    /// `w·(sum + a4)` with the acceleration sum `k1 + 2k2 + 2k3`; `w = dt/6`.
     fn rk4_end_block(
         np: &mut [Vec3],
         nv: &mut [Vec3],
         y: [[&[f64]; 3]; 2],
-        sums: [[&[f64]; 3]; 2],
-        k4: [[&[f64]; 3]; 2],
+        stage_vel: [[&[f64]; 3]; 3],
+        acc: [[&[f64]; 3]; 2],
         w: f64,
     ) {
         let n = np.len();
         let nv = &mut nv[..n];
         let [[px, py, pz], [vx, vy, vz]] = y.map(|y| y.map(|c| &c[..n]));
-        let [[sx, sy, sz], [tx, ty, tz]] = sums.map(|s| s.map(|c| &c[..n]));
-        let [[kx, ky, kz], [ax, ay, az]] = k4.map(|k| k.map(|c| &c[..n]));
+        let [[ax2, ay2, az2], [ax3, ay3, az3], [ax4, ay4, az4]] =
+            stage_vel.map(|s| s.map(|c| &c[..n]));
+        let [[sx, sy, sz], [kx, ky, kz]] = acc.map(|s| s.map(|c| &c[..n]));
+        // The same sums, in the same order, as k1 + 2k2 + 2k3 + k4 accumulated stage by stage.
+        let slope = |v: f64, v2: f64, v3: f64, v4: f64| ((v + v2 * 2.0) + v3 * 2.0) + v4;
         for i in 0..n {
             np[i] = Vec3::new(
-                px[i] + (sx[i] + kx[i]) * w,
-                py[i] + (sy[i] + ky[i]) * w,
-                pz[i] + (sz[i] + kz[i]) * w,
+                px[i] + slope(vx[i], ax2[i], ax3[i], ax4[i]) * w,
+                py[i] + slope(vy[i], ay2[i], ay3[i], ay4[i]) * w,
+                pz[i] + slope(vz[i], az2[i], az3[i], az4[i]) * w,
             );
             nv[i] = Vec3::new(
-                vx[i] + (tx[i] + ax[i]) * w,
-                vy[i] + (ty[i] + ay[i]) * w,
-                vz[i] + (tz[i] + az[i]) * w,
+                vx[i] + (sx[i] + kx[i]) * w,
+                vy[i] + (sy[i] + ky[i]) * w,
+                vz[i] + (sz[i] + kz[i]) * w,
             );
         }
     }
