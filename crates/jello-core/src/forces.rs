@@ -77,8 +77,50 @@ pub struct ForceScratch {
 /// Per stencil class `(dj, dk)` (index `(dj + 1)·4 + dk + 1`, both in −1..=2): for every point
 /// `u` of a plane, 1 where the point at `(j + dj, k + dk)` exists, else 0; then repeated for one
 /// row buffer's length, so that the mask of any block of a run starting at chunk offset `t` is
-/// the slice from `t mod plane`. One plane, not a whole chunk, so the masks stay in cache.
-type Masks = Vec<Vec<f64>>;
+/// the slice from `t mod plane`. One plane, not a whole chunk, so the masks stay in cache. Each
+/// starts on a cache line, like the runs it is read with.
+#[derive(Clone, Debug, Default)]
+struct Masks {
+    data: Vec<f64>,
+    /// Numbers per mask.
+    len: usize,
+    /// Index in `data` of the first mask, and from one mask to the next.
+    first: usize,
+    stride: usize,
+}
+
+impl Masks {
+    /// The masks of a lattice with `ny × nz` planes, for row buffers of `row_len`.
+    fn new(ny: usize, nz: usize, row_len: usize) -> Self {
+        let plane = ny * nz;
+        let len = plane + row_len;
+        let stride = len.next_multiple_of(8);
+        let mut data = vec![0.0; 16 * stride + 7];
+        let first = data.as_ptr().align_offset(64).min(7);
+        for c in 0..16 {
+            let (dj, dk) = (c as isize / 4 - 1, c as isize % 4 - 1);
+            let mask = &mut data[first + c * stride..][..len];
+            for (u, m) in mask.iter_mut().enumerate() {
+                let t = u % plane;
+                let j = ((t / nz) % ny) as isize + dj;
+                let k = (t % nz) as isize + dk;
+                let inside = (0..ny as isize).contains(&j) && (0..nz as isize).contains(&k);
+                *m = if inside { 1.0 } else { 0.0 };
+            }
+        }
+        Masks {
+            data,
+            len,
+            first,
+            stride,
+        }
+    }
+
+    /// The mask of class `c`.
+    fn class(&self, c: usize) -> &[f64] {
+        &self.data[self.first + c * self.stride..][..self.len]
+    }
+}
 
 impl ForceScratch {
     /// Buffers for `model`.
@@ -87,27 +129,12 @@ impl ForceScratch {
         let chunks = nx.div_ceil(CHUNK_PLANES);
         let plane = ny * nz;
         let row_len = RUN_BLOCK.min(CHUNK_PLANES.min(nx) * plane);
-        let mask = |dj: isize, dk: isize| -> Vec<f64> {
-            (0..plane + row_len)
-                .map(|u| {
-                    let t = u % plane;
-                    let j = ((t / nz) % ny) as isize + dj;
-                    let k = (t % nz) as isize + dk;
-                    let inside = (0..ny as isize).contains(&j) && (0..nz as isize).contains(&k);
-                    if inside {
-                        1.0
-                    } else {
-                        0.0
-                    }
-                })
-                .collect()
-        };
-        let masks = (0..16).map(|c| mask(c / 4 - 1, c % 4 - 1)).collect();
+        let masks = Masks::new(ny, nz, row_len);
         let chunk_len = CHUNK_PLANES.min(nx) * plane;
         ForceScratch {
-            owns: vec![Soa::zeros(chunk_len); 2 * range_count(model)],
-            halos: vec![Soa::zeros(HALO_PLANES * ny * nz); chunks],
-            rows: vec![Soa::zeros(row_len); chunks],
+            owns: vec![Soa::with_color(chunk_len, 2); 2 * range_count(model)],
+            halos: vec![Soa::with_color(HALO_PLANES * ny * nz, 1); chunks],
+            rows: vec![Soa::with_color(row_len, 3); chunks],
             masks,
         }
     }
@@ -124,7 +151,7 @@ impl ForceScratch {
                 .first()
                 .is_none_or(|h| h.len() == HALO_PLANES * ny * nz)
             && self.rows.first().is_none_or(|r| r.len() == row_len)
-            && self.masks[0].len() == ny * nz + row_len
+            && self.masks.len == ny * nz + row_len
     }
 }
 
@@ -564,7 +591,7 @@ fn chunk_springs_impl(
             let len = e - t;
             let (a, b) = (base + t, base + t + shift);
             let m = t % plane;
-            spring_run(p, v, a, b, len, spring, &masks[mask][m..m + len], row);
+            spring_run(p, v, a, b, len, spring, &masks.class(mask)[m..m + len], row);
             add_run([&mut *ox, &mut *oy, &mut *oz], t, tail(row, 0), len, 1.0);
             let cut = halo_base.saturating_sub(b).min(len);
             if cut > 0 {

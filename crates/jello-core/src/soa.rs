@@ -29,21 +29,68 @@ crate::simd::multiversion! {
     }
 }
 
-/// `n` 3-vectors as one buffer of `3n` numbers: all x components, then all y, then all z.
-/// Element-wise arithmetic on whole vectors (the integrators' updates) is then one loop over the
-/// buffer.
-#[derive(Clone, Debug, Default, PartialEq)]
+/// `n` 3-vectors as one buffer: all x components, then all y, then all z, so that loops over
+/// points run over contiguous numbers the compiler can vectorise.
+///
+/// Each component starts on a 64-byte boundary, so that AVX-512 loads and stores of aligned
+/// runs do not straddle cache lines. On large buffers the components are not packed end to end:
+/// each starts 512 bytes further along modulo 4 KiB than the one before, and each buffer of a
+/// [`Soa::with_color`] another 128 bytes further. A power-of-two lattice would otherwise put the
+/// x, y and z of a point, and of its neighbour a plane away, 4 KiB-multiples apart, where they
+/// all fall into the same set of the L1 cache: the spring loop reads twelve such streams at once.
+#[derive(Debug, Default)]
 pub struct Soa {
     data: Vec<f64>,
     n: usize,
+    color: usize,
+    /// Index in `data` of the first x, y and z component.
+    starts: [usize; 3],
 }
+
+impl Clone for Soa {
+    /// A copy laid out anew (the copy's buffer has an alignment of its own).
+    fn clone(&self) -> Self {
+        let mut copy = Soa::with_color(self.n, self.color);
+        for (to, from) in copy.parts_mut().into_iter().zip([self.x(), self.y(), self.z()]) {
+            to.copy_from_slice(from);
+        }
+        copy
+    }
+}
+
+impl PartialEq for Soa {
+    fn eq(&self, other: &Self) -> bool {
+        (self.x(), self.y(), self.z()) == (other.x(), other.y(), other.z())
+    }
+}
+
+/// Buffers shorter than this are packed end to end (they stay in cache anyway).
+const PAD_MIN: usize = 512;
 
 impl Soa {
     /// `n` zero vectors.
     pub fn zeros(n: usize) -> Self {
+        Soa::with_color(n, 0)
+    }
+
+    /// `n` zero vectors, laid out to fall into other cache sets than buffers of another `color`
+    /// (0 to 3) used in the same loops.
+    pub fn with_color(n: usize, color: usize) -> Self {
+        // Strides in whole cache lines (8 numbers); on large buffers stride·8 ≡ 512 (mod 4096),
+        // the components 8 cache sets apart, and a color 2 sets on.
+        let (stride, lead) = if n < PAD_MIN {
+            (n.next_multiple_of(8), 0)
+        } else {
+            (n.next_multiple_of(512) + 64, 16 * (color % 4))
+        };
+        // 7 more numbers, to start on a cache line whatever the allocation's alignment.
+        let data = vec![0.0; lead + 2 * stride + n + 7];
+        let first = lead + data.as_ptr().align_offset(64).min(7);
         Soa {
-            data: vec![0.0; 3 * n],
+            data,
             n,
+            color,
+            starts: [first, first + stride, first + 2 * stride],
         }
     }
 
@@ -60,46 +107,35 @@ impl Soa {
     /// x components.
     #[inline]
     pub fn x(&self) -> &[f64] {
-        &self.data[..self.n]
+        &self.data[self.starts[0]..self.starts[0] + self.n]
     }
 
     /// y components.
     #[inline]
     pub fn y(&self) -> &[f64] {
-        &self.data[self.n..2 * self.n]
+        &self.data[self.starts[1]..self.starts[1] + self.n]
     }
 
     /// z components.
     #[inline]
     pub fn z(&self) -> &[f64] {
-        &self.data[2 * self.n..]
+        &self.data[self.starts[2]..self.starts[2] + self.n]
     }
 
     /// The x, y and z components, mutable.
     #[inline]
     pub fn parts_mut(&mut self) -> [&mut [f64]; 3] {
-        let (x, yz) = self.data.split_at_mut(self.n);
-        let (y, z) = yz.split_at_mut(self.n);
-        [x, y, z]
-    }
-
-    /// All `3n` numbers.
-    #[inline]
-    pub fn all(&self) -> &[f64] {
-        &self.data
-    }
-
-    /// All `3n` numbers, mutable.
-    #[inline]
-    pub fn all_mut(&mut self) -> &mut [f64] {
-        &mut self.data
+        let ([x0, y0, z0], n) = (self.starts, self.n);
+        let (x, rest) = self.data[x0..].split_at_mut(y0 - x0);
+        let (y, z) = rest.split_at_mut(z0 - y0);
+        [&mut x[..n], &mut y[..n], &mut z[..n]]
     }
 
     /// Vector `i`.
     #[inline]
     pub fn get(&self, i: usize) -> Vec3 {
-        let n = self.n;
-        Vec3::new(self.data[i], self.data[n + i], self.data[2 * n + i])
+        let [x, y, z] = self.starts;
+        Vec3::new(self.data[x + i], self.data[y + i], self.data[z + i])
     }
 
     /// Copies from an array of vectors of the same length.
@@ -151,13 +187,10 @@ impl Soa {
         s
     }
 
-    /// Copies another structure of arrays of the same length, without allocating.
-    pub fn copy_from_soa(&mut self, other: &Soa) {
-        self.data.copy_from_slice(&other.data);
-    }
-
     /// Sets every component to 0.
     pub fn fill_zero(&mut self) {
-        self.data.fill(0.0);
+        for c in self.parts_mut() {
+            c.fill(0.0);
+        }
     }
 }

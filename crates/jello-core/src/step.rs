@@ -39,14 +39,15 @@ pub struct Scratch {
 impl Scratch {
     /// Buffers for a model's point count.
     pub fn new(model: &Model) -> Self {
-        let z = Soa::zeros(model.point_count());
+        // Buffers read in the same loops get different colors (cache sets, see Soa).
+        let z = |color| Soa::with_color(model.point_count(), color);
         Scratch {
             force: ForceScratch::new(model),
-            pos: z.clone(),
-            vel: z.clone(),
-            stage_pos: [z.clone(), z.clone()],
-            stage_vel: [z.clone(), z.clone(), z.clone()],
-            sum_vel: z.clone(),
+            pos: z(0),
+            vel: z(1),
+            stage_pos: [z(2), z(0)],
+            stage_vel: [z(3), z(1), z(3)],
+            sum_vel: z(2),
             next_pos: vec![Vec3::ZERO; model.point_count()],
             next_vel: vec![Vec3::ZERO; model.point_count()],
         }
