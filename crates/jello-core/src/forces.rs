@@ -665,6 +665,14 @@ fn spring_run(
 fn add_run(f: [&mut [f64]; 3], at: usize, row: [&[f64]; 3], len: usize, sign: f64) {
     for (f, r) in f.into_iter().zip(row) {
         let (f, r) = (&mut f[at..at + len], &r[..len]);
+        // The first few one by one, so that the vector loop's stores start on a cache line
+        // (a store that straddles two lines costs far more than such a load).
+        let peel = f.as_ptr().align_offset(64).min(len);
+        let ((f0, f), (r0, r)) = (f.split_at_mut(peel), r.split_at(peel));
+        for (f, r) in f0.iter_mut().zip(r0) {
+            *f += sign * r;
+        }
+        let len = f.len();
         if sign > 0.0 {
             for t in 0..len {
                 f[t] += r[t];
