@@ -194,3 +194,46 @@ impl Soa {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn components_start_on_cache_lines_and_large_ones_in_different_sets() {
+        for n in [0, 1, 7, 100, 511, 512, 4096, 32768, 40_000] {
+            for color in 0..4 {
+                let s = Soa::with_color(n, color);
+                for c in [s.x(), s.y(), s.z()] {
+                    assert_eq!(c.len(), n);
+                    assert_eq!(c.as_ptr() as usize % 64, 0, "n = {n}, color {color}");
+                }
+                if n >= PAD_MIN {
+                    // The cache set (address bits 6 to 11) of each component's start.
+                    let set = |c: &[f64]| (c.as_ptr() as usize / 64) % 64;
+                    let sets = [set(s.x()), set(s.y()), set(s.z())];
+                    assert!(sets[0] != sets[1] && sets[1] != sets[2] && sets[0] != sets[2]);
+                    let other = Soa::with_color(n, (color + 1) % 4);
+                    assert_ne!(set(other.x()), sets[0], "colors share a set: n = {n}");
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn values_survive_the_layout_copies_and_clones() {
+        let aos: Vec<Vec3> = (0..1000)
+            .map(|i| Vec3::new(i as f64, -(i as f64), 0.5 * i as f64))
+            .collect();
+        let s = Soa::from_aos(&aos);
+        assert_eq!(s.get(999), aos[999]);
+        let copy = s.clone();
+        assert_eq!(copy, s);
+        let mut back = vec![Vec3::ZERO; aos.len()];
+        copy.copy_to(&mut back);
+        assert_eq!(back, aos);
+        let mut z = copy;
+        z.fill_zero();
+        assert!(z.x().iter().chain(z.y()).chain(z.z()).all(|&c| c == 0.0));
+    }
+}
