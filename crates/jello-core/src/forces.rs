@@ -351,9 +351,9 @@ impl<U> Pass<'_, U> {
         T: Split,
         U: Fn(usize, T, [&[f64]; 3]) -> bool + Sync,
     {
-        let chunk_len = self.chunk_len();
         #[cfg(feature = "parallel")]
         if ranges > 1 && range.len() >= 2 {
+            let chunk_len = self.chunk_len();
             let mid = range.start + range.len() / 2;
             let left = mid - range.start;
             let (owns_left, owns_right) = owns.split_at_mut(2 * (ranges / 2));
@@ -522,11 +522,12 @@ crate::simd::multiversion! {
     }
 }
 
-/// Walks the springs of the chunk stencil entry by stencil entry, in blocks of the row buffer's
-/// length. For one entry `(di, dj, dk)` the first points of its springs form one contiguous run
-/// through the chunk's planes, and the second points the same run shifted by a constant. The run
-/// also holds pairs that wrap from the end of a row or plane into the next: those are no springs,
-/// and their force is multiplied by 0 (the masks), which keeps the loop branch-free and vectorised.
+/// Walks the springs of the chunk in blocks of the row buffer's length of first ends, each block
+/// stencil entry by stencil entry. For one entry `(di, dj, dk)` the first points of its springs
+/// form one contiguous run through the chunk's planes, and the second points the same run shifted
+/// by a constant. The run also holds pairs that wrap from the end of a row or plane into the
+/// next: those are no springs, and their force is multiplied by 0 (the masks), which keeps the
+/// loop branch-free and vectorised.
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
 fn chunk_springs_impl(
@@ -550,10 +551,10 @@ fn chunk_springs_impl(
     halo.fill_zero();
     let block = row.len();
 
-    // Stencil entry by entry: the first ends of an entry's springs in the whole chunk form one
-    // contiguous run (from plane i0, row j_lo, column k_lo to the last plane with a partner,
-    // row j_hi − 1, column k_hi − 1), and the second ends the same run shifted. Pairs in the run
-    // that are no springs (a row or plane wrapping into the next) get force 0 from the masks.
+    // Per stencil entry: the first ends of its springs in the whole chunk form one contiguous
+    // run (from plane i0, row j_lo, column k_lo to the last plane with a partner, row j_hi − 1,
+    // column k_hi − 1), and the second ends the same run shifted. Pairs in the run that are no
+    // springs (a row or plane wrapping into the next) get force 0 from the masks.
     let runs: [_; 16] = std::array::from_fn(|s| {
         let ([di, dj, dk], kind) = STENCIL[s];
         let i_end = (i0 + own_planes).min(nx.saturating_sub(di as usize));
@@ -579,6 +580,9 @@ fn chunk_springs_impl(
         };
         Some((t_start, t_end, shift, mask, spring))
     });
+    // Block by block of first ends, every entry's part of the block in turn: the points an entry
+    // reaches from a block lie within two planes after it, so what the block works on stays in
+    // the L2 cache however large the chunk.
     let chunk_end = runs.iter().flatten().map(|r| r.1).max().unwrap_or(0);
     let mut t0 = 0;
     while t0 < chunk_end {

@@ -51,7 +51,11 @@ impl Clone for Soa {
     /// A copy laid out anew (the copy's buffer has an alignment of its own).
     fn clone(&self) -> Self {
         let mut copy = Soa::with_color(self.n, self.color);
-        for (to, from) in copy.parts_mut().into_iter().zip([self.x(), self.y(), self.z()]) {
+        for (to, from) in copy
+            .parts_mut()
+            .into_iter()
+            .zip([self.x(), self.y(), self.z()])
+        {
             to.copy_from_slice(from);
         }
         copy

@@ -16,8 +16,9 @@ use crate::stability;
 use crate::state::{Control, State};
 use crate::vec3::Vec3;
 
-/// Buffers the integrators work in, sized once for a model: stepping never allocates. All are
-/// structures of arrays (see [`crate::soa`]).
+/// Buffers the integrators work in, sized once for a model: stepping never allocates. The
+/// integrators work in structures of arrays (see [`crate::soa`]) and write the step's result as
+/// arrays of vectors, which are swapped into the state.
 #[derive(Clone, Debug, Default)]
 pub struct Scratch {
     force: ForceScratch,
