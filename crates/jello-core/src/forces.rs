@@ -17,7 +17,7 @@
 use std::ops::Range;
 
 use crate::model::Model;
-use crate::soa::Soa;
+use crate::soa::{cache_aligned_zeros, Soa};
 use crate::split::Split;
 use crate::state::Control;
 use crate::vec3::Vec3;
@@ -95,8 +95,7 @@ impl Masks {
         let plane = ny * nz;
         let len = plane + row_len;
         let stride = len.next_multiple_of(8);
-        let mut data = vec![0.0; 16 * stride + 7];
-        let first = data.as_ptr().align_offset(64).min(7);
+        let (mut data, first) = cache_aligned_zeros(16 * stride);
         for c in 0..16 {
             let (dj, dk) = (c as isize / 4 - 1, c as isize % 4 - 1);
             let mask = &mut data[first + c * stride..][..len];
@@ -232,11 +231,6 @@ pub struct PointInputs<'a> {
     pub control: Option<&'a [Vec3]>,
 }
 
-/// The points `r` of a structure-of-arrays buffer, as x, y and z.
-pub fn range3(s: &Soa, r: Range<usize>) -> [&[f64]; 3] {
-    [&s.x()[r.clone()], &s.y()[r.clone()], &s.z()[r]]
-}
-
 /// One force evaluation at positions `p` and velocities `v`, fused with what the caller does
 /// with the accelerations.
 ///
@@ -298,12 +292,6 @@ where
     let ranges = range_count(model).min(owns.len() / 2);
     pass.chunks(0..chunks, owns, halos, rows, outs, false, ranges)
         .0
-}
-
-/// The first `len` points of a buffer, as x, y and z.
-fn prefix(s: &mut Soa, len: usize) -> [&mut [f64]; 3] {
-    let [x, y, z] = s.parts_mut();
-    [&mut x[..len], &mut y[..len], &mut z[..len]]
 }
 
 /// What every chunk of a [`force_pass`] shares.
@@ -374,7 +362,7 @@ impl<U> Pass<'_, U> {
                     self.chunks(r, o, h, w, outs_right, true, ranges - ranges / 2)
                 },
             );
-            let own_mid = prefix(own_mid, self.chunk_points(mid));
+            let own_mid = own_mid.range_mut(0..self.chunk_points(mid));
             let halo_before = Some(&halos[left - 1]);
             let ok_mid = self.complete(mid, own_mid, halo_before, &mut rows[left], outs_mid);
             return (ok_left & ok_right & ok_mid, first);
@@ -390,7 +378,7 @@ impl<U> Pass<'_, U> {
         for c in range.clone() {
             let i = c - range.start;
             let buffer = if i == 0 { &mut *first } else { &mut *rolling };
-            let [fx, fy, fz] = prefix(buffer, self.chunk_points(c));
+            let [fx, fy, fz] = buffer.range_mut(0..self.chunk_points(c));
             let (halo, row) = (&mut halos[i], &mut rows[i]);
             let (g, masks, p, v) = (&self.grid, self.masks, self.p, self.v);
             chunk_springs(g, masks, p, v, c * CHUNK_PLANES, [fx, fy, fz], halo, row);
@@ -446,8 +434,8 @@ impl<U> Pass<'_, U> {
             outs = rest;
             let r = base + t..base + t + n;
             let point = PointInputs {
-                pos: range3(self.p, r.clone()),
-                vel: range3(self.v, r.clone()),
+                pos: self.p.range(r.clone()),
+                vel: self.v.range(r.clone()),
                 spring: [&fx[t..t + n], &fy[t..t + n], &fz[t..t + n]],
                 control: control.map(|c| &c[r.clone()]),
             };
@@ -596,20 +584,32 @@ fn chunk_springs_impl(
             let (a, b) = (base + t, base + t + shift);
             let m = t % plane;
             spring_run(p, v, a, b, len, spring, &masks.class(mask)[m..m + len], row);
-            add_run([&mut *ox, &mut *oy, &mut *oz], t, tail(row, 0), len, 1.0);
+            add_run(
+                [&mut *ox, &mut *oy, &mut *oz],
+                t,
+                row.range(0..len),
+                len,
+                1.0,
+            );
             let cut = halo_base.saturating_sub(b).min(len);
             if cut > 0 {
                 add_run(
                     [&mut *ox, &mut *oy, &mut *oz],
                     b - base,
-                    tail(row, 0),
+                    row.range(0..len),
                     cut,
                     -1.0,
                 );
             }
             if cut < len {
                 let h = halo.parts_mut();
-                add_run(h, (b + cut) - halo_base, tail(row, cut), len - cut, -1.0);
+                add_run(
+                    h,
+                    (b + cut) - halo_base,
+                    row.range(cut..len),
+                    len - cut,
+                    -1.0,
+                );
             }
         }
         t0 = t1;
@@ -622,11 +622,6 @@ struct SpringConst {
     k: f64,
     d: f64,
     rest: f64,
-}
-
-/// The components of `row` from element `from` on.
-fn tail(row: &Soa, from: usize) -> [&[f64]; 3] {
-    [&row.x()[from..], &row.y()[from..], &row.z()[from..]]
 }
 
 /// Forces on the points `a .. a + len` from the springs joining them to `b .. b + len`:

@@ -1,6 +1,8 @@
 //! Structure-of-arrays 3-vectors: the layout the force kernel and the integrators work in, so
 //! that loops over points and springs run over contiguous `f64`s the compiler can vectorise.
 
+use std::ops::Range;
+
 use crate::vec3::Vec3;
 
 /// Vectors per block when copying on several threads.
@@ -68,6 +70,14 @@ impl PartialEq for Soa {
     }
 }
 
+/// `len` zeros starting on a cache line: a buffer with 7 numbers to spare, whatever the
+/// allocation's alignment, and the index of the first number on a 64-byte boundary.
+pub(crate) fn cache_aligned_zeros(len: usize) -> (Vec<f64>, usize) {
+    let data = vec![0.0; len + 7];
+    let first = data.as_ptr().align_offset(64).min(7);
+    (data, first)
+}
+
 /// Buffers shorter than this are packed end to end (they stay in cache anyway).
 const PAD_MIN: usize = 512;
 
@@ -87,9 +97,8 @@ impl Soa {
         } else {
             (n.next_multiple_of(512) + 64, 16 * (color % 4))
         };
-        // 7 more numbers, to start on a cache line whatever the allocation's alignment.
-        let data = vec![0.0; lead + 2 * stride + n + 7];
-        let first = lead + data.as_ptr().align_offset(64).min(7);
+        let (data, first) = cache_aligned_zeros(lead + 2 * stride + n);
+        let first = first + lead;
         Soa {
             data,
             n,
@@ -124,6 +133,18 @@ impl Soa {
     #[inline]
     pub fn z(&self) -> &[f64] {
         &self.data[self.starts[2]..self.starts[2] + self.n]
+    }
+
+    /// The x, y and z components of the vectors `r`.
+    #[inline]
+    pub fn range(&self, r: Range<usize>) -> [&[f64]; 3] {
+        [&self.x()[r.clone()], &self.y()[r.clone()], &self.z()[r]]
+    }
+
+    /// The x, y and z components of the vectors `r`, mutable.
+    #[inline]
+    pub fn range_mut(&mut self, r: Range<usize>) -> [&mut [f64]; 3] {
+        self.parts_mut().map(|c| &mut c[r.clone()])
     }
 
     /// The x, y and z components, mutable.

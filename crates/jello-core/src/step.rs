@@ -7,7 +7,7 @@
 
 use std::fmt;
 
-use crate::forces::{force_pass, range3, ForceScratch, PARALLEL_MIN_POINTS};
+use crate::forces::{force_pass, ForceScratch, PARALLEL_MIN_POINTS};
 use crate::integrator::Integrator;
 use crate::model::Model;
 use crate::soa::Soa;
@@ -211,7 +211,7 @@ fn integrate(model: &Model, state: &State, control: &Control, s: &mut Scratch) -
         Integrator::Euler => {
             force_pass(model, p, v, control, force, next, &|first, (np, nv), a| {
                 let r = first..first + a[0].len();
-                let (bp, bv) = (range3(p, r.clone()), range3(v, r));
+                let (bp, bv) = (p.range(r.clone()), v.range(r));
                 step_end_block(np, nv, bp, bv, bv, a, dt);
                 sound(np, nv)
             })
@@ -219,7 +219,7 @@ fn integrate(model: &Model, state: &State, control: &Control, s: &mut Scratch) -
         Integrator::SymplecticEuler => {
             force_pass(model, p, v, control, force, next, &|first, (np, nv), a| {
                 let r = first..first + a[0].len();
-                let (bp, bv) = (range3(p, r.clone()), range3(v, r));
+                let (bp, bv) = (p.range(r.clone()), v.range(r));
                 symplectic_end_block(np, nv, bp, bv, a, dt);
                 sound(np, nv)
             })
@@ -230,7 +230,7 @@ fn integrate(model: &Model, state: &State, control: &Control, s: &mut Scratch) -
             let mid = (stage_pos[0].parts_mut(), stage_vel[0].parts_mut());
             force_pass(model, p, v, control, force, mid, &|first, (sp, sv), a| {
                 let r = first..first + a[0].len();
-                let (bp, bv) = (range3(p, r.clone()), range3(v, r));
+                let (bp, bv) = (p.range(r.clone()), v.range(r));
                 for c in 0..3 {
                     axpy_block(sp[c], bp[c], bv[c], h);
                     axpy_block(sv[c], bv[c], a[c], h);
@@ -247,7 +247,7 @@ fn integrate(model: &Model, state: &State, control: &Control, s: &mut Scratch) -
                 next,
                 &|first, (np, nv), a| {
                     let r = first..first + a[0].len();
-                    let (bp, bv, bsv) = (range3(p, r.clone()), range3(v, r.clone()), range3(sv, r));
+                    let (bp, bv, bsv) = (p.range(r.clone()), v.range(r.clone()), sv.range(r));
                     step_end_block(np, nv, bp, bv, bsv, a, dt);
                     sound(np, nv)
                 },
@@ -271,7 +271,7 @@ fn integrate(model: &Model, state: &State, control: &Control, s: &mut Scratch) -
                 to,
                 &|first, (sum_v, (sp, sv)), a| {
                     let r = first..first + a[0].len();
-                    let (bp, bv) = (range3(p, r.clone()), range3(v, r));
+                    let (bp, bv) = (p.range(r.clone()), v.range(r));
                     for c in 0..3 {
                         rk4_first_block(sum_v[c], sp[c], sv[c], bp[c], bv[c], a[c], h);
                     }
@@ -284,8 +284,7 @@ fn integrate(model: &Model, state: &State, control: &Control, s: &mut Scratch) -
                     force_pass(model, sp, sv, control, force, to, &|first, outs, a| {
                         let (sum_v, (to_p, to_v)): ([&mut [f64]; 3], _) = outs;
                         let r = first..first + a[0].len();
-                        let (bp, bv, bsv) =
-                            (range3(p, r.clone()), range3(v, r.clone()), range3(sv, r));
+                        let (bp, bv, bsv) = (p.range(r.clone()), v.range(r.clone()), sv.range(r));
                         for c in 0..3 {
                             let to = [&mut *to_p[c], &mut *to_v[c]];
                             rk4_middle_block(sum_v[c], to, [bp[c], bv[c]], [bsv[c], a[c]], step);
@@ -305,9 +304,9 @@ fn integrate(model: &Model, state: &State, control: &Control, s: &mut Scratch) -
                 next,
                 &|first, (np, nv), a| {
                     let r = first..first + a[0].len();
-                    let (bp, bv) = (range3(p, r.clone()), range3(v, r.clone()));
-                    let velocities = [sv2, sv3, &*sv4].map(|s| range3(s, r.clone()));
-                    let bsum_v = range3(sum_v, r);
+                    let (bp, bv) = (p.range(r.clone()), v.range(r.clone()));
+                    let velocities = [sv2, sv3, &*sv4].map(|s| s.range(r.clone()));
+                    let bsum_v = sum_v.range(r);
                     rk4_end_block(np, nv, [bp, bv], velocities, [bsum_v, a], dt / 6.0);
                     sound(np, nv)
                 },
