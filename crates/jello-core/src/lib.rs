@@ -36,7 +36,7 @@ pub mod model;
 pub mod scenes;
 mod simd;
 pub mod soa;
-mod split;
+pub mod split;
 pub mod stability;
 pub mod state;
 pub mod step;
