@@ -26,6 +26,7 @@ test:
 	cargo fmt --all --check
 	cargo clippy --workspace --all-targets -- -D warnings
 	RUSTDOCFLAGS="-D warnings" cargo doc --workspace --no-deps --quiet
+	scripts/aarch64-check.sh
 	cargo build --release
 	scripts/make-examples.sh --check
 	cargo test --workspace

@@ -4,6 +4,8 @@ use std::fmt;
 
 /// Exit code for bad input: an unreadable or invalid file, a bad option value.
 pub const EXIT_INPUT: i32 = 1;
+/// Exit code for bad command-line usage (as clap uses), or a bad `JELLO_SIMD`.
+pub const EXIT_USAGE: i32 = 2;
 /// Exit code for a simulation that blew up.
 pub const EXIT_BLOW_UP: i32 = 3;
 /// Exit code for a failed write.

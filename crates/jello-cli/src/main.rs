@@ -32,6 +32,11 @@ enum Command {
 
 fn main() {
     let cli = Cli::parse();
+    // A JELLO_SIMD the core cannot honour is reported before anything runs.
+    if let Err(e) = jello_core::simd::tier_from_env() {
+        eprintln!("jello: error: {e}");
+        std::process::exit(error::EXIT_USAGE);
+    }
     let result = match cli.command {
         Command::Run(args) => commands::run::run(args),
         Command::Create(args) => commands::create::create(args),

@@ -3,7 +3,7 @@
 use std::time::{Duration, Instant};
 
 use clap::Args;
-use jello_core::{scenes, Integrator, Simulation};
+use jello_core::{scenes, simd, Integrator, Simulation};
 
 use super::{parse_integrator, parse_positive};
 use crate::error::CliError;
@@ -48,10 +48,11 @@ pub fn bench(args: BenchArgs) -> Result<(), CliError> {
     let steps_per_s = m.steps as f64 / m.wall;
     let evals_per_s = (m.springs * args.integrator.force_evaluations()) as f64 * steps_per_s;
     let peak = peak_rss_mib();
+    let tier = simd::active_tier();
     if args.json {
         println!(
             "{{\"impl\": \"jello\", \"size\": {}, \"points\": {}, \"springs\": {}, \"integrator\": \"{}\", \
-             \"threads\": {threads}, \"steps\": {}, \"seconds\": {:.3}, \"steps_per_s\": {:.1}, \
+             \"threads\": {threads}, \"simd\": \"{tier}\", \"steps\": {}, \"seconds\": {:.3}, \"steps_per_s\": {:.1}, \
              \"spring_evals_per_s\": {:.1}, \"peak_rss_mib\": {}, \"version\": \"{}\"}}",
             args.size,
             m.points,
@@ -66,7 +67,7 @@ pub fn bench(args: BenchArgs) -> Result<(), CliError> {
         );
     } else {
         println!(
-            "{n}³ lattice ({} points, {} springs), {}, {threads} thread(s): {:.0} steps/s, {:.1} M spring evaluations/s \
+            "{n}³ lattice ({} points, {} springs), {}, {threads} thread(s), {tier}: {:.0} steps/s, {:.1} M spring evaluations/s \
              ({} steps in {:.2} s{})",
             m.points,
             m.springs,
@@ -83,7 +84,8 @@ pub fn bench(args: BenchArgs) -> Result<(), CliError> {
 }
 
 /// Warms up for a tenth of the time (at least a few steps), then steps for about `seconds`.
-/// A run that blows up starts again from the initial state (it never does at the scene's dt).
+/// The measured run starts again from the initial state. A blow-up (the scene never blows up at
+/// its dt) is an error.
 fn measure(n: usize, integrator: Integrator, seconds: f64) -> Result<Measurement, CliError> {
     let (model, state) =
         scenes::benchmark(n, integrator).map_err(|e| CliError::input(e.to_string()))?;
