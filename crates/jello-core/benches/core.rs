@@ -22,7 +22,7 @@ fn force_pass(c: &mut Criterion) {
         let mut acc = Soa::zeros(model.point_count());
         let mut scratch = ForceScratch::new(&model);
         let control = Control::none();
-        group.throughput(Throughput::Elements(model.springs.len() as u64));
+        group.throughput(Throughput::Elements(model.spring_count() as u64));
         configure(&mut group, n);
         group.bench_with_input(BenchmarkId::from_parameter(n), &n, |b, _| {
             b.iter(|| accelerations_soa(&model, &p, &v, &control, &mut acc, &mut scratch))
@@ -36,7 +36,7 @@ fn rk4_step(c: &mut Criterion) {
     for n in SIZES {
         let (model, state) = scenes::benchmark(n, Integrator::Rk4).unwrap();
         // Springs evaluated per step: four force passes.
-        group.throughput(Throughput::Elements(4 * model.springs.len() as u64));
+        group.throughput(Throughput::Elements(4 * model.spring_count() as u64));
         configure(&mut group, n);
         let mut sim = Simulation::new(model, state.clone());
         group.bench_with_input(BenchmarkId::from_parameter(n), &n, |b, _| {

@@ -28,16 +28,12 @@ impl Energy {
 /// Energy of `state` under `model`.
 pub fn energy(model: &Model, state: &State) -> Energy {
     let kinetic = 0.5 * model.mass * state.vel.iter().map(|v| v.length_squared()).sum::<f64>();
-    let s = &model.springs;
-    let spring =
-        s.a.iter()
-            .zip(&s.b)
-            .zip(s.rest_len.iter().zip(&s.kind))
-            .map(|((&a, &b), (&rest, &kind))| {
-                let stretch = (state.pos[a as usize] - state.pos[b as usize]).length() - rest;
-                0.5 * model.stiffness[kind as usize] * stretch * stretch
-            })
-            .sum();
+    // Summed in spring-list order.
+    let mut spring = 0.0;
+    model.lattice.for_each_spring(|a, b, rest, kind| {
+        let stretch = (state.pos[a] - state.pos[b]).length() - rest;
+        spring += 0.5 * model.stiffness[kind as usize] * stretch * stretch;
+    });
     let collision = state
         .pos
         .iter()

@@ -151,8 +151,6 @@ pub struct Model {
     pub lattice: Lattice,
     /// Mass of every point (kg).
     pub mass: f64,
-    /// The springs as flat arrays.
-    pub springs: Springs,
     /// Stiffness per spring kind (N/m), indexed by `SpringKind as usize`.
     pub stiffness: [f64; 3],
     /// Damping per spring kind (N·s/m), indexed by `SpringKind as usize`.
@@ -181,6 +179,18 @@ impl Model {
     /// Number of mass points.
     pub fn point_count(&self) -> usize {
         self.lattice.len()
+    }
+
+    /// The springs as flat arrays, derived from the lattice on demand (allocates; the force
+    /// kernel walks the stencil instead, and [`Lattice::for_each_spring`] visits them without
+    /// a list).
+    pub fn springs(&self) -> Springs {
+        self.lattice.springs()
+    }
+
+    /// Number of springs.
+    pub fn spring_count(&self) -> usize {
+        self.lattice.spring_count()
     }
 
     /// True when every spring kind shares one stiffness and one damping, as in world files.
@@ -374,7 +384,6 @@ impl ModelBuilder {
             }
         }
         Ok(Model {
-            springs: self.lattice.springs(),
             lattice: self.lattice,
             mass: self.mass,
             stiffness: self.stiffness,

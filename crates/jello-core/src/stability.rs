@@ -31,7 +31,7 @@ use crate::vec3::Vec3;
 /// approaches from below, so it is raised by 2 %.
 fn largest_eigenvalue(model: &Model, pos: &[Vec3], weight: &[f64; 3], tangent: bool) -> f64 {
     let n = model.point_count();
-    let s = &model.springs;
+    let s = &model.springs();
     // Per spring: unit direction, axial weight and transverse weight.
     let blocks: Vec<(Vec3, f64, f64)> =
         s.a.iter()

@@ -51,7 +51,7 @@ fn single_spring_period() {
         .dt(1e-5)
         .build()
         .unwrap();
-    assert_eq!(model.springs.len(), 1);
+    assert_eq!(model.spring_count(), 1);
     let mut state = State::new(
         vec![
             Vec3::new(-rest / 2.0 - stretch / 2.0, 0.0, 0.0),

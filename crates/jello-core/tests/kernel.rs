@@ -7,11 +7,11 @@ use common::Lcg;
 use jello_core::forces::accelerations;
 use jello_core::{scenes, Control, Integrator, Lattice, Model, ModelBuilder, Simulation, Vec3};
 
-/// Accelerations straight from SPEC.md: every spring of `model.springs` once, then the walls and
+/// Accelerations straight from SPEC.md: every spring of `model.springs()` once, then the walls and
 /// the mass (no field or plane in these models).
 fn reference(model: &Model, pos: &[Vec3], vel: &[Vec3]) -> Vec<Vec3> {
     let mut f = vec![Vec3::ZERO; pos.len()];
-    let s = &model.springs;
+    let s = &model.springs();
     for n in 0..s.len() {
         let (a, b) = (s.a[n] as usize, s.b[n] as usize);
         let kind = s.kind[n] as usize;

@@ -369,7 +369,7 @@ impl JelloSim {
             on_surface[p as usize] = true;
         }
         let mut surface_springs: [Vec<u32>; 3] = Default::default();
-        let s = &model.springs;
+        let s = &model.springs();
         for ((&a, &b), &kind) in s.a.iter().zip(&s.b).zip(&s.kind) {
             if on_surface[a as usize] && on_surface[b as usize] {
                 surface_springs[kind as usize].extend([a, b]);

@@ -65,11 +65,11 @@ pub fn info(args: InfoArgs) -> Result<(), CliError> {
         None => println!("force field    none"),
     }
     let [nx, ny, nz] = m.lattice.counts;
-    let by_kind = m.springs.count_by_kind();
+    let by_kind = m.lattice.spring_count_by_kind();
     println!(
         "lattice        {nx}×{ny}×{nz} = {} points, {} springs ({} {}, {} {}, {} {})",
         m.point_count(),
-        m.springs.len(),
+        m.spring_count(),
         by_kind[0],
         SpringKind::Structural.name(),
         by_kind[1],
