@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
-"""Run `jello bench` and the peer implementations (bench/peers) on the same scene, alternating
-Jello and each peer, and write BENCHMARKS.md. Normally started by scripts/benchmarks.sh, which
+"""Run `jello bench` and the peer implementations (bench/peers: Python, C, and Jello with each
+SIMD tier forced) on the same scene, alternating Jello and each peer, and write BENCHMARKS.md. Normally started by scripts/benchmarks.sh, which
 sets up the venv; run with that venv's python so the peers find their libraries.
 
     scripts/benchmarks.py [--seconds S] [--quick] [--only numpy,numba] [--rounds R] [--no-check]
@@ -20,8 +20,12 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 PEERS_DIR = os.path.join(ROOT, "bench", "peers")
 JELLO = os.path.join(ROOT, "target", "release", "jello")
 OUT = os.path.join(ROOT, "BENCHMARKS.md")
-PEERS = ["numpy", "numba", "taichi", "warp"]
+# Python peers, the C peers (bench/peers/c_peer.c through c_peer.py), and Jello itself with
+# its SIMD tier forced by JELLO_SIMD (a tier the CPU lacks is reported, not run).
+PEERS = ["numpy", "numba", "taichi", "warp", "c", "c-naive",
+         "jello-baseline", "jello-avx2", "jello-avx512"]
 LIBS = {"numpy": "numpy", "numba": "numba", "taichi": "taichi", "warp": "warp-lang"}
+TIERS = [p for p in PEERS if p.startswith("jello-")]
 
 # (size, integrator, threads)
 CONFIGS = [(8, "RK4", 1), (8, "RK4", 2), (32, "RK4", 1), (32, "RK4", 2),
@@ -50,12 +54,13 @@ def last_json(text):
     raise ValueError("no JSON object in the output")
 
 
-def run_json(cmd, timeout, quiet=True):
+def run_json(cmd, timeout, quiet=True, env=None):
     """Run a benchmark command; return (result dict, None) or (None, error text)."""
     if quiet:
         wait_quiet()
     try:
-        r = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout)
+        r = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout,
+                           env=None if env is None else {**os.environ, **env})
     except subprocess.TimeoutExpired:
         return None, "timed out after %d s" % timeout
     except OSError as e:
@@ -105,9 +110,15 @@ def jello_cmd(size, integ, threads, seconds):
 
 
 def peer_cmd(peer, size, integ, threads, seconds):
+    """The command of a peer and the environment it adds."""
+    if peer in TIERS:
+        return jello_cmd(size, integ, threads, seconds), {"JELLO_SIMD": peer[len("jello-"):]}
+    variant = []
+    if peer in ("c", "c-naive"):
+        peer, variant = "c", ["--variant", "naive" if peer == "c-naive" else "simd"]
     return [sys.executable, os.path.join(PEERS_DIR, peer + "_peer.py"), "--size", str(size),
             "--integrator", integ, "--threads", str(threads), "--seconds", str(seconds),
-            "--json"]
+            "--json"] + variant, None
 
 
 def jello_available():
@@ -163,6 +174,8 @@ def lib_versions(peers):
         return {}
     out = {}
     for p in peers:
+        if p not in LIBS:
+            continue
         try:
             out[LIBS[p]] = metadata.version(LIBS[p])
         except Exception:  # noqa: BLE001
@@ -253,14 +266,16 @@ def main():
                     pr["err"] = broken[peer]
                     break
                 log("N=%d %s T=%d  round %d  %s" % (size, integ, threads, rnd + 1, peer))
-                r, err = run_json(peer_cmd(peer, size, integ, threads, seconds), timeout)
+                cmd, env = peer_cmd(peer, size, integ, threads, seconds)
+                r, err = run_json(cmd, timeout, env=env)
                 if r:
                     pr["runs"].append(r)
                     pr["meta"] = r
                 else:
                     pr["err"] = err
                     log("  %s failed: %s" % (peer, err))
-                    if "No module named" in err or "ImportError" in err:
+                    if ("No module named" in err or "ImportError" in err
+                            or "cannot run the" in err):
                         broken[peer] = err
                     break
         results.append(cfg)
@@ -338,6 +353,17 @@ def write_md(args, seconds, configs, peers, info, versions, jello_missing, insta
     w("  * *Taichi*: CPU backend, a kernel over springs with atomic adds into a force field, a "
       "kernel over points for walls, gravity and the stage update.")
     w("  * *Warp*: device \"cpu\", the same two kernels with `wp.atomic_add`/`wp.atomic_sub`.")
+    w("  * *c* (`bench/peers/c_peer.c`, built by `c_peer.py` with `gcc -O3 -march=native "
+      "-fopenmp`, driven through ctypes): the hand-vectorised C baseline. Structure of arrays; "
+      "per point plane and stencil offset, each row of springs is one `#pragma omp simd` loop "
+      "into a row buffer, then added to the first ends and subtracted from the second; OpenMP "
+      "threads take planes in three phases (i mod 3) so no two write the same plane.")
+    w("  * *c-naive*: the textbook C loop over one flat spring list, arrays of 3-vectors, one "
+      "thread, same flags.")
+    w("  * *jello-baseline*, *jello-avx2*, *jello-avx512*: Jello itself with its SIMD tier "
+      "forced by `JELLO_SIMD` (the plain *Jello* column runs the best tier the CPU has, which "
+      "`jello bench --json` reports). A tier the CPU lacks is listed as failed. Every tier "
+      "computes the same bits (tests compare saved states byte for byte).")
     w("")
     w("## Machine")
     w("")
@@ -427,14 +453,42 @@ def write_md(args, seconds, configs, peers, info, versions, jello_missing, insta
     w("\"(1 thr.)\" marks a peer that ran on one thread although more were asked for. "
       "M = millions.")
     w("")
+    tiers = [t for t in TIERS if t in peers]
+    if tiers and any(c in peers for c in ("c", "c-naive")):
+        w("### Jello's SIMD tiers against the C baselines")
+        w("")
+        w("Spring evaluations / s of each tier over those of the C peers in the same "
+          "configuration (each measured alternated with Jello's best tier, medians of rounds).")
+        w("")
+        cs = [c for c in ("c", "c-naive") if c in peers]
+        w("| N | integrator | threads | " + " | ".join(
+            "%s / %s" % (t, c) for t in tiers for c in cs) + " |")
+        w("| --- | --- | --- | " + " | ".join("---" for _ in tiers for _ in cs) + " |")
+        for cfg in results:
+            def val(p):
+                return median([r["spring_evals_per_s"] for r in cfg["peers"][p]["runs"]])
+            cells = []
+            for t in tiers:
+                for c in cs:
+                    tv, cv = val(t), val(c)
+                    cells.append("%.2f" % (tv / cv) if tv and cv else "–")
+            w("| %d | %s | %d | %s |" % (cfg["size"], cfg["integrator"], cfg["threads"],
+                                         " | ".join(cells)))
+        w("")
 
     errors = []
+    # A peer that failed the same way everywhere (a tier this CPU lacks) is listed once.
+    same_everywhere = {p for p in peers
+                       if len({cfg["peers"][p]["err"] for cfg in results}) == 1
+                       and results[0]["peers"][p]["err"]}
+    for p in sorted(same_everywhere):
+        errors.append("* %s, every configuration: `%s`" % (p, results[0]["peers"][p]["err"]))
     for cfg in results:
         tag = "N=%d %s threads=%d" % (cfg["size"], cfg["integrator"], cfg["threads"])
         if cfg["jello_err"]:
             errors.append("* Jello, %s: `%s`" % (tag, cfg["jello_err"]))
         for p in peers:
-            if cfg["peers"][p]["err"]:
+            if cfg["peers"][p]["err"] and p not in same_everywhere:
                 errors.append("* %s, %s: `%s`" % (p, tag, cfg["peers"][p]["err"]))
     if errors:
         w("## Failures")

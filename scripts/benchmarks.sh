@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Benchmarks Jello against NumPy, Numba, Taichi and Warp peers and writes BENCHMARKS.md.
+# Benchmarks Jello (each SIMD tier) against NumPy, Numba, Taichi, Warp and C peers; writes BENCHMARKS.md.
 #   scripts/benchmarks.sh [--seconds S] [--quick] [--only numpy,numba] [--rounds R] [--no-check]
 # Makes (or reuses) the virtual environment bench/.venv, installs the pinned
 # bench/peers/requirements.txt, builds target/release/jello, then runs scripts/benchmarks.py.
