@@ -1,10 +1,12 @@
 # The few verbs a newcomer needs.
 #   make run    build everything (binary, wasm, web bundle), then serve the viewer on the default
 #               world: `jello view examples/jello.w` prints the URL to open
-#   make test   everything CI runs: format, lints, docs, all tests, examples up to date, and the
+#   make test   everything CI runs: format, lints, docs, the aarch64 build (type-checked, and run
+#               under qemu against the native one), all tests, examples up to date, and the
 #               viewer's browser tests (Playwright + Chromium)
 #   make fuzz   fuzz the world-file parser (installs cargo-fuzz and nightly when missing)
-#   make bench  Jello against NumPy, Numba, Taichi and Warp; rewrites BENCHMARKS.md
+#   make bench  Jello (each SIMD tier) against NumPy, Numba, Taichi, Warp and C; rewrites
+#               BENCHMARKS.md
 
 JELLO := target/release/jello
 WORLD ?= examples/jello.w
