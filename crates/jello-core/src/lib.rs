@@ -54,8 +54,8 @@ pub use step::{step, BlowUp, BlowUpCause, Scratch};
 pub use vec3::Vec3;
 pub use world::{ReadOptions, World, WorldError};
 
-/// A model with its state, control and scratch: the convenient handle the command line, the
-/// browser and Python drive.
+/// A model with its state, control and scratch: the convenient handle that the front ends (the
+/// `jello` command line and the browser's `jello-wasm`) drive.
 #[derive(Clone, Debug)]
 pub struct Simulation {
     /// What does not change while stepping.
