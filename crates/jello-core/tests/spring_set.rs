@@ -127,8 +127,18 @@ fn classic_cube_springs_by_brute_force() {
     let lattice = Lattice::classic();
     assert_same(&as_set(&lattice.springs()), &want, "Lattice::springs");
     let model = ModelBuilder::new().build().unwrap();
-    assert_same(&as_set(&model.springs), &want, "Model::springs");
-    assert_eq!(model.springs.count_by_kind(), [1344, 3724, 1152]);
+    assert_same(&as_set(&model.springs()), &want, "Model::springs");
+    assert_eq!(model.springs().count_by_kind(), [1344, 3724, 1152]);
+    // The counts without a list, and the walk without one, say the same.
+    assert_eq!(lattice.spring_count_by_kind(), [1344, 3724, 1152]);
+    let mut walked = jello_core::Springs::default();
+    lattice.for_each_spring(|a, b, rest, kind| {
+        walked.a.push(a as u32);
+        walked.b.push(b as u32);
+        walked.rest_len.push(rest);
+        walked.kind.push(kind);
+    });
+    assert_same(&as_set(&walked), &want, "Lattice::for_each_spring");
 }
 
 #[test]
