@@ -126,6 +126,11 @@ impl std::error::Error for BlowUp {}
 ///
 /// On success the state holds the new positions and velocities, `time` grows by `dt` and `steps`
 /// by one. On a blow-up the state is unchanged and the error says where and what to try.
+///
+/// Stepping allocates nothing. On lattices large enough for threads, call it from inside the
+/// rayon pool (`ThreadPool::install` around the stepping loop, as `jello bench` does): from
+/// outside, each of its joins goes through rayon's global queue, which allocates a small block
+/// every 63 jobs.
 pub fn step(
     model: &Model,
     state: &mut State,
