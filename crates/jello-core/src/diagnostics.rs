@@ -34,22 +34,17 @@ pub fn energy(model: &Model, state: &State) -> Energy {
         let stretch = (state.pos[a] - state.pos[b]).length() - rest;
         spring += 0.5 * model.stiffness[kind as usize] * stretch * stretch;
     });
+    // ½ kCollision depth² per contact (walls, plane, obstacles), summed point by point.
     let collision = state
         .pos
         .iter()
         .map(|&p| {
-            let b = &model.bounds;
-            let out = |c: f64, lo: f64, hi: f64| (lo - c).max(c - hi).max(0.0);
-            let walls = [
-                out(p.x, b.min.x, b.max.x),
-                out(p.y, b.min.y, b.max.y),
-                out(p.z, b.min.z, b.max.z),
-            ];
-            let plane = model
-                .plane
-                .and_then(|pl| pl.penetration(p))
-                .map_or(0.0, |(d, _)| d);
-            walls.iter().chain([&plane]).map(|d| d * d).sum::<f64>()
+            model
+                .bounds
+                .wall_contacts(p)
+                .chain(model.plane.and_then(|pl| pl.contact(p)))
+                .chain(model.obstacles.iter().filter_map(|o| o.contact(p)))
+                .fold(0.0, |sum, c| sum + c.depth * c.depth)
         })
         .sum::<f64>()
         * 0.5

@@ -1,4 +1,5 @@
-//! The one force routine: springs, force field, box and plane penalties, control forces.
+//! The one force routine: springs, force field, box, plane and obstacle penalties (their
+//! contacts defined in [`crate::obstacle`]), control forces.
 //!
 //! Springs are evaluated once each, by the lattice stencil rather than from a spring list: for
 //! each chunk of planes and each of the 16 half-stencil offsets, the springs join one contiguous
@@ -17,6 +18,7 @@
 use std::ops::Range;
 
 use crate::model::Model;
+use crate::obstacle::{penalty, wall_force, Obstacle};
 use crate::soa::{cache_aligned_zeros, Soa};
 use crate::split::Split;
 use crate::state::Control;
@@ -704,6 +706,7 @@ fn block_accelerations_impl(model: &Model, point: PointInputs<'_>, acc: [&mut [f
     let control = point.control.map(|c| &c[..len]);
     let (kc, dc, mass) = (model.k_collision, model.d_collision, model.mass);
     let (lo, hi) = (model.bounds.min, model.bounds.max);
+    let obstacles = !model.obstacles.is_empty();
 
     // Spring force plus field. A uniform field (or none) is a constant; any other is sampled
     // point by point first.
@@ -731,9 +734,9 @@ fn block_accelerations_impl(model: &Model, point: PointInputs<'_>, acc: [&mut [f
             Vec3::new(vx[t], vy[t], vz[t]),
         );
         // Walls: `kCollision·depth·n − dCollision (v·n) n` with n = ±axis.
-        f.x += wall(pi.x, vi.x, lo.x, hi.x, kc, dc);
-        f.y += wall(pi.y, vi.y, lo.y, hi.y, kc, dc);
-        f.z += wall(pi.z, vi.z, lo.z, hi.z, kc, dc);
+        f.x += wall_force(pi.x, vi.x, lo.x, hi.x, kc, dc);
+        f.y += wall_force(pi.y, vi.y, lo.y, hi.y, kc, dc);
+        f.z += wall_force(pi.z, vi.z, lo.z, hi.z, kc, dc);
         if let Some((pl, norm, n)) = plane {
             let s = pl.value(pi);
             let depth = s.abs() / norm;
@@ -743,33 +746,78 @@ fn block_accelerations_impl(model: &Model, point: PointInputs<'_>, acc: [&mut [f
         if let Some(c) = control {
             f += c[t];
         }
-        let a = f / mass;
+        // With obstacles, the force is finished (and divided) below.
+        let a = if obstacles { f } else { f / mass };
         (ax[t], ay[t], az[t]) = (a.x, a.y, a.z);
     }
-}
-
-/// The force along one axis of the walls at `lo` and `hi` on a point at `c` moving at `v`.
-#[inline(always)]
-fn wall(c: f64, v: f64, lo: f64, hi: f64, kc: f64, dc: f64) -> f64 {
-    if c < lo {
-        kc * (lo - c) - dc * v
-    } else if c > hi {
-        -(kc * (c - hi)) - dc * v
-    } else {
-        0.0
+    if !obstacles {
+        return;
+    }
+    // Obstacles, one loop each over the block (branch-free, so each vectorises), then over the
+    // mass.
+    for obstacle in &model.obstacles {
+        match *obstacle {
+            Obstacle::Plane(pl) => {
+                add_contacts(point, [&mut *ax, &mut *ay, &mut *az], kc, dc, |p| {
+                    pl.depth(p)
+                })
+            }
+            Obstacle::Sphere(sphere) => {
+                add_contacts(point, [&mut *ax, &mut *ay, &mut *az], kc, dc, |p| {
+                    sphere.depth(p)
+                })
+            }
+            Obstacle::Box(b) => add_contacts(point, [&mut *ax, &mut *ay, &mut *az], kc, dc, |p| {
+                b.solid_depth(p)
+            }),
+        }
+    }
+    for a in [ax, ay, az] {
+        for a in a.iter_mut() {
+            *a /= mass;
+        }
     }
 }
 
-/// Depth (m) of the deepest penetration of any point into a box wall or the plane (0 if none).
+/// `force += penalty` over a block for one obstacle given by `depth_normal(p)` (depth ≤ 0 for
+/// none).
+#[inline(always)]
+fn add_contacts(
+    point: PointInputs<'_>,
+    force: [&mut [f64]; 3],
+    kc: f64,
+    dc: f64,
+    depth_normal: impl Fn(Vec3) -> (f64, Vec3),
+) {
+    let [fx, fy, fz] = force;
+    let len = fx.len();
+    let (fy, fz) = (&mut fy[..len], &mut fz[..len]);
+    let [px, py, pz] = point.pos.map(|c| &c[..len]);
+    let [vx, vy, vz] = point.vel.map(|c| &c[..len]);
+    for t in 0..len {
+        let (depth, n) = depth_normal(Vec3::new(px[t], py[t], pz[t]));
+        let f = penalty(depth, n, Vec3::new(vx[t], vy[t], vz[t]), kc, dc);
+        (fx[t], fy[t], fz[t]) = (fx[t] + f.x, fy[t] + f.y, fz[t] + f.z);
+    }
+}
+
+/// Depth (m) of the deepest penetration of any point into a box wall, the plane or an obstacle
+/// (0 if none).
 pub fn max_penetration(model: &Model, pos: &[Vec3]) -> f64 {
     pos.iter()
         .map(|&p| {
             let wall = model.bounds.excursion(p);
             let plane = model
                 .plane
-                .and_then(|pl| pl.penetration(p))
-                .map_or(0.0, |(depth, _)| depth);
-            wall.max(plane)
+                .and_then(|pl| pl.contact(p))
+                .map_or(0.0, |c| c.depth);
+            let obstacle = model
+                .obstacles
+                .iter()
+                .filter_map(|o| o.contact(p))
+                .map(|c| c.depth)
+                .fold(0.0, f64::max);
+            wall.max(plane).max(obstacle)
         })
         .fold(0.0, f64::max)
 }

@@ -5,7 +5,7 @@ use std::fmt;
 use crate::field::ForceField;
 use crate::integrator::Integrator;
 use crate::lattice::{Lattice, SpringKind, Springs};
-use crate::vec3::Vec3;
+pub use crate::obstacle::{Aabb, Obstacle, Plane};
 
 /// Defaults of the classic jello world (the official `jello.w`), used wherever a value is not
 /// given. One place for them: the builder and the command line both read these.
@@ -28,101 +28,6 @@ pub mod defaults {
     pub const BOX_HALF_WIDTH: f64 = 2.0;
     /// How far outside the box a point may go before the run counts as blown up (m).
     pub const ESCAPE_MARGIN: f64 = 10.0;
-}
-
-/// An axis-aligned box.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Aabb {
-    /// Lower corner (m).
-    pub min: Vec3,
-    /// Upper corner (m).
-    pub max: Vec3,
-}
-
-impl Aabb {
-    /// The classic bounding box `[−2, 2]³`.
-    pub fn classic() -> Self {
-        let h = defaults::BOX_HALF_WIDTH;
-        Aabb {
-            min: Vec3::new(-h, -h, -h),
-            max: Vec3::new(h, h, h),
-        }
-    }
-
-    /// Distance from `p` to the box (0 inside), measured per axis as the largest excursion.
-    pub fn excursion(&self, p: Vec3) -> f64 {
-        let out = |v: f64, lo: f64, hi: f64| (lo - v).max(v - hi).max(0.0);
-        out(p.x, self.min.x, self.max.x)
-            .max(out(p.y, self.min.y, self.max.y))
-            .max(out(p.z, self.min.z, self.max.z))
-    }
-}
-
-/// The inclined plane `a x + b y + c z + d = 0` with the side points are allowed on.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Plane {
-    /// `[a, b, c, d]` as in the world file.
-    pub coeffs: [f64; 4],
-    /// `+1.0` when the allowed side is where `a x + b y + c z + d > 0`, else `−1.0`.
-    pub side: f64,
-}
-
-impl Plane {
-    /// The plane whose allowed side holds `reference` (SPEC.md: the centre of mass of the initial
-    /// positions). A reference exactly on the plane gets the positive side, the side every
-    /// official world uses. Fails when a coefficient is not finite or the length of `(a, b, c)`
-    /// is zero or overflows.
-    pub fn facing(coeffs: [f64; 4], reference: Vec3) -> Result<Plane, ModelError> {
-        if coeffs.iter().any(|c| !c.is_finite()) {
-            return Err(ModelError::new("plane coefficients must be finite"));
-        }
-        let plane = Plane { coeffs, side: 1.0 };
-        let norm = plane.normal_length();
-        if !(norm.is_finite() && norm > 0.0) {
-            return Err(ModelError::new(format!(
-                "plane normal (a, b, c) must have a finite, non-zero length (it has {norm})"
-            )));
-        }
-        let side = if plane.value(reference) < 0.0 {
-            -1.0
-        } else {
-            1.0
-        };
-        Ok(Plane { coeffs, side })
-    }
-
-    /// `a x + b y + c z + d` at `p`.
-    #[inline]
-    pub fn value(&self, p: Vec3) -> f64 {
-        let [a, b, c, d] = self.coeffs;
-        a * p.x + b * p.y + c * p.z + d
-    }
-
-    /// `|(a, b, c)|`.
-    #[inline]
-    pub fn normal_length(&self) -> f64 {
-        let [a, b, c, _] = self.coeffs;
-        Vec3::new(a, b, c).length()
-    }
-
-    /// Unit normal pointing into the allowed side.
-    pub fn inward_normal(&self) -> Vec3 {
-        let [a, b, c, _] = self.coeffs;
-        Vec3::new(a, b, c) * (self.side / self.normal_length())
-    }
-
-    /// Depth (m) of `p` on the forbidden side, and the unit normal into the allowed side; `None`
-    /// when `p` is on the allowed side or on the plane.
-    #[inline]
-    pub fn penetration(&self, p: Vec3) -> Option<(f64, Vec3)> {
-        let s = self.value(p);
-        if s * self.side < 0.0 {
-            let norm = self.normal_length();
-            Some((s.abs() / norm, self.inward_normal()))
-        } else {
-            None
-        }
-    }
 }
 
 /// A model that could not be built, or a value outside its allowed range.
@@ -163,6 +68,8 @@ pub struct Model {
     pub bounds: Aabb,
     /// The inclined plane, when present.
     pub plane: Option<Plane>,
+    /// Further static obstacles (planes, spheres, solid boxes), with the same penalty springs.
+    pub obstacles: Vec<Obstacle>,
     /// The external force field, when present.
     pub field: Option<ForceField>,
     /// Time step (s).
@@ -216,6 +123,7 @@ pub struct ModelBuilder {
     d_collision: f64,
     bounds: Aabb,
     plane: Option<Plane>,
+    obstacles: Vec<Obstacle>,
     field: Option<ForceField>,
     dt: f64,
     integrator: Integrator,
@@ -234,6 +142,7 @@ impl Default for ModelBuilder {
             d_collision: defaults::D_COLLISION,
             bounds: Aabb::classic(),
             plane: None,
+            obstacles: Vec::new(),
             field: None,
             dt: defaults::DT,
             integrator: Integrator::Rk4,
@@ -291,6 +200,18 @@ impl ModelBuilder {
     /// Inclined plane (default none).
     pub fn plane(mut self, plane: Option<Plane>) -> Self {
         self.plane = plane;
+        self
+    }
+
+    /// Adds a static obstacle (default none).
+    pub fn obstacle(mut self, obstacle: Obstacle) -> Self {
+        self.obstacles.push(obstacle);
+        self
+    }
+
+    /// Replaces the static obstacles (default none).
+    pub fn obstacles(mut self, obstacles: Vec<Obstacle>) -> Self {
+        self.obstacles = obstacles;
         self
     }
 
@@ -365,16 +286,11 @@ impl ModelBuilder {
         if self.steps_per_frame == 0 {
             return Err(ModelError::new("steps per frame must be at least 1"));
         }
-        let b = self.bounds;
-        if !(b.min.is_finite()
-            && b.max.is_finite()
-            && b.min.x < b.max.x
-            && b.min.y < b.max.y
-            && b.min.z < b.max.z)
-        {
-            return Err(ModelError::new(
-                "bounding box must be finite with min < max on every axis",
-            ));
+        self.bounds.check("bounding box")?;
+        for (i, obstacle) in self.obstacles.iter().enumerate() {
+            obstacle
+                .check()
+                .map_err(|e| ModelError::new(format!("obstacle {}: {e}", i + 1)))?;
         }
         if let Some(field) = &self.field {
             if field.bounds() != self.bounds {
@@ -392,6 +308,7 @@ impl ModelBuilder {
             d_collision: self.d_collision,
             bounds: self.bounds,
             plane: self.plane,
+            obstacles: self.obstacles,
             field: self.field,
             dt: self.dt,
             integrator: self.integrator,

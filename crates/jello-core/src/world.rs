@@ -450,6 +450,11 @@ impl World {
         if model.bounds != Aabb::classic() {
             return Err(ModelError::new("a world file holds the box [-2, 2]³ only"));
         }
+        if !model.obstacles.is_empty() {
+            return Err(ModelError::new(
+                "a world file holds no obstacles besides the box and the inclined plane",
+            ));
+        }
         if let Some(p) = state.pos.iter().chain(&state.vel).find(|v| !v.is_finite()) {
             return Err(ModelError::new(format!(
                 "refusing to save a non-finite state ({p:?})"

@@ -1,7 +1,7 @@
 //! Every instruction-set tier this CPU can run computes the same bits: the state after stepping
 //! is identical, integrator by integrator, on the classic lattice (one thread) and on a lattice
-//! large enough for threads, with a non-uniform field (sampled per point), a plane, walls and
-//! control forces in play.
+//! large enough for threads, with a non-uniform field (sampled per point), a plane, walls, a
+//! sphere and a solid box, and control forces in play.
 //!
 //! The tier is process-wide, so this file holds one test: nothing else in this test binary runs
 //! while it switches tiers. On a CPU with only the baseline the comparison is trivial and says so.
@@ -11,8 +11,8 @@ mod common;
 use common::Lcg;
 use jello_core::simd::{force_tier, Tier};
 use jello_core::{
-    Aabb, Control, ForceField, Integrator, Lattice, Model, ModelBuilder, Plane, Scratch, State,
-    Vec3,
+    Aabb, Control, ForceField, Integrator, Lattice, Model, ModelBuilder, Obstacle, Plane, Scratch,
+    Sphere, State, Vec3,
 };
 
 /// A model that exercises every term of the force: a swirling field, a plane the lattice
@@ -28,6 +28,12 @@ fn scene(counts: [usize; 3], integrator: Integrator) -> (Model, State, Control) 
         .field(Some(field))
         .plane(Some(
             Plane::facing([0.2, 0.1, 1.0, 1.4], Vec3::ZERO).unwrap(),
+        ))
+        .obstacle(Obstacle::Sphere(
+            Sphere::new(Vec3::new(0.1, 0.0, -1.9), 0.35).unwrap(),
+        ))
+        .obstacle(Obstacle::Box(
+            Aabb::new(Vec3::new(-0.7, -0.6, -2.5), Vec3::new(-0.3, 0.2, -1.95)).unwrap(),
         ))
         .integrator(integrator)
         .build()

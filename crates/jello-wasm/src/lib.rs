@@ -395,6 +395,7 @@ fn builder_from(model: &Model) -> ModelBuilder {
         .collision(model.k_collision, model.d_collision)
         .bounds(model.bounds)
         .plane(model.plane)
+        .obstacles(model.obstacles.clone())
         .field(model.field.clone())
         .dt(model.dt)
         .integrator(model.integrator)

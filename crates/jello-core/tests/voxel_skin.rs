@@ -1,0 +1,338 @@
+//! Voxelising closed meshes and embedding them as skins (README: "Voxelising a mesh").
+//!
+//! Meshes are made here (no third-party models): boxes, a UV sphere, a torus, a thin slab. The
+//! checks: a box aligned with the grid fills exactly its cells; the kept cells enclose the solid
+//! (their volume is never below the mesh's) and their excess volume shrinks as cells get finer;
+//! every vertex lies in a kept cell; a torus keeps its hole open; a slab thinner than a cell keeps
+//! a layer; the skin reproduces the mesh at rest to 1e-12 m and follows an affine motion of the
+//! lattice exactly; bad input is an error.
+
+use jello_core::skin::Skin;
+use jello_core::voxel::Voxels;
+use jello_core::Vec3;
+
+const MAX_CELLS: usize = 1 << 24;
+
+struct Mesh {
+    vertices: Vec<Vec3>,
+    triangles: Vec<[u32; 3]>,
+}
+
+impl Mesh {
+    /// Signed volume by the divergence theorem.
+    fn volume(&self) -> f64 {
+        self.triangles
+            .iter()
+            .map(|t| {
+                let [a, b, c] = t.map(|v| self.vertices[v as usize]);
+                a.dot(b.cross(c)) / 6.0
+            })
+            .sum()
+    }
+
+    /// Winds every triangle outward (flips all when the volume is negative).
+    fn outward(mut self) -> Mesh {
+        if self.volume() < 0.0 {
+            self.triangles.iter_mut().for_each(|t| t.swap(1, 2));
+        }
+        self
+    }
+
+    fn voxels(&self, cells: usize) -> Voxels {
+        Voxels::from_mesh(&self.vertices, &self.triangles, cells, MAX_CELLS).unwrap()
+    }
+}
+
+/// The box `[lo, hi]`, 12 triangles.
+fn cuboid(lo: Vec3, hi: Vec3) -> Mesh {
+    let vertices = (0..8)
+        .map(|c| {
+            Vec3::new(
+                if c & 4 != 0 { hi.x } else { lo.x },
+                if c & 2 != 0 { hi.y } else { lo.y },
+                if c & 1 != 0 { hi.z } else { lo.z },
+            )
+        })
+        .collect();
+    // Faces as corner quads (bits x, y, z), split in two triangles each.
+    let quads = [
+        [0, 1, 3, 2],
+        [4, 6, 7, 5],
+        [0, 4, 5, 1],
+        [2, 3, 7, 6],
+        [0, 2, 6, 4],
+        [1, 5, 7, 3],
+    ];
+    let triangles = quads
+        .iter()
+        .flat_map(|&[a, b, c, d]| [[a, b, c], [a, c, d]])
+        .collect();
+    Mesh {
+        vertices,
+        triangles,
+    }
+    .outward()
+}
+
+/// A UV sphere of radius `r` about `centre`: `rings` latitude bands, `segments` around.
+fn sphere(centre: Vec3, r: f64, rings: usize, segments: usize) -> Mesh {
+    let mut vertices = vec![
+        centre + Vec3::new(0.0, 0.0, r),
+        centre - Vec3::new(0.0, 0.0, r),
+    ];
+    for i in 1..rings {
+        let theta = std::f64::consts::PI * i as f64 / rings as f64;
+        for j in 0..segments {
+            let phi = 2.0 * std::f64::consts::PI * j as f64 / segments as f64;
+            vertices.push(
+                centre
+                    + Vec3::new(
+                        theta.sin() * phi.cos(),
+                        theta.sin() * phi.sin(),
+                        theta.cos(),
+                    ) * r,
+            );
+        }
+    }
+    let at = |i: usize, j: usize| (2 + (i - 1) * segments + j % segments) as u32;
+    let mut triangles = Vec::new();
+    for j in 0..segments {
+        triangles.push([0, at(1, j), at(1, j + 1)]);
+        triangles.push([1, at(rings - 1, j + 1), at(rings - 1, j)]);
+        for i in 1..rings - 1 {
+            triangles.push([at(i, j), at(i + 1, j), at(i + 1, j + 1)]);
+            triangles.push([at(i, j), at(i + 1, j + 1), at(i, j + 1)]);
+        }
+    }
+    Mesh {
+        vertices,
+        triangles,
+    }
+    .outward()
+}
+
+/// A torus about the z axis: tube of radius `r` around a circle of radius `big_r`.
+fn torus(big_r: f64, r: f64, around: usize, tube: usize) -> Mesh {
+    let mut vertices = Vec::new();
+    for i in 0..around {
+        let theta = 2.0 * std::f64::consts::PI * i as f64 / around as f64;
+        for j in 0..tube {
+            let phi = 2.0 * std::f64::consts::PI * j as f64 / tube as f64;
+            let ring = big_r + r * phi.cos();
+            vertices.push(Vec3::new(
+                ring * theta.cos(),
+                ring * theta.sin(),
+                r * phi.sin(),
+            ));
+        }
+    }
+    let at = |i: usize, j: usize| ((i % around) * tube + j % tube) as u32;
+    let mut triangles = Vec::new();
+    for i in 0..around {
+        for j in 0..tube {
+            triangles.push([at(i, j), at(i + 1, j), at(i + 1, j + 1)]);
+            triangles.push([at(i, j), at(i + 1, j + 1), at(i, j + 1)]);
+        }
+    }
+    Mesh {
+        vertices,
+        triangles,
+    }
+    .outward()
+}
+
+/// Every vertex lies (closed) in a kept cell.
+fn assert_vertices_in_kept_cells(mesh: &Mesh, voxels: &Voxels, what: &str) {
+    let h = voxels.cell;
+    for (n, &v) in mesh.vertices.iter().enumerate() {
+        let c = voxels.cell_of(v);
+        assert!(
+            voxels.occupied[voxels.index(c)],
+            "{what}: vertex {n} at {v:?} is in cell {c:?}, which is not kept"
+        );
+        let lo = voxels.cell_min(c);
+        let tol = 1e-12 * (1.0 + v.max_abs());
+        for (p, l) in v.to_array().into_iter().zip(lo.to_array()) {
+            assert!(
+                p >= l - tol && p <= l + h + tol,
+                "{what}: vertex {n} at {v:?} outside its cell {c:?}"
+            );
+        }
+    }
+}
+
+#[test]
+fn boxes_aligned_with_the_grid_fill_exactly_their_cells() {
+    let unit = cuboid(Vec3::ZERO, Vec3::new(1.0, 1.0, 1.0));
+    let v = unit.voxels(4);
+    assert_eq!(v.cells, [4, 4, 4]);
+    assert_eq!(v.occupied_count(), 64);
+    assert_eq!(v.volume(), 1.0);
+    let tall = cuboid(Vec3::new(0.3, 0.0, -1.0), Vec3::new(1.3, 2.0, 0.0));
+    let v = tall.voxels(4);
+    assert_eq!(v.cells, [2, 4, 2]);
+    assert_eq!(v.occupied_count(), 16);
+    assert_vertices_in_kept_cells(&tall, &v, "box");
+}
+
+#[test]
+fn kept_cells_enclose_the_solid_and_converge_to_it() {
+    let ball = sphere(Vec3::new(0.1, -0.2, 0.3), 1.0, 48, 96);
+    let exact = ball.volume();
+    let mut last = f64::INFINITY;
+    for cells in [4, 8, 16, 32, 64] {
+        let v = ball.voxels(cells);
+        let excess = (v.volume() - exact) / exact;
+        assert!(
+            excess >= 0.0,
+            "{cells} cells: {} below the mesh's {exact}",
+            v.volume()
+        );
+        // The excess is a layer of cells around the surface: it shrinks about as 1/cells.
+        assert!(
+            excess < last * 0.75,
+            "{cells} cells: excess {excess} after {last}"
+        );
+        assert!(
+            excess < 7.0 / cells as f64,
+            "{cells} cells: excess {excess}"
+        );
+        assert_vertices_in_kept_cells(&ball, &v, "sphere");
+        last = excess;
+    }
+}
+
+#[test]
+fn a_torus_keeps_its_hole() {
+    let ring = torus(1.0, 0.3, 64, 24);
+    let v = ring.voxels(10);
+    let h = v.cell;
+    assert_vertices_in_kept_cells(&ring, &v, "torus");
+    let [cx, cy, cz] = v.cells;
+    let mut hole = 0;
+    for i in 0..cx {
+        for j in 0..cy {
+            for k in 0..cz {
+                let c = v.cell_min([i, j, k]) + Vec3::new(h, h, h) * 0.5;
+                let from_axis = (c.x * c.x + c.y * c.y).sqrt();
+                // Cells wholly inside the hole (radius 0.7): their centre is further than half a
+                // cell diagonal from the tube.
+                if from_axis + h * 0.75 < 0.7 {
+                    assert!(!v.occupied[v.index([i, j, k])], "hole cell {:?}", [i, j, k]);
+                    hole += 1;
+                }
+                // Cells wholly inside the tube are kept.
+                let tube = ((from_axis - 1.0).powi(2) + c.z * c.z).sqrt();
+                if tube + h * 0.9 < 0.3 {
+                    assert!(v.occupied[v.index([i, j, k])], "tube cell {:?}", [i, j, k]);
+                }
+            }
+        }
+    }
+    assert!(hole >= cz * 4, "only {hole} hole cells");
+    // The hole goes through: every cell of the central column is empty, bottom to top.
+    let centre = v.cell_of(Vec3::new(0.0, 0.0, 0.0));
+    for k in 0..cz {
+        assert!(!v.occupied[v.index([centre[0], centre[1], k])]);
+    }
+}
+
+#[test]
+fn a_part_thinner_than_a_cell_keeps_a_layer() {
+    let slab = cuboid(Vec3::new(0.0, 0.0, 0.013), Vec3::new(1.0, 1.0, 0.033));
+    let v = slab.voxels(10);
+    assert_eq!(v.cells, [10, 10, 1]);
+    assert_eq!(v.occupied_count(), 100);
+    // Tilted, so that it cuts through cells of several layers.
+    let mut tilted = cuboid(Vec3::new(0.0, 0.0, 0.0), Vec3::new(1.0, 1.0, 0.02));
+    for p in &mut tilted.vertices {
+        *p = Vec3::new(p.x, p.y * 0.8 - p.z * 0.6, p.y * 0.6 + p.z * 0.8);
+    }
+    let v = tilted.voxels(12);
+    assert_vertices_in_kept_cells(&tilted, &v, "tilted slab");
+    assert!(
+        v.occupied_count() >= 12 * 12,
+        "{} cells",
+        v.occupied_count()
+    );
+}
+
+#[test]
+fn the_skin_reproduces_the_mesh_at_rest_and_follows_affine_motion() {
+    for (mesh, cells) in [
+        (sphere(Vec3::new(0.5, 0.25, -0.75), 0.8, 16, 32), 7),
+        (torus(1.0, 0.3, 32, 12), 10),
+        (
+            cuboid(Vec3::new(-0.5, 0.0, 0.0), Vec3::new(0.5, 0.5, 2.0)),
+            5,
+        ),
+    ] {
+        let v = mesh.voxels(cells);
+        let skin = Skin::embed(&v, &mesh.vertices, &mesh.triangles);
+        assert_eq!(skin.len(), mesh.vertices.len());
+        assert_eq!(skin.triangles, mesh.triangles);
+        let rest = v.rest_points();
+        let mut out = vec![Vec3::ZERO; skin.len()];
+        skin.positions(&rest, &mut out);
+        for (got, want) in out.iter().zip(&mesh.vertices) {
+            assert!((*got - *want).max_abs() <= 1e-12, "{got:?} vs {want:?}");
+        }
+        // A trilinear map reproduces affine motion exactly: move the lattice by one and the skin
+        // moves by the same.
+        let affine = |p: Vec3| {
+            Vec3::new(
+                1.1 * p.x - 0.3 * p.y + 0.2 * p.z + 0.5,
+                0.4 * p.x + 0.9 * p.y - 0.1 * p.z - 1.0,
+                -0.2 * p.x + 0.5 * p.y + 1.3 * p.z + 0.25,
+            )
+        };
+        let moved: Vec<Vec3> = rest.iter().map(|&p| affine(p)).collect();
+        skin.positions(&moved, &mut out);
+        for (got, v) in out.iter().zip(&mesh.vertices) {
+            assert!(
+                (*got - affine(*v)).max_abs() <= 1e-12,
+                "{got:?} vs {:?}",
+                affine(*v)
+            );
+        }
+        // Every vertex's cell corners are active lattice points.
+        let active = v.active_points();
+        for &c in &skin.corner {
+            assert!(active[c as usize]);
+        }
+    }
+}
+
+#[test]
+fn skin_normals_point_outward() {
+    let ball = sphere(Vec3::ZERO, 1.0, 16, 32);
+    let v = ball.voxels(6);
+    let skin = Skin::embed(&v, &ball.vertices, &ball.triangles);
+    let mut pos = vec![Vec3::ZERO; skin.len()];
+    skin.positions(&v.rest_points(), &mut pos);
+    let mut normals = vec![Vec3::ZERO; skin.len()];
+    skin.normals(&pos, &mut normals);
+    for (n, p) in normals.iter().zip(&pos) {
+        assert!((n.length() - 1.0).abs() < 1e-12);
+        assert!(n.dot(*p / p.length()) > 0.98, "normal {n:?} at {p:?}");
+    }
+}
+
+#[test]
+fn bad_input_is_an_error() {
+    let unit = cuboid(Vec3::ZERO, Vec3::new(1.0, 1.0, 1.0));
+    let err = |vertices: &[Vec3], triangles: &[[u32; 3]], cells: usize, max: usize| {
+        Voxels::from_mesh(vertices, triangles, cells, max)
+            .unwrap_err()
+            .to_string()
+    };
+    assert!(err(&unit.vertices, &unit.triangles, 0, MAX_CELLS).contains("at least 1"));
+    assert!(err(&unit.vertices, &[], 4, MAX_CELLS).contains("no triangles"));
+    assert!(err(&unit.vertices, &[[0, 1, 8]], 4, MAX_CELLS).contains("does not exist"));
+    let mut nan = unit.vertices.clone();
+    nan[3].y = f64::NAN;
+    assert!(err(&nan, &unit.triangles, 4, MAX_CELLS).contains("finite"));
+    assert!(err(&unit.vertices, &unit.triangles, 100, 1000).contains("allowed"));
+    let flat = [Vec3::ZERO; 3];
+    assert!(err(&flat, &[[0, 1, 2]], 4, MAX_CELLS).contains("extent"));
+}
