@@ -2,6 +2,7 @@
 
 mod commands;
 mod error;
+mod export;
 mod frames;
 mod fsio;
 mod progress;

@@ -30,6 +30,7 @@
 pub mod diagnostics;
 pub mod field;
 pub mod forces;
+pub mod gltf;
 pub mod integrator;
 pub mod lattice;
 pub mod model;

@@ -9,6 +9,7 @@ use jello_core::{Integrator, ReadOptions, Simulation};
 
 use super::{parse_integrator, parse_positive};
 use crate::error::CliError;
+use crate::export::GlbExport;
 use crate::frames::{FrameFormat, FrameWriter};
 use crate::fsio::{check_writable_target, read_world, write_atomic};
 use crate::progress::Progress;
@@ -45,6 +46,13 @@ pub struct RunArgs {
     /// Frame file format.
     #[arg(long, value_enum, default_value_t = FrameFormat::Ply, requires = "frames")]
     pub format: FrameFormat,
+    /// Write the surface's motion as one animated binary glTF 2.0 file (morph targets), for
+    /// Blender, three.js and other glTF readers; written only if the run succeeds.
+    #[arg(long, value_name = "OUT.glb")]
+    pub export: Option<PathBuf>,
+    /// Frames per simulated second in the --export file (a frame every round(1/(fps·dt)) steps).
+    #[arg(long, value_name = "F", default_value_t = 30.0, requires = "export", value_parser = parse_positive)]
+    pub fps: f64,
     /// No progress bar.
     #[arg(long, short)]
     pub quiet: bool,
@@ -77,11 +85,19 @@ pub fn run(args: RunArgs) -> Result<(), CliError> {
         None => None,
     };
 
+    let mut export = match &args.export {
+        Some(path) => Some(GlbExport::new(path, &sim.model, args.fps)?),
+        None => None,
+    };
+
     // Step, reading the penetration off each new state and writing frames as due.
     let mut progress = Progress::new(total, args.quiet);
     let mut deepest = max_penetration(&sim.model, &sim.state.pos);
     if let Some(f) = frames.as_mut() {
         f.write(&sim.model, &sim.state)?;
+    }
+    if let Some(x) = export.as_mut() {
+        x.record(&sim.state)?;
     }
     let start = Instant::now();
     for done in 1..=total {
@@ -95,16 +111,34 @@ pub fn run(args: RunArgs) -> Result<(), CliError> {
                 f.write(&sim.model, &sim.state)?;
             }
         }
+        if let Some(x) = export.as_mut() {
+            if done % x.every() == 0 {
+                x.record(&sim.state)?;
+            }
+        }
         progress.update(done);
     }
     let wall = start.elapsed().as_secs_f64();
     progress.finish();
+    // The export ends on the final state, whether or not a frame fell due there.
+    if let Some(x) = export.as_mut() {
+        if total % x.every() != 0 {
+            x.record(&sim.state)?;
+        }
+    }
 
     if let Some(out) = &args.save {
         let saved = sim
             .to_world()
             .map_err(|e| CliError::io(format!("{}: {e}", out.display())))?;
         write_atomic(out, saved.to_text().as_bytes())?;
+    }
+    if let Some(x) = &export {
+        let stem = args
+            .world
+            .file_stem()
+            .map_or("jello".into(), |s| s.to_string_lossy());
+        x.finish(&stem)?;
     }
 
     let e = energy(&sim.model, &sim.state);
@@ -122,6 +156,9 @@ pub fn run(args: RunArgs) -> Result<(), CliError> {
     );
     if let Some(f) = &frames {
         summary.push_str(&format!(", {} frames", f.written()));
+    }
+    if let Some(x) = &export {
+        summary.push_str(&format!(", {} frames exported", x.frames()));
     }
     println!("{summary}");
     Ok(())

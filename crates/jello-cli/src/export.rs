@@ -1,0 +1,79 @@
+//! `jello run --export OUT.glb`: the run's surface as one animated binary glTF file
+//! (morph targets, see [`jello_core::gltf`]), written atomically once the run succeeds.
+
+use std::path::{Path, PathBuf};
+
+use jello_core::gltf::MeshAnimation;
+use jello_core::{Model, State};
+
+use crate::error::CliError;
+use crate::fsio::{check_writable_target, write_atomic};
+
+/// Records frames of the lattice's surface while a run steps.
+pub struct GlbExport {
+    path: PathBuf,
+    /// Steps between frames.
+    every: u64,
+    /// The lattice points on the surface: the mesh's vertices, in this order.
+    points: Vec<usize>,
+    animation: MeshAnimation,
+}
+
+impl GlbExport {
+    /// An export to `path` at about `fps` frames per simulated second (a frame every
+    /// `round(1/(fps·dt))` steps, at least one). Fails early when `path` cannot be written.
+    pub fn new(path: &Path, model: &Model, fps: f64) -> Result<Self, CliError> {
+        check_writable_target(path)?;
+        let lattice = &model.lattice;
+        let points = lattice.surface_points();
+        let mut vertex_of = vec![u32::MAX; lattice.len()];
+        for (v, &p) in points.iter().enumerate() {
+            vertex_of[p] = v as u32;
+        }
+        let triangles: Vec<[u32; 3]> = lattice
+            .surface_triangles()
+            .into_iter()
+            .map(|t| t.map(|p| vertex_of[p as usize]))
+            .collect();
+        if triangles.is_empty() {
+            return Err(CliError::input(format!(
+                "{}: the lattice is flat and has no surface to export",
+                path.display()
+            )));
+        }
+        let every = (1.0 / (fps * model.dt)).round().max(1.0) as u64;
+        Ok(GlbExport {
+            path: path.to_path_buf(),
+            every,
+            animation: MeshAnimation::new(points.len(), triangles),
+            points,
+        })
+    }
+
+    /// Steps between frames.
+    pub fn every(&self) -> u64 {
+        self.every
+    }
+
+    /// Records `state` as the next frame.
+    pub fn record(&mut self, state: &State) -> Result<(), CliError> {
+        let positions: Vec<_> = self.points.iter().map(|&p| state.pos[p]).collect();
+        self.animation
+            .push(state.time, &positions)
+            .map_err(|e| CliError::input(format!("{}: {e}", self.path.display())))
+    }
+
+    /// Number of frames recorded.
+    pub fn frames(&self) -> usize {
+        self.animation.len()
+    }
+
+    /// Writes the file.
+    pub fn finish(&self, name: &str) -> Result<(), CliError> {
+        let bytes = self
+            .animation
+            .to_glb(name)
+            .map_err(|e| CliError::io(format!("{}: {e}", self.path.display())))?;
+        write_atomic(&self.path, &bytes)
+    }
+}
