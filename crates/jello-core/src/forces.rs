@@ -21,7 +21,7 @@ use crate::model::Model;
 use crate::obstacle::{penalty, wall_force, Obstacle};
 use crate::soa::{cache_aligned_zeros, Soa};
 use crate::split::Split;
-use crate::state::Control;
+use crate::state::{Control, Pull};
 use crate::vec3::Vec3;
 
 /// Point planes (constant `i`) per chunk of spring work. Fixed, so results never depend on the
@@ -172,7 +172,8 @@ fn range_count(model: &Model) -> usize {
 /// All slices have the model's point count. Total force over mass, where the force on a point is
 /// (SPEC.md): the sum of its spring forces, plus the interpolated force field, plus one penalty
 /// spring per box wall it is strictly outside of, plus the plane penalty when it is on the
-/// forbidden side, plus the control force. This form allocates its buffers; the integrators use
+/// forbidden side, plus the control force, then the obstacles' penalties and the control's pulls;
+/// a pinned point's acceleration is zero. This form allocates its buffers; the integrators use
 /// [`force_pass`] with buffers of their own, fused with their updates.
 pub fn accelerations(
     model: &Model,
@@ -231,6 +232,10 @@ pub struct PointInputs<'a> {
     pub spring: [&'a [f64]; 3],
     /// Control force on each point (N), or `None` for no control forces.
     pub control: Option<&'a [Vec3]>,
+    /// Flat index of the block's first point.
+    pub first: usize,
+    /// The control's pulls (all of them; those on the block's points act).
+    pub pulls: &'a [Pull],
 }
 
 /// One force evaluation at positions `p` and velocities `v`, fused with what the caller does
@@ -268,6 +273,10 @@ where
     assert!(
         control.forces.is_empty() || control.forces.len() == n,
         "control forces must be empty or one per point"
+    );
+    assert!(
+        control.pulls.iter().all(|p| (p.point as usize) < n),
+        "every pull must name a point of the model"
     );
     if !scratch.fits(model) {
         *scratch = ForceScratch::new(model);
@@ -440,6 +449,8 @@ impl<U> Pass<'_, U> {
                 vel: self.v.range(r.clone()),
                 spring: [&fx[t..t + n], &fy[t..t + n], &fz[t..t + n]],
                 control: control.map(|c| &c[r.clone()]),
+                first: r.start,
+                pulls: &self.control.pulls,
             };
             // The row buffer is free once the chunk's springs are done.
             let [ax, ay, az] = row.parts_mut();
@@ -707,6 +718,14 @@ fn block_accelerations_impl(model: &Model, point: PointInputs<'_>, acc: [&mut [f
     let (kc, dc, mass) = (model.k_collision, model.d_collision, model.mass);
     let (lo, hi) = (model.bounds.min, model.bounds.max);
     let obstacles = !model.obstacles.is_empty();
+    let block = point.first..point.first + len;
+    let pulls = point
+        .pulls
+        .iter()
+        .any(|p| block.contains(&(p.point as usize)));
+    // With obstacles or pulls, the force is finished (and divided by the mass) after the main
+    // loop.
+    let deferred = obstacles || pulls;
 
     // Spring force plus field. A uniform field (or none) is a constant; any other is sampled
     // point by point first.
@@ -746,15 +765,35 @@ fn block_accelerations_impl(model: &Model, point: PointInputs<'_>, acc: [&mut [f
         if let Some(c) = control {
             f += c[t];
         }
-        // With obstacles, the force is finished (and divided) below.
-        let a = if obstacles { f } else { f / mass };
+        let a = if deferred { f } else { f / mass };
         (ax[t], ay[t], az[t]) = (a.x, a.y, a.z);
     }
-    if !obstacles {
-        return;
+    if deferred {
+        finish_forces(model, point, [&mut *ax, &mut *ay, &mut *az], &block);
     }
-    // Obstacles, one loop each over the block (branch-free, so each vectorises), then over the
-    // mass.
+    // Pinned points do not accelerate.
+    let pins = &model.pins;
+    let from = pins.partition_point(|&p| (p as usize) < block.start);
+    for &p in pins[from..]
+        .iter()
+        .take_while(|&&p| (p as usize) < block.end)
+    {
+        let t = p as usize - block.start;
+        (ax[t], ay[t], az[t]) = (0.0, 0.0, 0.0);
+    }
+}
+
+/// The rest of the force on a block (obstacles, then pulls), then over the mass.
+#[inline(always)]
+fn finish_forces(
+    model: &Model,
+    point: PointInputs<'_>,
+    acc: [&mut [f64]; 3],
+    block: &Range<usize>,
+) {
+    let [ax, ay, az] = acc;
+    let (kc, dc, mass) = (model.k_collision, model.d_collision, model.mass);
+    // Obstacles, one loop each over the block (branch-free, so each vectorises).
     for obstacle in &model.obstacles {
         match *obstacle {
             Obstacle::Plane(pl) => {
@@ -771,6 +810,19 @@ fn block_accelerations_impl(model: &Model, point: PointInputs<'_>, acc: [&mut [f
                 b.solid_depth(p)
             }),
         }
+    }
+    // Pulls on the block's points, in the order given.
+    for pull in point.pulls {
+        let Some(t) = (pull.point as usize).checked_sub(block.start) else {
+            continue;
+        };
+        if t >= ax.len() {
+            continue;
+        }
+        let p = Vec3::new(point.pos[0][t], point.pos[1][t], point.pos[2][t]);
+        let v = Vec3::new(point.vel[0][t], point.vel[1][t], point.vel[2][t]);
+        let f = pull.force(p, v);
+        (ax[t], ay[t], az[t]) = (ax[t] + f.x, ay[t] + f.y, az[t] + f.z);
     }
     for a in [ax, ay, az] {
         for a in a.iter_mut() {

@@ -54,7 +54,7 @@ pub use lattice::{Lattice, SpringKind, Springs};
 pub use model::{defaults, Model, ModelBuilder, ModelError};
 pub use obstacle::{Aabb, Contact, Obstacle, Plane, Sphere};
 pub use simd::Tier;
-pub use state::{Control, State};
+pub use state::{Control, Pull, State};
 pub use step::{step, BlowUp, BlowUpCause, Scratch};
 pub use vec3::Vec3;
 pub use world::{ReadOptions, World, WorldError};

@@ -70,6 +70,10 @@ pub struct Model {
     pub plane: Option<Plane>,
     /// Further static obstacles (planes, spheres, solid boxes), with the same penalty springs.
     pub obstacles: Vec<Obstacle>,
+    /// Pinned points (flat lattice indices, sorted, no repeats): their acceleration is always
+    /// zero, so a pinned point at rest is held in place (one moving keeps its velocity). The
+    /// springs to them still act on their neighbours.
+    pub pins: Vec<u32>,
     /// The external force field, when present.
     pub field: Option<ForceField>,
     /// Time step (s).
@@ -124,6 +128,7 @@ pub struct ModelBuilder {
     bounds: Aabb,
     plane: Option<Plane>,
     obstacles: Vec<Obstacle>,
+    pins: Vec<u32>,
     field: Option<ForceField>,
     dt: f64,
     integrator: Integrator,
@@ -143,6 +148,7 @@ impl Default for ModelBuilder {
             bounds: Aabb::classic(),
             plane: None,
             obstacles: Vec::new(),
+            pins: Vec::new(),
             field: None,
             dt: defaults::DT,
             integrator: Integrator::Rk4,
@@ -212,6 +218,12 @@ impl ModelBuilder {
     /// Replaces the static obstacles (default none).
     pub fn obstacles(mut self, obstacles: Vec<Obstacle>) -> Self {
         self.obstacles = obstacles;
+        self
+    }
+
+    /// Pins these points (flat lattice indices; default none): see [`Model::pins`].
+    pub fn pins(mut self, points: impl IntoIterator<Item = u32>) -> Self {
+        self.pins.extend(points);
         self
     }
 
@@ -287,6 +299,15 @@ impl ModelBuilder {
             return Err(ModelError::new("steps per frame must be at least 1"));
         }
         self.bounds.check("bounding box")?;
+        let points = self.lattice.len();
+        if let Some(&p) = self.pins.iter().find(|&&p| p as usize >= points) {
+            return Err(ModelError::new(format!(
+                "pinned point {p} does not exist (the lattice has {points} points)"
+            )));
+        }
+        let mut pins = self.pins;
+        pins.sort_unstable();
+        pins.dedup();
         for (i, obstacle) in self.obstacles.iter().enumerate() {
             obstacle
                 .check()
@@ -309,6 +330,7 @@ impl ModelBuilder {
             bounds: self.bounds,
             plane: self.plane,
             obstacles: self.obstacles,
+            pins,
             field: self.field,
             dt: self.dt,
             integrator: self.integrator,

@@ -450,6 +450,9 @@ impl World {
         if model.bounds != Aabb::classic() {
             return Err(ModelError::new("a world file holds the box [-2, 2]³ only"));
         }
+        if !model.pins.is_empty() {
+            return Err(ModelError::new("a world file holds no pinned points"));
+        }
         if !model.obstacles.is_empty() {
             return Err(ModelError::new(
                 "a world file holds no obstacles besides the box and the inclined plane",

@@ -356,6 +356,7 @@ fn field_control_walls_and_plane_add_up() {
             let vel = vec![v; 2];
             let control = Control {
                 forces: vec![rng.vec3() * 5.0, rng.vec3() * 5.0],
+                ..Control::none()
             };
             let got = acc(&model, &pos, &vel, &control);
             let want: Vec<Vec3> = pos

@@ -179,6 +179,7 @@ fn every_integrator_steps_as_the_textbook_writes_it_on_a_threaded_lattice() {
     let vel: Vec<Vec3> = pos.iter().map(|_| rng.vec3()).collect();
     let control = Control {
         forces: pos.iter().map(|_| rng.vec3() * 0.01).collect(),
+        ..Control::none()
     };
     for integrator in Integrator::ALL {
         let mut model = base.clone();

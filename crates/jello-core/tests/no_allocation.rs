@@ -11,7 +11,8 @@ use std::sync::Mutex;
 
 use jello_core::forces::PARALLEL_MIN_POINTS;
 use jello_core::{
-    step, Aabb, Control, ForceField, Integrator, Lattice, ModelBuilder, Plane, Scratch, State, Vec3,
+    step, Aabb, Control, ForceField, Integrator, Lattice, ModelBuilder, Obstacle, Plane, Pull,
+    Scratch, Sphere, State, Vec3,
 };
 
 /// Counts allocations (and reallocations) made by any thread.
@@ -47,8 +48,8 @@ static SERIAL: Mutex<()> = Mutex::new(());
 const LARGE: [usize; 3] = [24, 24, 24];
 
 /// Allocations in all threads during `steps` steps of `integrator` on a lattice of `counts`
-/// points, with a non-uniform field, a plane the lattice crosses and control forces, after three
-/// warm-up steps.
+/// points, with a non-uniform field, a plane the lattice crosses, a sphere, pins, control forces
+/// and a pull, after three warm-up steps.
 fn allocations_while_stepping(counts: [usize; 3], integrator: Integrator, steps: usize) -> usize {
     let field =
         ForceField::from_fn(5, Aabb::classic(), |p| Vec3::new(-p.y, p.x, -0.01) * 0.01).unwrap();
@@ -59,6 +60,10 @@ fn allocations_while_stepping(counts: [usize; 3], integrator: Integrator, steps:
         .dt(2e-4)
         .field(Some(field))
         .plane(Some(plane))
+        .obstacle(Obstacle::Sphere(
+            Sphere::new(Vec3::new(0.5, 0.5, 0.0), 0.3).unwrap(),
+        ))
+        .pins([0, 5])
         .build()
         .unwrap();
     let mut state = State::at_rest(&model);
@@ -68,6 +73,12 @@ fn allocations_while_stepping(counts: [usize; 3], integrator: Integrator, steps:
         .for_each(|v| *v = Vec3::new(1.0, -2.0, -3.0));
     let control = Control {
         forces: vec![Vec3::new(0.0, 0.0, 0.001); model.point_count()],
+        pulls: vec![Pull {
+            point: 1,
+            target: Vec3::new(0.3, 0.2, 0.1),
+            stiffness: 10.0,
+            damping: 0.1,
+        }],
     };
     let mut scratch = Scratch::new(&model);
     for _ in 0..3 {

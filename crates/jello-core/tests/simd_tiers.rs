@@ -1,7 +1,7 @@
 //! Every instruction-set tier this CPU can run computes the same bits: the state after stepping
 //! is identical, integrator by integrator, on the classic lattice (one thread) and on a lattice
 //! large enough for threads, with a non-uniform field (sampled per point), a plane, walls, a
-//! sphere and a solid box, and control forces in play.
+//! sphere and a solid box, pins, control forces and a pull in play.
 //!
 //! The tier is process-wide, so this file holds one test: nothing else in this test binary runs
 //! while it switches tiers. On a CPU with only the baseline the comparison is trivial and says so.
@@ -11,8 +11,8 @@ mod common;
 use common::Lcg;
 use jello_core::simd::{force_tier, Tier};
 use jello_core::{
-    Aabb, Control, ForceField, Integrator, Lattice, Model, ModelBuilder, Obstacle, Plane, Scratch,
-    Sphere, State, Vec3,
+    Aabb, Control, ForceField, Integrator, Lattice, Model, ModelBuilder, Obstacle, Plane, Pull,
+    Scratch, Sphere, State, Vec3,
 };
 
 /// A model that exercises every term of the force: a swirling field, a plane the lattice
@@ -35,6 +35,7 @@ fn scene(counts: [usize; 3], integrator: Integrator) -> (Model, State, Control) 
         .obstacle(Obstacle::Box(
             Aabb::new(Vec3::new(-0.7, -0.6, -2.5), Vec3::new(-0.3, 0.2, -1.95)).unwrap(),
         ))
+        .pins([0, 3])
         .integrator(integrator)
         .build()
         .unwrap();
@@ -48,6 +49,12 @@ fn scene(counts: [usize; 3], integrator: Integrator) -> (Model, State, Control) 
     let n = model.point_count();
     let control = Control {
         forces: (0..n).map(|_| rng.vec3() * 1e-3).collect(),
+        pulls: vec![Pull {
+            point: (n / 2) as u32,
+            target: Vec3::new(0.5, 0.5, 0.5),
+            stiffness: 5.0,
+            damping: 0.05,
+        }],
     };
     (model, state, control)
 }

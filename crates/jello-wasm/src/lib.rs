@@ -396,6 +396,7 @@ fn builder_from(model: &Model) -> ModelBuilder {
         .bounds(model.bounds)
         .plane(model.plane)
         .obstacles(model.obstacles.clone())
+        .pins(model.pins.iter().copied())
         .field(model.field.clone())
         .dt(model.dt)
         .integrator(model.integrator)
