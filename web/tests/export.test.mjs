@@ -1,7 +1,8 @@
 // `jello run --export OUT.glb`: the file passes the Khronos glTF validator (npm gltf-validator)
 // with no errors and no warnings, and holds what the run computed: the lattice surface's 296
 // vertices and 588 triangles, one morph target per later frame, an animation over the simulated
-// time, and a last frame equal (to 32-bit precision) to the state `--save` writes.
+// time, and a last frame equal (to 32-bit precision) to the state `--save` writes (turned from
+// Jello's z-up frame into glTF's y-up one).
 import assert from 'node:assert/strict';
 import { execFileSync } from 'node:child_process';
 import { mkdtempSync, readFileSync, rmSync } from 'node:fs';
@@ -87,11 +88,13 @@ test('jello run --export writes a valid animated glTF of the run', async () => {
       if ([i, j, k].some((c) => c === 0 || c === 7)) surface.push(n);
     }
     assert.equal(surface.length, 296);
+    // glTF is y-up: Jello's (x, y, z) is stored as (x, z, −y).
     let worst = 0;
     surface.forEach((n, v) => {
-      for (let c = 0; c < 3; c++) {
-        worst = Math.max(worst, Math.abs(base[3 * v + c] + last[3 * v + c] - saved[n][c]));
-      }
+      const [x, y, z] = saved[n];
+      [x, z, -y].forEach((want, c) => {
+        worst = Math.max(worst, Math.abs(base[3 * v + c] + last[3 * v + c] - want));
+      });
     });
     assert.ok(worst < 1e-5, `last frame differs from the saved state by ${worst} m`);
   } finally {

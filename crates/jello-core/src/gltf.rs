@@ -10,7 +10,9 @@
 //! frames there are (a mesh per frame would make one object each). The weights are a sparse
 //! accessor (one non-zero per frame), so the file grows linearly with the number of frames.
 //!
-//! Positions are stored as 32-bit floats, as glTF requires for vertex data. The JSON chunk is
+//! Positions are stored as 32-bit floats, as glTF requires for vertex data, and turned from
+//! Jello's frame (z up) into glTF's (y up): `(x, y, z)` is written `(x, z, −y)`, which importers
+//! such as Blender's turn back, so the jello stands the right way up. The JSON chunk is
 //! written here by hand: its schema is fixed and every number in it is finite.
 
 use std::fmt::Write as _;
@@ -71,9 +73,10 @@ impl MeshAnimation {
                 self.vertices
             )));
         }
+        // Jello's z-up frame in glTF's y-up one.
         let frame: Vec<[f32; 3]> = positions
             .iter()
-            .map(|p| [p.x as f32, p.y as f32, p.z as f32])
+            .map(|p| [p.x as f32, p.z as f32, -p.y as f32])
             .collect();
         if !time.is_finite() || frame.iter().flatten().any(|c| !c.is_finite()) {
             return Err(FrameError(format!(
