@@ -23,7 +23,10 @@
 //! assert_eq!(state.steps, 100);
 //! ```
 //!
-//! The crate does no I/O: it parses and prints text it is handed.
+//! Shapes of one's own come as a [`TriMesh`], the closed surface of a solid read from the bytes of
+//! an OBJ or STL file ([`TriMesh::parse`]).
+//!
+//! The crate does no I/O: it parses and prints text (and bytes) it is handed.
 
 #![warn(missing_docs)]
 
@@ -32,6 +35,7 @@ pub mod field;
 pub mod forces;
 pub mod integrator;
 pub mod lattice;
+pub mod mesh;
 pub mod model;
 pub mod scenes;
 pub mod simd;
@@ -47,6 +51,7 @@ pub use diagnostics::Energy;
 pub use field::ForceField;
 pub use integrator::{Integrator, UnknownIntegrator};
 pub use lattice::{Lattice, SpringKind, Springs};
+pub use mesh::{MeshError, TriMesh};
 pub use model::{defaults, Aabb, Model, ModelBuilder, ModelError, Plane};
 pub use simd::Tier;
 pub use state::{Control, State};
