@@ -91,6 +91,22 @@ fn volume_is_exact_far_from_the_origin() {
             Vec3::new(1e6 + 1.0, -2e6 + 1.0, 3e6 + 1.0)
         )
     );
+    // Nor with offsets whose products are not exact: the volume is the product of the edges
+    // (each 1 up to the rounding of the far coordinates) to 1e-9, where about the origin the
+    // terms are 10¹⁹ and their rounding errors 10³.
+    let odd = parse(&to_obj(&translated(
+        &cube(),
+        Vec3::new(1234567.891, -2345678.912, 3456789.123),
+    )))
+    .unwrap();
+    let (lo, hi) = odd.bounds();
+    let edges = (hi.x - lo.x) * (hi.y - lo.y) * (hi.z - lo.z);
+    assert!((edges - 1.0).abs() < 1e-9);
+    assert!(
+        (odd.volume() - edges).abs() < 1e-9,
+        "{} vs {edges}",
+        odd.volume()
+    );
     // Flipping negates the volume exactly.
     assert_eq!(flipped(&got).volume(), -1.0);
     let box_ = cuboid(Vec3::new(-1.0, -2.0, -3.0), Vec3::new(0.5, 0.25, 0.125));
