@@ -4,7 +4,8 @@
 #   make test   everything CI runs: format, lints, docs, the aarch64 build (type-checked, and run
 #               under qemu against the native one), all tests, examples up to date, and the
 #               viewer's browser tests (Playwright + Chromium)
-#   make fuzz   fuzz the world-file parser (installs cargo-fuzz and nightly when missing)
+#   make fuzz   fuzz the world-file, OBJ and STL parsers in turn, FUZZ_SECONDS each (one with
+#               FUZZ_TARGET=parse_obj; installs cargo-fuzz and nightly when missing)
 #   make bench  Jello (each SIMD tier) against NumPy, Numba, Taichi, Warp and C; rewrites
 #               BENCHMARKS.md
 
@@ -12,6 +13,7 @@ JELLO := target/release/jello
 WORLD ?= examples/jello.w
 PORT ?= 7878
 FUZZ_SECONDS ?= 60
+FUZZ_TARGET ?=
 
 .PHONY: build web run test examples fuzz bench
 
@@ -38,7 +40,7 @@ examples: build
 	scripts/make-examples.sh
 
 fuzz:
-	scripts/fuzz.sh $(FUZZ_SECONDS)
+	scripts/fuzz.sh $(FUZZ_TARGET) $(FUZZ_SECONDS)
 
 bench:
 	scripts/benchmarks.sh

@@ -23,7 +23,10 @@
 //! assert_eq!(state.steps, 100);
 //! ```
 //!
-//! The crate does no I/O: it parses and prints text it is handed.
+//! Shapes of one's own come as a [`TriMesh`], the closed surface of a solid read from the bytes of
+//! an OBJ or STL file ([`TriMesh::parse`]).
+//!
+//! The crate does no I/O: it parses and prints text (and bytes) it is handed.
 
 #![warn(missing_docs)]
 
@@ -33,6 +36,7 @@ pub mod forces;
 pub mod gltf;
 pub mod integrator;
 pub mod lattice;
+pub mod mesh;
 pub mod model;
 pub mod obstacle;
 pub mod scenes;
@@ -51,6 +55,7 @@ pub use diagnostics::Energy;
 pub use field::ForceField;
 pub use integrator::{Integrator, UnknownIntegrator};
 pub use lattice::{Lattice, SpringKind, Springs};
+pub use mesh::{MeshError, TriMesh};
 pub use model::{defaults, Model, ModelBuilder, ModelError};
 pub use obstacle::{Aabb, Contact, Obstacle, Plane, Sphere};
 pub use simd::Tier;

@@ -83,20 +83,26 @@ pub struct ReadOptions {
 }
 
 /// A whitespace-separated token and the line it starts on.
-struct Token<'a> {
-    text: &'a [u8],
-    line: usize,
+pub(crate) struct Token<'a> {
+    pub(crate) text: &'a [u8],
+    pub(crate) line: usize,
 }
 
-/// Splits text on C's `isspace` bytes, counting lines.
-struct Tokens<'a> {
+/// C's `isspace`: the bytes that separate tokens.
+pub(crate) fn is_space(b: u8) -> bool {
+    matches!(b, b' ' | b'\t' | b'\n' | b'\r' | 0x0b | 0x0c)
+}
+
+/// Splits text on C's `isspace` bytes, counting lines (the mesh readers share it).
+pub(crate) struct Tokens<'a> {
     bytes: &'a [u8],
     at: usize,
-    line: usize,
+    /// The 1-based line the cursor is on.
+    pub(crate) line: usize,
 }
 
 impl<'a> Tokens<'a> {
-    fn new(bytes: &'a [u8]) -> Self {
+    pub(crate) fn new(bytes: &'a [u8]) -> Self {
         Tokens {
             bytes,
             at: 0,
@@ -104,8 +110,7 @@ impl<'a> Tokens<'a> {
         }
     }
 
-    fn next_token(&mut self) -> Option<Token<'a>> {
-        let is_space = |b: u8| matches!(b, b' ' | b'\t' | b'\n' | b'\r' | 0x0b | 0x0c);
+    pub(crate) fn next_token(&mut self) -> Option<Token<'a>> {
         while self.at < self.bytes.len() && is_space(self.bytes[self.at]) {
             if self.bytes[self.at] == b'\n' {
                 self.line += 1;
@@ -124,10 +129,21 @@ impl<'a> Tokens<'a> {
             line: self.line,
         })
     }
+
+    /// Skips the rest of the current line, its line break included.
+    pub(crate) fn skip_line(&mut self) {
+        match self.bytes[self.at..].iter().position(|&b| b == b'\n') {
+            Some(n) => {
+                self.at += n + 1;
+                self.line += 1;
+            }
+            None => self.at = self.bytes.len(),
+        }
+    }
 }
 
 /// A token as shown in an error: printable, quoted, at most 32 characters.
-fn show(token: &[u8]) -> String {
+pub(crate) fn show(token: &[u8]) -> String {
     const MAX: usize = 32;
     let cut = &token[..token.len().min(MAX)];
     let mut s = format!("\"{}\"", cut.escape_ascii());

@@ -336,3 +336,26 @@ fn bad_input_is_an_error() {
     let flat = [Vec3::ZERO; 3];
     assert!(err(&flat, &[[0, 1, 2]], 4, MAX_CELLS).contains("extent"));
 }
+
+/// End to end: a torus written as OBJ text, read back by the OBJ reader, voxelised, skinned.
+#[test]
+fn a_mesh_read_from_obj_voxelises_and_skins() {
+    let ring = torus(1.0, 0.35, 40, 16);
+    let mut obj = String::new();
+    for v in &ring.vertices {
+        obj.push_str(&format!("v {} {} {}\n", v.x, v.y, v.z));
+    }
+    for [a, b, c] in &ring.triangles {
+        obj.push_str(&format!("f {} {} {}\n", a + 1, b + 1, c + 1));
+    }
+    let mesh = jello_core::TriMesh::parse_obj(obj.as_bytes(), "torus.obj").unwrap();
+    assert_eq!(mesh.vertices.len(), ring.vertices.len());
+    let v = Voxels::from_mesh(&mesh.vertices, &mesh.triangles, 10, MAX_CELLS).unwrap();
+    assert!(v.volume() >= mesh.volume());
+    let skin = Skin::embed(&v, &mesh.vertices, &mesh.triangles);
+    let mut out = vec![Vec3::ZERO; skin.len()];
+    skin.positions(&v.rest_points(), &mut out);
+    for (got, want) in out.iter().zip(&mesh.vertices) {
+        assert!((*got - *want).max_abs() <= 1e-12);
+    }
+}
