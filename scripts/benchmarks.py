@@ -354,7 +354,8 @@ def write_md(args, seconds, configs, peers, info, versions, jello_missing, insta
       "kernel over points for walls, gravity and the stage update.")
     w("  * *Warp*: device \"cpu\", the same two kernels with `wp.atomic_add`/`wp.atomic_sub`.")
     w("  * *c* (`bench/peers/c_peer.c`, built by `c_peer.py` with `gcc -O3 -march=native "
-      "-fopenmp`, driven through ctypes): the hand-vectorised C baseline. Structure of arrays; "
+      "-fopenmp -fno-math-errno`, driven through ctypes; without the last flag GCC leaves the "
+      "spring loop scalar): the hand-vectorised C baseline. Structure of arrays; "
       "per point plane and stencil offset, each row of springs is one `#pragma omp simd` loop "
       "into a row buffer, then added to the first ends and subtracted from the second; OpenMP "
       "threads take planes in three phases (i mod 3) so no two write the same plane.")

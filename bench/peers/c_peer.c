@@ -1,5 +1,6 @@
 /* C peers of the benchmark scene (see common.py), float64, built by c_peer.py with
- * `gcc -O3 -march=native -fopenmp -shared -fPIC` and driven through ctypes.
+ * `gcc -O3 -march=native -fopenmp -fno-math-errno -shared -fPIC` and driven through ctypes
+ * (without -fno-math-errno GCC does not vectorise the spring loop: sqrt might set errno).
  *
  * Two variants, the two baselines the speed issue names:
  *  - "simd": what a careful C programmer writes for a multi-core CPU. Structure of arrays; for
@@ -10,8 +11,9 @@
  *    write the same plane (a spring reaches at most two planes on). A point loop adds gravity and
  *    the walls and forms the next RK stage.
  *  - "naive": the textbook loop. Arrays of 3-vectors, one flat spring list, one thread.
- * GCC's default floating-point contraction is left on, as a user compiling with -march=native
- * would have it: results differ from Jello's in the last bits, well inside check.py's tolerance.
+ * GCC's default floating-point contraction (GNU C mode) is left on, as a user compiling with
+ * -march=native would have it: results differ from Jello's in the last bits, well inside
+ * check.py's tolerance.
  */
 #include <math.h>
 #include <omp.h>

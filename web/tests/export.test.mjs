@@ -77,6 +77,24 @@ test('jello run --export writes a valid animated glTF of the run', async () => {
     assert.equal(times[0], 0);
     assert.ok(Math.abs(times[frames - 1] - 1) < 1e-6, `last time ${times[frames - 1]}`);
 
+    // The weights: at key k, target k − 1 alone at 1 (sparse: one index per key past the first).
+    const weights = glb.json.accessors[sampler.output];
+    assert.equal(weights.count, frames * (frames - 1));
+    assert.equal(weights.bufferView, undefined, 'zeros but for the sparse entries');
+    const sparse = weights.sparse;
+    assert.equal(sparse.count, frames - 1);
+    // `n` 4-byte numbers of a buffer view (glb.bin.byteOffset is within bytes.buffer).
+    const at = (view, n) => {
+      const start = glb.bin.byteOffset + (glb.json.bufferViews[view].byteOffset ?? 0);
+      return bytes.buffer.slice(start, start + 4 * n);
+    };
+    const hot = new Uint32Array(at(sparse.indices.bufferView, sparse.count));
+    const ones = new Float32Array(at(sparse.values.bufferView, sparse.count));
+    for (let k = 1; k < frames; k++) {
+      assert.equal(hot[k - 1], k * (frames - 1) + (k - 1), `key ${k}`);
+      assert.equal(ones[k - 1], 1);
+    }
+
     // The last frame (frame 0 plus the last target) is the saved state's surface, to f32.
     const base = floats(glb, primitive.attributes.POSITION);
     const last = floats(glb, primitive.targets[frames - 2].POSITION);
@@ -115,6 +133,19 @@ test('a failed export leaves no file behind', () => {
       code = e.status;
     }
     assert.equal(code, 3);
+    assert.throws(() => readFileSync(glbPath), /ENOENT/);
+    // More frames than one file holds: refused before the run (exit 1), nothing written.
+    code = 0;
+    let stderr = '';
+    try {
+      execFileSync(JELLO, ['run', join(ROOT, 'examples', 'rotate.w'), '--steps', '70000',
+        '--fps', '1000', '--export', glbPath, '-q'], { stdio: 'pipe' });
+    } catch (e) {
+      code = e.status;
+      stderr = String(e.stderr);
+    }
+    assert.equal(code, 1);
+    assert.match(stderr, /more than the 4096 one glTF file holds/);
     assert.throws(() => readFileSync(glbPath), /ENOENT/);
   } finally {
     rmSync(dir, { recursive: true, force: true });

@@ -3,7 +3,7 @@
 
 use std::path::{Path, PathBuf};
 
-use jello_core::gltf::MeshAnimation;
+use jello_core::gltf::{MeshAnimation, MAX_FRAMES};
 use jello_core::{Model, State};
 
 use crate::error::CliError;
@@ -20,10 +20,20 @@ pub struct GlbExport {
 }
 
 impl GlbExport {
-    /// An export to `path` at about `fps` frames per simulated second (a frame every
-    /// `round(1/(fps·dt))` steps, at least one). Fails early when `path` cannot be written.
-    pub fn new(path: &Path, model: &Model, fps: f64) -> Result<Self, CliError> {
+    /// An export to `path` of a run of `steps` steps at about `fps` frames per simulated second
+    /// (a frame every `round(1/(fps·dt))` steps, at least one, and the final state). Fails
+    /// before the run when `path` cannot be written or the frames would be too many.
+    pub fn new(path: &Path, model: &Model, fps: f64, steps: u64) -> Result<Self, CliError> {
         check_writable_target(path)?;
+        let every = (1.0 / (fps * model.dt)).round().max(1.0) as u64;
+        let frames = 1 + steps / every + u64::from(steps % every != 0);
+        if frames > MAX_FRAMES as u64 {
+            return Err(CliError::input(format!(
+                "{}: {steps} steps at a frame every {every} would export {frames} frames, more \
+                 than the {MAX_FRAMES} one glTF file holds: lower --fps or the run's length",
+                path.display()
+            )));
+        }
         let lattice = &model.lattice;
         let points = lattice.surface_points();
         let mut vertex_of = vec![u32::MAX; lattice.len()];
@@ -41,7 +51,6 @@ impl GlbExport {
                 path.display()
             )));
         }
-        let every = (1.0 / (fps * model.dt)).round().max(1.0) as u64;
         Ok(GlbExport {
             path: path.to_path_buf(),
             every,
@@ -68,12 +77,15 @@ impl GlbExport {
         self.animation.len()
     }
 
-    /// Writes the file.
-    pub fn finish(&self, name: &str) -> Result<(), CliError> {
-        let bytes = self
-            .animation
+    /// The file's bytes.
+    pub fn bytes(&self, name: &str) -> Result<Vec<u8>, CliError> {
+        self.animation
             .to_glb(name)
-            .map_err(|e| CliError::io(format!("{}: {e}", self.path.display())))?;
-        write_atomic(&self.path, &bytes)
+            .map_err(|e| CliError::io(format!("{}: {e}", self.path.display())))
+    }
+
+    /// Writes `bytes` (from [`GlbExport::bytes`]) to the file, atomically.
+    pub fn write(&self, bytes: &[u8]) -> Result<(), CliError> {
+        write_atomic(&self.path, bytes)
     }
 }

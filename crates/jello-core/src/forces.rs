@@ -278,6 +278,10 @@ where
         control.pulls.iter().all(|p| (p.point as usize) < n),
         "every pull must name a point of the model"
     );
+    debug_assert!(
+        model.pins.windows(2).all(|w| w[0] < w[1]),
+        "pins must be sorted without repeats (as ModelBuilder leaves them)"
+    );
     if !scratch.fits(model) {
         *scratch = ForceScratch::new(model);
     }
@@ -797,8 +801,9 @@ fn finish_forces(
     for obstacle in &model.obstacles {
         match *obstacle {
             Obstacle::Plane(pl) => {
+                let (norm, inward) = (pl.normal_length(), pl.inward_normal());
                 add_contacts(point, [&mut *ax, &mut *ay, &mut *az], kc, dc, |p| {
-                    pl.depth(p)
+                    pl.depth_with(p, norm, inward)
                 })
             }
             Obstacle::Sphere(sphere) => {

@@ -8,7 +8,10 @@
 //! frames (positions move linearly from one frame to the next). One mesh object with shape keys
 //! is what Blender's importer makes of it, which keeps the scene to one object however many
 //! frames there are (a mesh per frame would make one object each). The weights are a sparse
-//! accessor (one non-zero per frame), so the file grows linearly with the number of frames.
+//! accessor (one non-zero per frame), so the file grows linearly with the number of frames; a
+//! reader expands them to `frames²` numbers, so one file holds at most [`MAX_FRAMES`] frames.
+//! The morph targets hold positions only: readers recompute normals (Blender does), or shade
+//! with frame 0's (three.js).
 //!
 //! Positions are stored as 32-bit floats, as glTF requires for vertex data, and turned from
 //! Jello's frame (z up) into glTF's (y up): `(x, y, z)` is written `(x, z, −y)`, which importers
@@ -18,6 +21,10 @@
 use std::fmt::Write as _;
 
 use crate::vec3::Vec3;
+
+/// The most frames one file holds. A reader expands the sparse weights to `frames × (frames −
+/// 1)` numbers (67 MB of them at this count), and the sparse indices are 32-bit.
+pub const MAX_FRAMES: usize = 4096;
 
 /// Frames of a mesh of fixed topology, to be written as an animated glTF.
 #[derive(Clone, Debug, Default)]
@@ -64,8 +71,14 @@ impl MeshAnimation {
     }
 
     /// Adds the frame at `time` (s). Fails when the positions are not one per vertex or not
-    /// finite, or when the time is not after the last frame's (in 32-bit floats, as stored).
+    /// finite, when the time is not after the last frame's (in 32-bit floats, as stored), or
+    /// beyond [`MAX_FRAMES`].
     pub fn push(&mut self, time: f64, positions: &[Vec3]) -> Result<(), FrameError> {
+        if self.frames.len() == MAX_FRAMES {
+            return Err(FrameError(format!(
+                "more than {MAX_FRAMES} frames in one file"
+            )));
+        }
         if positions.len() != self.vertices {
             return Err(FrameError(format!(
                 "a frame has {} positions for {} vertices",

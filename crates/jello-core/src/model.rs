@@ -68,11 +68,12 @@ pub struct Model {
     pub bounds: Aabb,
     /// The inclined plane, when present.
     pub plane: Option<Plane>,
-    /// Further static obstacles (planes, spheres, solid boxes), with the same penalty springs.
+    /// Further static obstacles (planes, spheres, solid boxes), with the same penalty springs;
+    /// [`ModelBuilder::obstacle`] checks their values.
     pub obstacles: Vec<Obstacle>,
-    /// Pinned points (flat lattice indices, sorted, no repeats): their acceleration is always
-    /// zero, so a pinned point at rest is held in place (one moving keeps its velocity). The
-    /// springs to them still act on their neighbours.
+    /// Pinned points (flat lattice indices, sorted, no repeats, as [`ModelBuilder::pins`] leaves
+    /// them): their acceleration is always zero, so a pinned point at rest is held in place (one
+    /// moving keeps its velocity). The springs to them still act on their neighbours.
     pub pins: Vec<u32>,
     /// The external force field, when present.
     pub field: Option<ForceField>,

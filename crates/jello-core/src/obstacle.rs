@@ -187,6 +187,7 @@ impl Plane {
     }
 
     /// Unit normal pointing into the allowed side.
+    #[inline]
     pub fn inward_normal(&self) -> Vec3 {
         let [a, b, c, _] = self.coeffs;
         Vec3::new(a, b, c) * (self.side / self.normal_length())
@@ -211,13 +212,20 @@ impl Plane {
     /// and the normal into the allowed side.
     #[inline(always)]
     pub(crate) fn depth(&self, p: Vec3) -> (f64, Vec3) {
+        self.depth_with(p, self.normal_length(), self.inward_normal())
+    }
+
+    /// [`Plane::depth`] with `|(a, b, c)|` and the inward normal computed once by the caller
+    /// (for a loop over many points).
+    #[inline(always)]
+    pub(crate) fn depth_with(&self, p: Vec3, norm: f64, inward: Vec3) -> (f64, Vec3) {
         let s = self.value(p);
         let depth = if s * self.side < 0.0 {
-            s.abs() / self.normal_length()
+            s.abs() / norm
         } else {
             0.0
         };
-        (depth, self.inward_normal())
+        (depth, inward)
     }
 }
 

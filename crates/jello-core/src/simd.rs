@@ -165,8 +165,11 @@ pub fn active_tier() -> Tier {
         3 => Tier::Avx512,
         _ => {
             let tier = tier_from_env().unwrap_or_else(|_| Tier::best());
-            ACTIVE.store(tier as u8, Ordering::Relaxed);
-            tier
+            // Unless `force_tier` got there first.
+            match ACTIVE.compare_exchange(0, tier as u8, Ordering::Relaxed, Ordering::Relaxed) {
+                Ok(_) => tier,
+                Err(_) => active_tier(),
+            }
         }
     }
 }

@@ -69,9 +69,11 @@ impl Control {
         Control::default()
     }
 
-    /// Fails when the forces are neither empty nor one per point, or a pull names a point the
-    /// model does not have or has a value that is not finite (or a negative stiffness or
-    /// damping). [`crate::step()`] panics on such a control.
+    /// Fails when the forces are neither empty nor one per point or not finite, or a pull names
+    /// a point the model does not have or has a value that is not finite (or a negative
+    /// stiffness or damping). Front ends check a control they are handed with this:
+    /// [`crate::step()`] panics on forces of the wrong length or a pull on a point that does not
+    /// exist, and non-finite values make the step blow up.
     pub fn check(&self, model: &Model) -> Result<(), ModelError> {
         let n = model.point_count();
         if !(self.forces.is_empty() || self.forces.len() == n) {

@@ -61,10 +61,25 @@ impl Voxels {
                 vertices.len()
             )));
         }
-        let (lo, hi) = bounds(vertices, triangles);
-        if !(lo.is_finite() && hi.is_finite()) {
-            return Err(ModelError::new("mesh coordinates must be finite"));
+        if let Some(n) = vertices.iter().position(|v| !v.is_finite()) {
+            return Err(ModelError::new(format!(
+                "mesh coordinates must be finite (vertex {} is {:?})",
+                n + 1,
+                vertices[n]
+            )));
         }
+        let mut used = vec![false; vertices.len()];
+        triangles
+            .iter()
+            .flatten()
+            .for_each(|&v| used[v as usize] = true);
+        if let Some(n) = used.iter().position(|&u| !u) {
+            return Err(ModelError::new(format!(
+                "vertex {} is used by no triangle (the skin ties every vertex to the cage)",
+                n + 1
+            )));
+        }
+        let (lo, hi) = bounds(vertices, triangles);
         let size = hi - lo;
         let longest = size.x.max(size.y).max(size.z);
         if longest <= 0.0 {
@@ -228,7 +243,7 @@ impl Voxels {
     }
 }
 
-/// Smallest and largest coordinates of the vertices the triangles use.
+/// Smallest and largest coordinates of the vertices the triangles use (all finite).
 fn bounds(vertices: &[Vec3], triangles: &[[u32; 3]]) -> (Vec3, Vec3) {
     let inf = f64::INFINITY;
     let mut lo = Vec3::new(inf, inf, inf);
@@ -236,10 +251,6 @@ fn bounds(vertices: &[Vec3], triangles: &[[u32; 3]]) -> (Vec3, Vec3) {
     for t in triangles {
         for &v in t {
             let p = vertices[v as usize];
-            if !p.is_finite() {
-                let nan = Vec3::new(f64::NAN, f64::NAN, f64::NAN);
-                return (nan, nan);
-            }
             lo = lo.min(p);
             hi = hi.max(p);
         }
@@ -257,44 +268,42 @@ fn bounds(vertices: &[Vec3], triangles: &[[u32; 3]]) -> (Vec3, Vec3) {
 /// by the top-left rule.
 fn ray_crossing(vertices: &[Vec3], t: [u32; 3], y: f64, z: f64) -> Option<(f64, i32)> {
     let p = t.map(|v| vertices[v as usize]);
-    // Twice the signed area of the projection on (y, z): its sign is the orientation.
-    let area = (p[1].y - p[0].y) * (p[2].z - p[0].z) - (p[2].y - p[0].y) * (p[1].z - p[0].z);
-    if area == 0.0 {
-        return None;
-    }
-    let sign = if area > 0.0 { 1.0 } else { -1.0 };
-    // Edge function of the directed edge a → b at (y, z), oriented so that the inside of a
-    // positively oriented triangle is positive.
+    // Edge function of the directed edge a → b at (y, z): positive on the left of it in the
+    // (y, z) plane. Computed with the lower vertex index first and negated for the other
+    // direction, so two triangles sharing the edge get exactly opposite values.
     let edge = |a: u32, b: u32| -> f64 {
         let (lo, hi, flip) = if a < b { (a, b, 1.0) } else { (b, a, -1.0) };
         let (u, w) = (vertices[lo as usize], vertices[hi as usize]);
         flip * ((w.y - u.y) * (z - u.z) - (w.z - u.z) * (y - u.y))
     };
-    let mut weights = [0.0; 3];
-    for e in 0..3 {
-        let (a, b) = (t[(e + 1) % 3], t[(e + 2) % 3]);
-        // Weight of vertex e: the edge opposite it, in the triangle's orientation.
-        let w = edge(a, b) * sign;
-        if w < 0.0 {
-            return None;
-        }
+    // The weight of vertex e is the edge opposite it.
+    let e = [edge(t[1], t[2]), edge(t[2], t[0]), edge(t[0], t[1])];
+    let positive = e.iter().any(|&w| w > 0.0);
+    let negative = e.iter().any(|&w| w < 0.0);
+    // Mixed signs: outside. All zero: edge-on (or degenerate), no crossing.
+    if positive == negative {
+        return None;
+    }
+    // The projected orientation, read off the same three values (watertight: no separately
+    // rounded area can disagree with them).
+    let sign = if positive { 1.0 } else { -1.0 };
+    for (k, &w) in e.iter().enumerate() {
         if w == 0.0 {
-            // On the edge: the triangle owns it only if the edge is a "top-left" one in the
-            // canonical sense (its direction, in the triangle's orientation, points to −z, or
+            // On the edge opposite vertex k: the triangle owns the ray only if that edge is a
+            // "top-left" one (its direction, in the triangle's orientation, points to −z, or
             // along +y when horizontal): of the two triangles sharing it, exactly one.
-            let (u, v) = (vertices[a as usize], vertices[b as usize]);
+            let (u, v) = (p[(k + 1) % 3], p[(k + 2) % 3]);
             let (dy, dz) = ((v.y - u.y) * sign, (v.z - u.z) * sign);
-            let top_left = dz < 0.0 || (dz == 0.0 && dy > 0.0);
-            if !top_left {
+            if !(dz < 0.0 || (dz == 0.0 && dy > 0.0)) {
                 return None;
             }
         }
-        weights[e] = w;
     }
+    let weights = e.map(|w| w * sign);
     let total = weights[0] + weights[1] + weights[2];
     let x = (weights[0] * p[0].x + weights[1] * p[1].x + weights[2] * p[2].x) / total;
-    // Entering the solid (the outward normal against +x, area < 0) counts +1.
-    Some((x, if area > 0.0 { -1 } else { 1 }))
+    // Entering the solid (outward normal against +x: negative orientation) counts +1.
+    Some((x, if positive { -1 } else { 1 }))
 }
 
 /// Whether triangle `tri` meets the box of half-sides `half` about `centre` (separating axis

@@ -333,6 +333,9 @@ fn bad_input_is_an_error() {
     nan[3].y = f64::NAN;
     assert!(err(&nan, &unit.triangles, 4, MAX_CELLS).contains("finite"));
     assert!(err(&unit.vertices, &unit.triangles, 100, 1000).contains("allowed"));
+    let mut extra = unit.vertices.clone();
+    extra.push(Vec3::new(9.0, 9.0, 9.0));
+    assert!(err(&extra, &unit.triangles, 4, MAX_CELLS).contains("vertex 9 is used by no triangle"));
     let flat = [Vec3::ZERO; 3];
     assert!(err(&flat, &[[0, 1, 2]], 4, MAX_CELLS).contains("extent"));
 }

@@ -86,7 +86,7 @@ pub fn run(args: RunArgs) -> Result<(), CliError> {
     };
 
     let mut export = match &args.export {
-        Some(path) => Some(GlbExport::new(path, &sim.model, args.fps)?),
+        Some(path) => Some(GlbExport::new(path, &sim.model, args.fps, total)?),
         None => None,
     };
 
@@ -127,18 +127,26 @@ pub fn run(args: RunArgs) -> Result<(), CliError> {
         }
     }
 
+    // Both outputs made before either is written, so that neither is left alone by a failure
+    // to make the other.
+    let glb = match &export {
+        Some(x) => {
+            let stem = args
+                .world
+                .file_stem()
+                .map_or("jello".into(), |s| s.to_string_lossy());
+            Some(x.bytes(&stem)?)
+        }
+        None => None,
+    };
     if let Some(out) = &args.save {
         let saved = sim
             .to_world()
             .map_err(|e| CliError::io(format!("{}: {e}", out.display())))?;
         write_atomic(out, saved.to_text().as_bytes())?;
     }
-    if let Some(x) = &export {
-        let stem = args
-            .world
-            .file_stem()
-            .map_or("jello".into(), |s| s.to_string_lossy());
-        x.finish(&stem)?;
+    if let (Some(x), Some(bytes)) = (&export, &glb) {
+        x.write(bytes)?;
     }
 
     let e = energy(&sim.model, &sim.state);
