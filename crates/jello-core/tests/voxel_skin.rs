@@ -1,148 +1,31 @@
-//! Voxelising closed meshes and embedding them as skins (README: "Voxelising a mesh").
+//! Voxelising closed meshes and embedding them as skins (README: "Reading and voxelising a
+//! mesh").
 //!
-//! Meshes are made here (no third-party models): boxes, a UV sphere, a torus, a thin slab. The
-//! checks: a box aligned with the grid fills exactly its cells; the kept cells enclose the solid
-//! (their volume is never below the mesh's) and their excess volume shrinks as cells get finer;
-//! every vertex lies in a kept cell; a torus keeps its hole open; a slab thinner than a cell keeps
-//! a layer; the skin reproduces the mesh at rest to 1e-12 m and follows an affine motion of the
-//! lattice exactly; bad input is an error.
+//! Meshes are made in code (`common/meshes.rs`, no third-party models): boxes, a UV sphere, a
+//! torus, a thin slab. The checks: a box aligned with the grid fills exactly its cells; the kept
+//! cells enclose the solid (their volume is never below the mesh's) and their excess volume
+//! shrinks as cells get finer; every vertex lies in a kept cell; a torus keeps its hole open; a
+//! slab thinner than a cell keeps a layer; the skin reproduces the mesh at rest to 1e-12 m and
+//! follows an affine motion of the lattice exactly; bad input is an error.
 
 use jello_core::skin::Skin;
 use jello_core::voxel::Voxels;
 use jello_core::Vec3;
 
+#[path = "common/meshes.rs"]
+mod meshes;
+
+use jello_core::TriMesh;
+use meshes::{cuboid, to_obj, torus, uv_sphere};
+
 const MAX_CELLS: usize = 1 << 24;
 
-struct Mesh {
-    vertices: Vec<Vec3>,
-    triangles: Vec<[u32; 3]>,
-}
-
-impl Mesh {
-    /// Signed volume by the divergence theorem.
-    fn volume(&self) -> f64 {
-        self.triangles
-            .iter()
-            .map(|t| {
-                let [a, b, c] = t.map(|v| self.vertices[v as usize]);
-                a.dot(b.cross(c)) / 6.0
-            })
-            .sum()
-    }
-
-    /// Winds every triangle outward (flips all when the volume is negative).
-    fn outward(mut self) -> Mesh {
-        if self.volume() < 0.0 {
-            self.triangles.iter_mut().for_each(|t| t.swap(1, 2));
-        }
-        self
-    }
-
-    fn voxels(&self, cells: usize) -> Voxels {
-        Voxels::from_mesh(&self.vertices, &self.triangles, cells, MAX_CELLS).unwrap()
-    }
-}
-
-/// The box `[lo, hi]`, 12 triangles.
-fn cuboid(lo: Vec3, hi: Vec3) -> Mesh {
-    let vertices = (0..8)
-        .map(|c| {
-            Vec3::new(
-                if c & 4 != 0 { hi.x } else { lo.x },
-                if c & 2 != 0 { hi.y } else { lo.y },
-                if c & 1 != 0 { hi.z } else { lo.z },
-            )
-        })
-        .collect();
-    // Faces as corner quads (bits x, y, z), split in two triangles each.
-    let quads = [
-        [0, 1, 3, 2],
-        [4, 6, 7, 5],
-        [0, 4, 5, 1],
-        [2, 3, 7, 6],
-        [0, 2, 6, 4],
-        [1, 5, 7, 3],
-    ];
-    let triangles = quads
-        .iter()
-        .flat_map(|&[a, b, c, d]| [[a, b, c], [a, c, d]])
-        .collect();
-    Mesh {
-        vertices,
-        triangles,
-    }
-    .outward()
-}
-
-/// A UV sphere of radius `r` about `centre`: `rings` latitude bands, `segments` around.
-fn sphere(centre: Vec3, r: f64, rings: usize, segments: usize) -> Mesh {
-    let mut vertices = vec![
-        centre + Vec3::new(0.0, 0.0, r),
-        centre - Vec3::new(0.0, 0.0, r),
-    ];
-    for i in 1..rings {
-        let theta = std::f64::consts::PI * i as f64 / rings as f64;
-        for j in 0..segments {
-            let phi = 2.0 * std::f64::consts::PI * j as f64 / segments as f64;
-            vertices.push(
-                centre
-                    + Vec3::new(
-                        theta.sin() * phi.cos(),
-                        theta.sin() * phi.sin(),
-                        theta.cos(),
-                    ) * r,
-            );
-        }
-    }
-    let at = |i: usize, j: usize| (2 + (i - 1) * segments + j % segments) as u32;
-    let mut triangles = Vec::new();
-    for j in 0..segments {
-        triangles.push([0, at(1, j), at(1, j + 1)]);
-        triangles.push([1, at(rings - 1, j + 1), at(rings - 1, j)]);
-        for i in 1..rings - 1 {
-            triangles.push([at(i, j), at(i + 1, j), at(i + 1, j + 1)]);
-            triangles.push([at(i, j), at(i + 1, j + 1), at(i, j + 1)]);
-        }
-    }
-    Mesh {
-        vertices,
-        triangles,
-    }
-    .outward()
-}
-
-/// A torus about the z axis: tube of radius `r` around a circle of radius `big_r`.
-fn torus(big_r: f64, r: f64, around: usize, tube: usize) -> Mesh {
-    let mut vertices = Vec::new();
-    for i in 0..around {
-        let theta = 2.0 * std::f64::consts::PI * i as f64 / around as f64;
-        for j in 0..tube {
-            let phi = 2.0 * std::f64::consts::PI * j as f64 / tube as f64;
-            let ring = big_r + r * phi.cos();
-            vertices.push(Vec3::new(
-                ring * theta.cos(),
-                ring * theta.sin(),
-                r * phi.sin(),
-            ));
-        }
-    }
-    let at = |i: usize, j: usize| ((i % around) * tube + j % tube) as u32;
-    let mut triangles = Vec::new();
-    for i in 0..around {
-        for j in 0..tube {
-            triangles.push([at(i, j), at(i + 1, j), at(i + 1, j + 1)]);
-            triangles.push([at(i, j), at(i + 1, j + 1), at(i, j + 1)]);
-        }
-    }
-    Mesh {
-        vertices,
-        triangles,
-    }
-    .outward()
+fn voxels(mesh: &TriMesh, cells: usize) -> Voxels {
+    Voxels::from_mesh(&mesh.vertices, &mesh.triangles, cells, MAX_CELLS).unwrap()
 }
 
 /// Every vertex lies (closed) in a kept cell.
-fn assert_vertices_in_kept_cells(mesh: &Mesh, voxels: &Voxels, what: &str) {
+fn assert_vertices_in_kept_cells(mesh: &TriMesh, voxels: &Voxels, what: &str) {
     let h = voxels.cell;
     for (n, &v) in mesh.vertices.iter().enumerate() {
         let c = voxels.cell_of(v);
@@ -164,12 +47,12 @@ fn assert_vertices_in_kept_cells(mesh: &Mesh, voxels: &Voxels, what: &str) {
 #[test]
 fn boxes_aligned_with_the_grid_fill_exactly_their_cells() {
     let unit = cuboid(Vec3::ZERO, Vec3::new(1.0, 1.0, 1.0));
-    let v = unit.voxels(4);
+    let v = voxels(&unit, 4);
     assert_eq!(v.cells, [4, 4, 4]);
     assert_eq!(v.occupied_count(), 64);
     assert_eq!(v.volume(), 1.0);
     let tall = cuboid(Vec3::new(0.3, 0.0, -1.0), Vec3::new(1.3, 2.0, 0.0));
-    let v = tall.voxels(4);
+    let v = voxels(&tall, 4);
     assert_eq!(v.cells, [2, 4, 2]);
     assert_eq!(v.occupied_count(), 16);
     assert_vertices_in_kept_cells(&tall, &v, "box");
@@ -177,11 +60,11 @@ fn boxes_aligned_with_the_grid_fill_exactly_their_cells() {
 
 #[test]
 fn kept_cells_enclose_the_solid_and_converge_to_it() {
-    let ball = sphere(Vec3::new(0.1, -0.2, 0.3), 1.0, 48, 96);
+    let ball = uv_sphere(Vec3::new(0.1, -0.2, 0.3), 1.0, 48, 96);
     let exact = ball.volume();
     let mut last = f64::INFINITY;
     for cells in [4, 8, 16, 32, 64] {
-        let v = ball.voxels(cells);
+        let v = voxels(&ball, cells);
         let excess = (v.volume() - exact) / exact;
         assert!(
             excess >= 0.0,
@@ -205,7 +88,7 @@ fn kept_cells_enclose_the_solid_and_converge_to_it() {
 #[test]
 fn a_torus_keeps_its_hole() {
     let ring = torus(1.0, 0.3, 64, 24);
-    let v = ring.voxels(10);
+    let v = voxels(&ring, 10);
     let h = v.cell;
     assert_vertices_in_kept_cells(&ring, &v, "torus");
     let [cx, cy, cz] = v.cells;
@@ -240,7 +123,7 @@ fn a_torus_keeps_its_hole() {
 #[test]
 fn a_part_thinner_than_a_cell_keeps_a_layer() {
     let slab = cuboid(Vec3::new(0.0, 0.0, 0.013), Vec3::new(1.0, 1.0, 0.033));
-    let v = slab.voxels(10);
+    let v = voxels(&slab, 10);
     assert_eq!(v.cells, [10, 10, 1]);
     assert_eq!(v.occupied_count(), 100);
     // Tilted, so that it cuts through cells of several layers.
@@ -248,7 +131,7 @@ fn a_part_thinner_than_a_cell_keeps_a_layer() {
     for p in &mut tilted.vertices {
         *p = Vec3::new(p.x, p.y * 0.8 - p.z * 0.6, p.y * 0.6 + p.z * 0.8);
     }
-    let v = tilted.voxels(12);
+    let v = voxels(&tilted, 12);
     assert_vertices_in_kept_cells(&tilted, &v, "tilted slab");
     assert!(
         v.occupied_count() >= 12 * 12,
@@ -260,14 +143,14 @@ fn a_part_thinner_than_a_cell_keeps_a_layer() {
 #[test]
 fn the_skin_reproduces_the_mesh_at_rest_and_follows_affine_motion() {
     for (mesh, cells) in [
-        (sphere(Vec3::new(0.5, 0.25, -0.75), 0.8, 16, 32), 7),
+        (uv_sphere(Vec3::new(0.5, 0.25, -0.75), 0.8, 16, 32), 7),
         (torus(1.0, 0.3, 32, 12), 10),
         (
             cuboid(Vec3::new(-0.5, 0.0, 0.0), Vec3::new(0.5, 0.5, 2.0)),
             5,
         ),
     ] {
-        let v = mesh.voxels(cells);
+        let v = voxels(&mesh, cells);
         let skin = Skin::embed(&v, &mesh.vertices, &mesh.triangles);
         assert_eq!(skin.len(), mesh.vertices.len());
         assert_eq!(skin.triangles, mesh.triangles);
@@ -305,8 +188,8 @@ fn the_skin_reproduces_the_mesh_at_rest_and_follows_affine_motion() {
 
 #[test]
 fn skin_normals_point_outward() {
-    let ball = sphere(Vec3::ZERO, 1.0, 16, 32);
-    let v = ball.voxels(6);
+    let ball = uv_sphere(Vec3::ZERO, 1.0, 16, 32);
+    let v = voxels(&ball, 6);
     let skin = Skin::embed(&v, &ball.vertices, &ball.triangles);
     let mut pos = vec![Vec3::ZERO; skin.len()];
     skin.positions(&v.rest_points(), &mut pos);
@@ -344,14 +227,8 @@ fn bad_input_is_an_error() {
 #[test]
 fn a_mesh_read_from_obj_voxelises_and_skins() {
     let ring = torus(1.0, 0.35, 40, 16);
-    let mut obj = String::new();
-    for v in &ring.vertices {
-        obj.push_str(&format!("v {} {} {}\n", v.x, v.y, v.z));
-    }
-    for [a, b, c] in &ring.triangles {
-        obj.push_str(&format!("f {} {} {}\n", a + 1, b + 1, c + 1));
-    }
-    let mesh = jello_core::TriMesh::parse_obj(obj.as_bytes(), "torus.obj").unwrap();
+    let obj = to_obj(&ring);
+    let mesh = TriMesh::parse_obj(obj.as_bytes(), "torus.obj").unwrap();
     assert_eq!(mesh.vertices.len(), ring.vertices.len());
     let v = Voxels::from_mesh(&mesh.vertices, &mesh.triangles, 10, MAX_CELLS).unwrap();
     assert!(v.volume() >= mesh.volume());

@@ -118,6 +118,45 @@ pub fn torus_volume(big_r: f64, r: f64, m: u32, n: u32) -> f64 {
     m * (2.0 * PI / m).sin() * (n / 2.0) * r * r * (2.0 * PI / n).sin() * big_r
 }
 
+/// A UV sphere of radius `r` about `centre`: two poles, `rings − 1` latitude circles of
+/// `segments` vertices, triangles wound outward.
+pub fn uv_sphere(centre: Vec3, r: f64, rings: u32, segments: u32) -> TriMesh {
+    let mut vertices = vec![
+        centre + Vec3::new(0.0, 0.0, r),
+        centre - Vec3::new(0.0, 0.0, r),
+    ];
+    for i in 1..rings {
+        let theta = PI * i as f64 / rings as f64;
+        for j in 0..segments {
+            let phi = 2.0 * PI * j as f64 / segments as f64;
+            vertices.push(
+                centre
+                    + Vec3::new(
+                        theta.sin() * phi.cos(),
+                        theta.sin() * phi.sin(),
+                        theta.cos(),
+                    ) * r,
+            );
+        }
+    }
+    // Latitude i (1 at the north pole's side), longitude j.
+    let at = |i: u32, j: u32| 2 + (i - 1) * segments + j % segments;
+    let mut triangles = Vec::new();
+    for j in 0..segments {
+        triangles.push([0, at(1, j), at(1, j + 1)]);
+        triangles.push([1, at(rings - 1, j + 1), at(rings - 1, j)]);
+    }
+    let quads: Vec<[u32; 4]> = (1..rings - 1)
+        .flat_map(|i| (0..segments).map(move |j| (i, j)))
+        .map(|(i, j)| [at(i, j), at(i + 1, j), at(i + 1, j + 1), at(i, j + 1)])
+        .collect();
+    triangles.extend(fan(&quads));
+    TriMesh {
+        vertices,
+        triangles,
+    }
+}
+
 /// A prism over the regular `n`-gon of circumradius 1 in z = 0, height `h`: the two caps are
 /// each one polygon of `n` vertices (OBJ face lines `f 1 2 … n`), the sides quads. Returned as
 /// polygons (1-based, for OBJ) with the mesh that fanning them gives.
