@@ -3,58 +3,14 @@
 //! the triangle); never a panic, a hang, an allocation beyond a bound linear in the input, or a
 //! silently wrong mesh. An inside-out mesh is the one "error" that is accepted: it is flipped.
 
-use std::alloc::{GlobalAlloc, Layout, System};
-use std::cell::Cell;
-
+#[path = "common/alloc_watch.rs"]
+mod alloc_watch;
 #[path = "common/meshes.rs"]
 mod meshes;
 
+use alloc_watch::{largest_allocation, total_allocation};
 use jello_core::{MeshError, TriMesh, Vec3};
 use meshes::*;
-
-// ---------------------------------------------------------------------------------------------
-// Allocation watch: the largest single allocation, and the bytes allocated in all, on the
-// current thread (as in hostile_input.rs).
-
-struct Watch;
-
-thread_local! {
-    static LARGEST: Cell<usize> = const { Cell::new(0) };
-    static TOTAL: Cell<usize> = const { Cell::new(0) };
-}
-
-unsafe impl GlobalAlloc for Watch {
-    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
-        note(layout.size());
-        System.alloc(layout)
-    }
-    unsafe fn alloc_zeroed(&self, layout: Layout) -> *mut u8 {
-        note(layout.size());
-        System.alloc_zeroed(layout)
-    }
-    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
-        note(new_size);
-        System.realloc(ptr, layout, new_size)
-    }
-    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
-        System.dealloc(ptr, layout)
-    }
-}
-
-fn note(size: usize) {
-    let _ = LARGEST.try_with(|l| l.set(l.get().max(size)));
-    let _ = TOTAL.try_with(|t| t.set(t.get().saturating_add(size)));
-}
-
-#[global_allocator]
-static GLOBAL: Watch = Watch;
-
-/// Runs `f` and returns its result with the largest single allocation it made on this thread.
-fn largest_allocation<T>(f: impl FnOnce() -> T) -> (T, usize) {
-    LARGEST.with(|l| l.set(0));
-    let out = f();
-    (out, LARGEST.with(|l| l.get()))
-}
 
 // ---------------------------------------------------------------------------------------------
 // Helpers.
@@ -77,9 +33,7 @@ fn bounded(
     bytes: &[u8],
     read: impl FnOnce() -> Result<TriMesh, MeshError>,
 ) -> Result<TriMesh, MeshError> {
-    TOTAL.with(|t| t.set(0));
-    let r = read();
-    let total = TOTAL.with(|t| t.get());
+    let (r, total) = total_allocation(read);
     assert!(
         total <= ALLOCATION_PER_BYTE * bytes.len() + ALLOCATION_SLACK,
         "parsing {} bytes allocated {total} bytes",
