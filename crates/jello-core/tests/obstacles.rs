@@ -274,11 +274,7 @@ fn cube_dropped_on_a_sphere_comes_to_rest_on_it() {
 #[test]
 fn threaded_contacts_are_bit_identical() {
     let run = |threads: usize| {
-        let pool = rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
-            .build()
-            .unwrap();
-        pool.install(|| {
+        common::on_threads(threads, || {
             let (model, mut state) = scenes::benchmark(22, Integrator::Rk4).unwrap();
             let model = ModelBuilder::new()
                 .lattice(model.lattice.clone())

@@ -7,6 +7,8 @@
 //!   pull held constant through a step would make it first order).
 //! - The same bits on 1 and 3 threads; bad pins and pulls are errors.
 
+mod common;
+
 use jello_core::diagnostics::centre_of_mass;
 use jello_core::{
     scenes, step, Aabb, Control, ForceField, Integrator, Lattice, ModelBuilder, Pull, Scratch,
@@ -149,11 +151,7 @@ fn a_pull_follows_the_damped_oscillator_and_rk4_stays_fourth_order() {
 #[test]
 fn pins_and_pulls_are_bit_identical_on_any_thread_count() {
     let run = |threads: usize| {
-        let pool = rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
-            .build()
-            .unwrap();
-        pool.install(|| {
+        common::on_threads(threads, || {
             let (scene, mut state) = scenes::benchmark(22, Integrator::Rk4).unwrap();
             let n = scene.point_count() as u32;
             let model = ModelBuilder::new()

@@ -31,6 +31,16 @@ pub fn run(model: &Model, state: &mut State, n: usize) {
     }
 }
 
+/// Runs `f` on a fresh rayon pool of `threads` threads (so the threaded path splits its work
+/// that many ways).
+pub fn on_threads<T: Send>(threads: usize, f: impl FnOnce() -> T + Send) -> T {
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .unwrap()
+        .install(f)
+}
+
 /// A deterministic pseudo-random number in [−1, 1) (64-bit LCG).
 pub struct Lcg(pub u64);
 
