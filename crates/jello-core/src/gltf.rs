@@ -20,6 +20,7 @@
 
 use std::fmt::Write as _;
 
+use crate::mesh::vertex_normals;
 use crate::vec3::Vec3;
 
 /// The most frames one file holds. A reader expands the sparse weights to `frames × (frames −
@@ -286,30 +287,16 @@ fn json_string(s: &str) -> String {
     out
 }
 
-/// Smooth unit normals: area-weighted sums of the triangle normals (+z where they cancel).
+/// Smooth unit normals of frame 0 ([`vertex_normals`]), as stored.
 fn normals(positions: &[[f32; 3]], triangles: &[[u32; 3]]) -> Vec<[f32; 3]> {
     let p: Vec<Vec3> = positions
         .iter()
         .map(|v| Vec3::new(v[0] as f64, v[1] as f64, v[2] as f64))
         .collect();
     let mut n = vec![Vec3::ZERO; p.len()];
-    for t in triangles {
-        let [a, b, c] = t.map(|v| v as usize);
-        let face = (p[b] - p[a]).cross(p[c] - p[a]);
-        n[a] += face;
-        n[b] += face;
-        n[c] += face;
-    }
+    vertex_normals(&p, triangles, &mut n);
     n.iter()
-        .map(|v| {
-            let l = v.length();
-            let u = if l > 0.0 {
-                *v / l
-            } else {
-                Vec3::new(0.0, 0.0, 1.0)
-            };
-            [u.x as f32, u.y as f32, u.z as f32]
-        })
+        .map(|u| [u.x as f32, u.y as f32, u.z as f32])
         .collect()
 }
 

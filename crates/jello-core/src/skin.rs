@@ -11,6 +11,7 @@
 //! flat index `(i·ny + j)·nz + k` as every lattice in Jello.
 
 use crate::lattice::Lattice;
+use crate::mesh::vertex_normals;
 use crate::vec3::Vec3;
 use crate::voxel::Voxels;
 
@@ -135,26 +136,9 @@ impl Skin {
         }
     }
 
-    /// Smooth vertex normals of the skin at vertex positions `positions`: the sum of the normals
-    /// of the triangles around each vertex, weighted by their areas, normalised (a vertex whose
-    /// triangles all have zero area gets +z).
+    /// Smooth vertex normals of the skin at vertex positions `positions`, written to `out`
+    /// (see [`crate::mesh::vertex_normals`]).
     pub fn normals(&self, positions: &[Vec3], out: &mut [Vec3]) {
-        out.fill(Vec3::ZERO);
-        for t in &self.triangles {
-            let [a, b, c] = t.map(|v| v as usize);
-            // Twice the area times the unit normal.
-            let n = (positions[b] - positions[a]).cross(positions[c] - positions[a]);
-            out[a] += n;
-            out[b] += n;
-            out[c] += n;
-        }
-        for n in out.iter_mut() {
-            let l = n.length();
-            *n = if l > 0.0 {
-                *n / l
-            } else {
-                Vec3::new(0.0, 0.0, 1.0)
-            };
-        }
+        vertex_normals(positions, &self.triangles, out);
     }
 }

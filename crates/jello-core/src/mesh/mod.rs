@@ -197,3 +197,26 @@ impl TriMesh {
         })
     }
 }
+
+/// Smooth unit vertex normals of the triangle mesh `positions` / `triangles` into `out` (one per
+/// position): the sum of the normals of the triangles around each vertex, weighted by their
+/// areas, normalised; a vertex whose triangles all have zero area gets +z.
+pub fn vertex_normals(positions: &[Vec3], triangles: &[[u32; 3]], out: &mut [Vec3]) {
+    out.fill(Vec3::ZERO);
+    for t in triangles {
+        let [a, b, c] = t.map(|v| v as usize);
+        // Twice the area times the unit normal.
+        let n = (positions[b] - positions[a]).cross(positions[c] - positions[a]);
+        out[a] += n;
+        out[b] += n;
+        out[c] += n;
+    }
+    for n in out.iter_mut() {
+        let l = n.length();
+        *n = if l > 0.0 {
+            *n / l
+        } else {
+            Vec3::new(0.0, 0.0, 1.0)
+        };
+    }
+}
