@@ -193,13 +193,6 @@ impl Plane {
         Vec3::new(a, b, c) * (self.side / self.normal_length())
     }
 
-    /// Depth (m) of `p` on the forbidden side, and the unit normal into the allowed side; `None`
-    /// when `p` is on the allowed side or on the plane.
-    #[inline]
-    pub fn penetration(&self, p: Vec3) -> Option<(f64, Vec3)> {
-        self.contact(p).map(|c| (c.depth, c.normal))
-    }
-
     /// The contact of a point on the forbidden side: depth `|a x + b y + c z + d| / |(a, b, c)|`,
     /// normal into the allowed side; `None` on the allowed side or on the plane.
     #[inline]
