@@ -34,7 +34,7 @@ impl GlbExport {
                 path.display()
             )));
         }
-        let lattice = &model.lattice;
+        let lattice = model.body(0).lattice();
         let points = lattice.surface_points();
         let mut vertex_of = vec![u32::MAX; lattice.len()];
         for (v, &p) in points.iter().enumerate() {

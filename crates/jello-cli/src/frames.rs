@@ -47,7 +47,7 @@ impl FrameWriter {
         Ok(FrameWriter {
             dir: dir.to_path_buf(),
             format,
-            triangles: model.lattice.surface_triangles(),
+            triangles: model.body(0).lattice().surface_triangles(),
             written: 0,
         })
     }
@@ -117,7 +117,7 @@ fn csv(model: &Model, state: &State) -> String {
     let mut s = String::with_capacity(80 * state.len());
     s.push_str("i,j,k,x,y,z,vx,vy,vz\n");
     for (n, (p, v)) in state.pos.iter().zip(&state.vel).enumerate() {
-        let [i, j, k] = model.lattice.coords(n);
+        let [i, j, k] = model.body(0).lattice().coords(n);
         let _ = writeln!(
             s,
             "{i},{j},{k},{},{},{},{},{},{}",

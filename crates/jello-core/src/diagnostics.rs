@@ -14,7 +14,7 @@ pub struct Energy {
     pub kinetic: f64,
     /// `Σ ½ k (|L| − R)²` over the lattice springs.
     pub spring: f64,
-    /// `Σ ½ kCollision depth²` over the box and plane penalty springs.
+    /// `Σ ½ kCollision depth²` over the box, plane, obstacle and body-to-body penalty springs.
     pub collision: f64,
 }
 
@@ -25,30 +25,47 @@ impl Energy {
     }
 }
 
-/// Energy of `state` under `model`.
+/// Energy of `state` under `model`, over the active points of every body.
 pub fn energy(model: &Model, state: &State) -> Energy {
-    let kinetic = 0.5 * model.mass * state.vel.iter().map(|v| v.length_squared()).sum::<f64>();
-    // Summed in spring-list order.
-    let mut spring = 0.0;
-    model.lattice.for_each_spring(|a, b, rest, kind| {
-        let stretch = (state.pos[a] - state.pos[b]).length() - rest;
-        spring += 0.5 * model.stiffness[kind as usize] * stretch * stretch;
-    });
-    // ½ kCollision depth² per contact (walls, plane, obstacles), summed point by point.
-    let collision = state
-        .pos
-        .iter()
-        .map(|&p| {
-            model
-                .bounds
-                .wall_contacts(p)
-                .chain(model.plane.and_then(|pl| pl.contact(p)))
-                .chain(model.obstacles.iter().filter_map(|o| o.contact(p)))
-                .fold(0.0, |sum, c| sum + c.depth * c.depth)
-        })
-        .sum::<f64>()
-        * 0.5
-        * model.k_collision;
+    let (mut kinetic, mut spring, mut collision) = (0.0, 0.0, 0.0);
+    for body in model.bodies() {
+        let first = body.points().start;
+        let (pos, vel) = (&state.pos[body.points()], &state.vel[body.points()]);
+        let active = |&(q, _): &(usize, &Vec3)| body.is_active(q);
+        kinetic += 0.5
+            * body.material.mass
+            * vel
+                .iter()
+                .enumerate()
+                .filter(active)
+                .map(|(_, v)| v.length_squared())
+                .sum::<f64>();
+        // Summed in spring-list order.
+        body.for_each_spring(|a, b, rest, kind| {
+            let stretch = (pos[a] - pos[b]).length() - rest;
+            spring += 0.5 * body.material.stiffness[kind as usize] * stretch * stretch;
+        });
+        // ½ kCollision depth² per contact (walls, plane, obstacles), summed point by point.
+        collision += pos
+            .iter()
+            .enumerate()
+            .filter(active)
+            .map(|(_, &p)| {
+                model
+                    .bounds
+                    .wall_contacts(p)
+                    .chain(model.plane.and_then(|pl| pl.contact(p)))
+                    .chain(model.obstacles.iter().filter_map(|o| o.contact(p)))
+                    .fold(0.0, |sum, c| sum + c.depth * c.depth)
+            })
+            .sum::<f64>()
+            * 0.5
+            * model.k_collision;
+        let _ = first;
+    }
+    if model.bodies().len() > 1 {
+        collision += crate::contact::overlap(model, &state.pos).1;
+    }
     Energy {
         kinetic,
         spring,
@@ -56,13 +73,29 @@ pub fn energy(model: &Model, state: &State) -> Energy {
     }
 }
 
-/// Centre of mass (m); every point has the same mass.
+/// Centre of the points `pos` (m): the centre of mass when every point has the same mass.
 pub fn centre_of_mass(pos: &[Vec3]) -> Vec3 {
     let sum = pos.iter().fold(Vec3::ZERO, |acc, &p| acc + p);
     sum / pos.len() as f64
 }
 
-/// Total linear momentum (kg·m/s).
+/// Centre of mass (m) of one body's active points at positions `pos` (the model's arrays).
+pub fn body_centre_of_mass(model: &Model, body: usize, pos: &[Vec3]) -> Vec3 {
+    let body = model.body(body);
+    let first = body.points().start;
+    let sum = (0..body.len())
+        .filter(|&q| body.is_active(q))
+        .fold(Vec3::ZERO, |acc, q| acc + pos[first + q]);
+    sum / body.active_count() as f64
+}
+
+/// Total linear momentum (kg·m/s) of every body's active points.
 pub fn momentum(model: &Model, vel: &[Vec3]) -> Vec3 {
-    vel.iter().fold(Vec3::ZERO, |acc, &v| acc + v) * model.mass
+    model.bodies().iter().fold(Vec3::ZERO, |total, body| {
+        let first = body.points().start;
+        let sum = (0..body.len())
+            .filter(|&q| body.is_active(q))
+            .fold(Vec3::ZERO, |acc, q| acc + vel[first + q]);
+        total + sum * body.material.mass
+    })
 }

@@ -17,6 +17,9 @@
 
 use std::ops::Range;
 
+use crate::body::Body;
+use crate::contact::Contacts;
+use crate::lattice::STENCIL;
 use crate::model::Model;
 use crate::obstacle::{penalty, wall_force, Obstacle};
 use crate::soa::{cache_aligned_zeros, Soa};
@@ -39,31 +42,18 @@ const HALO_PLANES: usize = 2;
 /// not pay for waking others). The results are the same either way.
 pub const PARALLEL_MIN_POINTS: usize = 8 * 1024;
 
-/// The half stencil: offsets `(di, dj, dk)` whose first non-zero component is positive, with
-/// the spring kind (0 structural, 1 shear, 2 bend). Same entries and order as
-/// [`crate::lattice::Lattice::springs`].
-const STENCIL: [([isize; 3], usize); 16] = [
-    ([1, 0, 0], 0),
-    ([0, 1, 0], 0),
-    ([0, 0, 1], 0),
-    ([1, 1, 0], 1),
-    ([1, -1, 0], 1),
-    ([1, 0, 1], 1),
-    ([1, 0, -1], 1),
-    ([0, 1, 1], 1),
-    ([0, 1, -1], 1),
-    ([1, 1, 1], 1),
-    ([1, 1, -1], 1),
-    ([1, -1, 1], 1),
-    ([1, -1, -1], 1),
-    ([2, 0, 0], 2),
-    ([0, 2, 0], 2),
-    ([0, 0, 2], 2),
-];
-
 /// Buffers of the force routine, sized once for a model.
 #[derive(Clone, Debug, Default)]
 pub struct ForceScratch {
+    /// Per body, the buffers of its spring pass.
+    bodies: Vec<BodyScratch>,
+    /// The contact pass between bodies.
+    contacts: Contacts,
+}
+
+/// The buffers of one body's spring pass.
+#[derive(Clone, Debug, Default)]
+struct BodyScratch {
     /// Spring forces (N) on the points of a chunk: two buffers per range of chunks a thread
     /// takes, one for its first chunk (kept until the chunk before it is done) and one for the
     /// others in turn, so they stay in cache.
@@ -72,7 +62,7 @@ pub struct ForceScratch {
     halos: Vec<Soa>,
     /// Per chunk: the forces of one block of springs.
     rows: Vec<Soa>,
-    /// Which pairs of a run are springs, per stencil class (see [`Masks`]).
+    /// Which pairs of a run are springs, per stencil class (see [`Masks`]), for a full box.
     masks: Masks,
 }
 
@@ -126,22 +116,41 @@ impl Masks {
 impl ForceScratch {
     /// Buffers for `model`.
     pub fn new(model: &Model) -> Self {
-        let [nx, ny, nz] = model.lattice.counts;
+        ForceScratch {
+            bodies: model.bodies().iter().map(BodyScratch::new).collect(),
+            contacts: Contacts::new(model),
+        }
+    }
+
+    fn fits(&self, model: &Model) -> bool {
+        self.bodies.len() == model.bodies().len()
+            && self
+                .bodies
+                .iter()
+                .zip(model.bodies())
+                .all(|(s, b)| s.fits(b))
+            && self.contacts.fits(model)
+    }
+}
+
+impl BodyScratch {
+    fn new(body: &Body) -> Self {
+        let [nx, ny, nz] = body.lattice().counts;
         let chunks = nx.div_ceil(CHUNK_PLANES);
         let plane = ny * nz;
         let row_len = RUN_BLOCK.min(CHUNK_PLANES.min(nx) * plane);
         let masks = Masks::new(ny, nz, row_len);
         let chunk_len = CHUNK_PLANES.min(nx) * plane;
-        ForceScratch {
-            owns: vec![Soa::with_color(chunk_len, 2); 2 * range_count(model)],
+        BodyScratch {
+            owns: vec![Soa::with_color(chunk_len, 2); 2 * range_count(body)],
             halos: vec![Soa::with_color(HALO_PLANES * ny * nz, 1); chunks],
             rows: vec![Soa::with_color(row_len, 3); chunks],
             masks,
         }
     }
 
-    fn fits(&self, model: &Model) -> bool {
-        let [nx, ny, nz] = model.lattice.counts;
+    fn fits(&self, body: &Body) -> bool {
+        let [nx, ny, nz] = body.lattice().counts;
         let chunk_len = CHUNK_PLANES.min(nx) * ny * nz;
         let row_len = RUN_BLOCK.min(chunk_len);
         self.owns.len() >= 2
@@ -156,14 +165,14 @@ impl ForceScratch {
     }
 }
 
-/// Contiguous ranges of chunks a force pass is split into for threads: two per thread of the
-/// rayon pool, for balance, on lattices large enough to be worth it; else one.
-fn range_count(model: &Model) -> usize {
+/// Contiguous ranges of chunks a body's spring pass is split into for threads: two per thread of
+/// the rayon pool, for balance, on lattices large enough to be worth it; else one.
+fn range_count(body: &Body) -> usize {
     #[cfg(feature = "parallel")]
-    if model.point_count() >= PARALLEL_MIN_POINTS {
+    if body.len() >= PARALLEL_MIN_POINTS {
         return 2 * rayon::current_num_threads();
     }
-    let _ = model;
+    let _ = body;
     1
 }
 
@@ -236,6 +245,13 @@ pub struct PointInputs<'a> {
     pub first: usize,
     /// The control's pulls (all of them; those on the block's points act).
     pub pulls: &'a [Pull],
+    /// Mass of each point of the block (kg).
+    pub mass: f64,
+    /// Per point of the block whether it takes part, or `None` when all do. The others (the
+    /// unused corners of a lattice with holes) do not accelerate.
+    pub active: Option<&'a [bool]>,
+    /// Contact force from other bodies on each point (N), x, y and z, or `None` for none.
+    pub contact: Option<[&'a [f64]; 3]>,
 }
 
 /// One force evaluation at positions `p` and velocities `v`, fused with what the caller does
@@ -285,38 +301,60 @@ where
     if !scratch.fits(model) {
         *scratch = ForceScratch::new(model);
     }
-    let grid = Grid::new(model);
-    let chunks = grid.nx.div_ceil(CHUNK_PLANES);
-    let ForceScratch {
-        owns,
-        halos,
-        rows,
-        masks,
-    } = scratch;
-    let pass = Pass {
-        model,
-        grid,
-        masks,
-        p,
-        v,
-        control,
-        update,
-    };
-    // As many ranges as the buffers allow (the pool may have grown since they were sized; the
-    // ranges only decide which thread computes what, never the results).
-    let ranges = range_count(model).min(owns.len() / 2);
-    pass.chunks(0..chunks, owns, halos, rows, outs, false, ranges)
-        .0
+    let ForceScratch { bodies, contacts } = scratch;
+    // Contacts between bodies first: every chunk's update reads them.
+    let several = model.bodies().len() > 1;
+    if several {
+        contacts.compute(model, p, v);
+    }
+    let contact = several.then(|| contacts.forces());
+    let mut outs = outs;
+    let mut all = true;
+    for (
+        body,
+        BodyScratch {
+            owns,
+            halos,
+            rows,
+            masks,
+        },
+    ) in model.bodies().iter().zip(bodies)
+    {
+        let (body_outs, rest) = outs.split_at(body.len());
+        outs = rest;
+        let grid = Grid::new(body);
+        let chunks = grid.nx.div_ceil(CHUNK_PLANES);
+        let pass = Pass {
+            model,
+            body,
+            grid,
+            masks,
+            p,
+            v,
+            control,
+            contact,
+            update,
+        };
+        // As many ranges as the buffers allow (the pool may have grown since they were sized;
+        // the ranges only decide which thread computes what, never the results).
+        let ranges = range_count(body).min(owns.len() / 2);
+        all &= pass
+            .chunks(0..chunks, owns, halos, rows, body_outs, false, ranges)
+            .0;
+    }
+    all
 }
 
 /// What every chunk of a [`force_pass`] shares.
 struct Pass<'a, U> {
     model: &'a Model,
+    body: &'a Body,
     grid: Grid,
     masks: &'a Masks,
     p: &'a Soa,
     v: &'a Soa,
     control: &'a Control,
+    contact: Option<&'a Soa>,
     update: &'a U,
 }
 
@@ -396,7 +434,12 @@ impl<U> Pass<'_, U> {
             let [fx, fy, fz] = buffer.range_mut(0..self.chunk_points(c));
             let (halo, row) = (&mut halos[i], &mut rows[i]);
             let (g, masks, p, v) = (&self.grid, self.masks, self.p, self.v);
-            chunk_springs(g, masks, p, v, c * CHUNK_PLANES, [fx, fy, fz], halo, row);
+            let at = Placement {
+                first: self.body.points().start,
+                i0: c * CHUNK_PLANES,
+                links: self.body.links(),
+            };
+            chunk_springs(g, masks, p, v, at, [fx, fy, fz], halo, row);
             if i == 0 && defer_first {
                 continue;
             }
@@ -437,9 +480,11 @@ impl<U> Pass<'_, U> {
                 add_into(&mut f[..len], &h[..len]);
             }
         }
-        let base = c * self.chunk_len();
+        let local = c * self.chunk_len();
+        let base = self.body.points().start + local;
         let len = fx.len();
         let control = (!self.control.forces.is_empty()).then(|| &self.control.forces[..]);
+        let active = self.body.active_mask();
         let mut outs = outs;
         let mut all = true;
         let mut t = 0;
@@ -455,6 +500,9 @@ impl<U> Pass<'_, U> {
                 control: control.map(|c| &c[r.clone()]),
                 first: r.start,
                 pulls: &self.control.pulls,
+                mass: self.body.material.mass,
+                active: (!active.is_empty()).then(|| &active[local + t..local + t + n]),
+                contact: self.contact.map(|c| c.range(r.clone())),
             };
             // The row buffer is free once the chunk's springs are done.
             let [ax, ay, az] = row.parts_mut();
@@ -491,9 +539,9 @@ struct Grid {
 }
 
 impl Grid {
-    fn new(model: &Model) -> Self {
-        let [nx, ny, nz] = model.lattice.counts;
-        let h = model.lattice.spacing();
+    fn new(body: &Body) -> Self {
+        let [nx, ny, nz] = body.lattice().counts;
+        let h = body.lattice().spacing();
         let mut rest = [0.0; 16];
         for (r, (d, _)) in rest.iter_mut().zip(STENCIL) {
             // The same expression as Lattice::springs, so the rest lengths agree bit for bit.
@@ -503,36 +551,47 @@ impl Grid {
             nx,
             ny,
             nz,
-            stiffness: model.stiffness,
-            damping: model.damping,
+            stiffness: body.material.stiffness,
+            damping: body.material.damping,
             rest,
         }
     }
 }
 
+/// Where a chunk's springs are: the body's first point in the model's arrays, the chunk's first
+/// plane, and the body's link bits (empty for a full box).
+#[derive(Clone, Copy)]
+struct Placement<'a> {
+    first: usize,
+    i0: usize,
+    links: &'a [u16],
+}
+
 crate::simd::multiversion! {
-    /// The springs whose first point lies in planes `i0 .. i0 + CHUNK_PLANES`, into `own` (forces
-    /// on those planes, zeroed here) and `halo` (forces on the two planes after them).
+    /// The springs whose first point lies in planes `i0 .. i0 + CHUNK_PLANES` of a body, into
+    /// `own` (forces on those planes, zeroed here) and `halo` (forces on the two planes after
+    /// them).
     fn chunk_springs(
         grid: &Grid,
         masks: &Masks,
         p: &Soa,
         v: &Soa,
-        i0: usize,
+        at: Placement<'_>,
         own: [&mut [f64]; 3],
         halo: &mut Soa,
         row: &mut Soa,
     ) {
-        chunk_springs_impl(grid, masks, p, v, i0, own, halo, row)
+        chunk_springs_impl(grid, masks, p, v, at, own, halo, row)
     }
 }
 
 /// Walks the springs of the chunk in blocks of the row buffer's length of first ends, each block
 /// stencil entry by stencil entry. For one entry `(di, dj, dk)` the first points of its springs
 /// form one contiguous run through the chunk's planes, and the second points the same run shifted
-/// by a constant. The run also holds pairs that wrap from the end of a row or plane into the
-/// next: those are no springs, and their force is multiplied by 0 (the masks), which keeps the
-/// loop branch-free and vectorised.
+/// by a constant. The run also holds pairs that are no springs: in a full box those that wrap
+/// from the end of a row or plane into the next, and their force is multiplied by 0 (the masks);
+/// in a body with holes, every pair whose link bit is clear. That keeps the loop branch-free and
+/// vectorised.
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
 fn chunk_springs_impl(
@@ -540,16 +599,17 @@ fn chunk_springs_impl(
     masks: &Masks,
     p: &Soa,
     v: &Soa,
-    i0: usize,
+    at: Placement<'_>,
     own: [&mut [f64]; 3],
     halo: &mut Soa,
     row: &mut Soa,
 ) {
     let Grid { nx, ny, nz, .. } = *grid;
+    let i0 = at.i0;
     let plane = ny * nz;
     let [ox, oy, oz] = own;
     let own_planes = ox.len() / plane;
-    let (base, halo_base) = (i0 * plane, (i0 + own_planes) * plane);
+    let (base, halo_base) = (at.first + i0 * plane, at.first + (i0 + own_planes) * plane);
     for f in [&mut *ox, &mut *oy, &mut *oz] {
         f.fill(0.0);
     }
@@ -558,8 +618,7 @@ fn chunk_springs_impl(
 
     // Per stencil entry: the first ends of its springs in the whole chunk form one contiguous
     // run (from plane i0, row j_lo, column k_lo to the last plane with a partner, row j_hi − 1,
-    // column k_hi − 1), and the second ends the same run shifted. Pairs in the run that are no
-    // springs (a row or plane wrapping into the next) get force 0 from the masks.
+    // column k_hi − 1), and the second ends the same run shifted.
     let runs: [_; 16] = std::array::from_fn(|s| {
         let ([di, dj, dk], kind) = STENCIL[s];
         let i_end = (i0 + own_planes).min(nx.saturating_sub(di as usize));
@@ -579,28 +638,34 @@ fn chunk_springs_impl(
         let shift = ((di * ny as isize + dj) * nz as isize + dk) as usize;
         let mask = ((dj + 1) * 4 + dk + 1) as usize;
         let spring = SpringConst {
-            k: grid.stiffness[kind],
-            d: grid.damping[kind],
+            k: grid.stiffness[kind as usize],
+            d: grid.damping[kind as usize],
             rest: grid.rest[s],
         };
-        Some((t_start, t_end, shift, mask, spring))
+        Some((s, t_start, t_end, shift, mask, spring))
     });
     // Block by block of first ends, every entry's part of the block in turn: the points an entry
     // reaches from a block lie within two planes after it, so what the block works on stays in
     // the L2 cache however large the chunk.
-    let chunk_end = runs.iter().flatten().map(|r| r.1).max().unwrap_or(0);
+    let chunk_end = runs.iter().flatten().map(|r| r.2).max().unwrap_or(0);
     let mut t0 = 0;
     while t0 < chunk_end {
         let t1 = t0 + block;
-        for &(t_start, t_end, shift, mask, spring) in runs.iter().flatten() {
+        for &(s, t_start, t_end, shift, mask, spring) in runs.iter().flatten() {
             let (t, e) = (t0.max(t_start), t1.min(t_end));
             if t >= e {
                 continue;
             }
             let len = e - t;
             let (a, b) = (base + t, base + t + shift);
-            let m = t % plane;
-            spring_run(p, v, a, b, len, spring, &masks.class(mask)[m..m + len], row);
+            if at.links.is_empty() {
+                let m = t % plane;
+                let mask = &masks.class(mask)[m..m + len];
+                spring_run(p, v, a, b, len, spring, |t| mask[t], row);
+            } else {
+                let links = &at.links[i0 * plane + t..][..len];
+                spring_run(p, v, a, b, len, spring, |t| (links[t] >> s & 1) as f64, row);
+            }
             add_run(
                 [&mut *ox, &mut *oy, &mut *oz],
                 t,
@@ -643,7 +708,7 @@ struct SpringConst {
 
 /// Forces on the points `a .. a + len` from the springs joining them to `b .. b + len`:
 /// `f = −k (|L| − R) L̂ − d ((vA − vB)·L̂) L̂` with `L = pA − pB`, computed with one square root
-/// and one division per spring, times `mask` (1 for a spring, 0 for a pair that is none;
+/// and one division per spring, times `mask(t)` (1 for a spring, 0 for a pair that is none;
 /// multiplying by 1 changes nothing). A zero-length spring has no direction and exerts no force.
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
@@ -654,14 +719,13 @@ fn spring_run(
     b: usize,
     len: usize,
     c: SpringConst,
-    mask: &[f64],
+    mask: impl Fn(usize) -> f64,
     row: &mut Soa,
 ) {
     let (xa, ya, za) = (&p.x()[a..a + len], &p.y()[a..a + len], &p.z()[a..a + len]);
     let (xb, yb, zb) = (&p.x()[b..b + len], &p.y()[b..b + len], &p.z()[b..b + len]);
     let (ua, va, wa) = (&v.x()[a..a + len], &v.y()[a..a + len], &v.z()[a..a + len]);
     let (ub, vb, wb) = (&v.x()[b..b + len], &v.y()[b..b + len], &v.z()[b..b + len]);
-    let mask = &mask[..len];
     let [fx, fy, fz] = row.parts_mut();
     let (fx, fy, fz) = (&mut fx[..len], &mut fy[..len], &mut fz[..len]);
     for t in 0..len {
@@ -671,7 +735,7 @@ fn spring_run(
         let l = l2 * inv;
         let closing = ((ua[t] - ub[t]) * dx + (va[t] - vb[t]) * dy + (wa[t] - wb[t]) * dz) * inv;
         // Magnitude along L̂, times L̂ = L·inv, times the mask.
-        let s = (-c.k * (l - c.rest) - c.d * closing) * inv * mask[t];
+        let s = (-c.k * (l - c.rest) - c.d * closing) * inv * mask(t);
         (fx[t], fy[t], fz[t]) = (dx * s, dy * s, dz * s);
     }
 }
@@ -719,16 +783,16 @@ fn block_accelerations_impl(model: &Model, point: PointInputs<'_>, acc: [&mut [f
     let [vx, vy, vz] = point.vel.map(|c| &c[..len]);
     let [sx, sy, sz] = point.spring.map(|c| &c[..len]);
     let control = point.control.map(|c| &c[..len]);
-    let (kc, dc, mass) = (model.k_collision, model.d_collision, model.mass);
+    let (kc, dc, mass) = (model.k_collision, model.d_collision, point.mass);
     let (lo, hi) = (model.bounds.min, model.bounds.max);
-    let obstacles = !model.obstacles.is_empty();
+    let obstacles = !model.obstacles.is_empty() || point.contact.is_some();
     let block = point.first..point.first + len;
     let pulls = point
         .pulls
         .iter()
         .any(|p| block.contains(&(p.point as usize)));
-    // With obstacles or pulls, the force is finished (and divided by the mass) after the main
-    // loop.
+    // With obstacles, contacts or pulls, the force is finished (and divided by the mass) after
+    // the main loop.
     let deferred = obstacles || pulls;
 
     // Spring force plus field. A uniform field (or none) is a constant; any other is sampled
@@ -775,6 +839,15 @@ fn block_accelerations_impl(model: &Model, point: PointInputs<'_>, acc: [&mut [f
     if deferred {
         finish_forces(model, point, [&mut *ax, &mut *ay, &mut *az], &block);
     }
+    // Unused corners of a lattice with holes do not accelerate.
+    if let Some(active) = point.active {
+        let active = &active[..len];
+        for a in [&mut *ax, &mut *ay, &mut *az] {
+            for (a, &on) in a.iter_mut().zip(active) {
+                *a = if on { *a } else { 0.0 };
+            }
+        }
+    }
     // Pinned points do not accelerate.
     let pins = &model.pins;
     let from = pins.partition_point(|&p| (p as usize) < block.start);
@@ -787,7 +860,8 @@ fn block_accelerations_impl(model: &Model, point: PointInputs<'_>, acc: [&mut [f
     }
 }
 
-/// The rest of the force on a block (obstacles, then pulls), then over the mass.
+/// The rest of the force on a block (contacts with other bodies, obstacles, then pulls), then
+/// over the mass.
 #[inline(always)]
 fn finish_forces(
     model: &Model,
@@ -796,7 +870,14 @@ fn finish_forces(
     block: &Range<usize>,
 ) {
     let [ax, ay, az] = acc;
-    let (kc, dc, mass) = (model.k_collision, model.d_collision, model.mass);
+    let (kc, dc, mass) = (model.k_collision, model.d_collision, point.mass);
+    if let Some(contact) = point.contact {
+        for (a, c) in [&mut *ax, &mut *ay, &mut *az].into_iter().zip(contact) {
+            for (a, c) in a.iter_mut().zip(c) {
+                *a += c;
+            }
+        }
+    }
     // Obstacles, one loop each over the block (branch-free, so each vectorises).
     for obstacle in &model.obstacles {
         match *obstacle {
@@ -858,23 +939,31 @@ fn add_contacts(
     }
 }
 
-/// Depth (m) of the deepest penetration of any point into a box wall, the plane or an obstacle
-/// (0 if none).
+/// Depth (m) of the deepest penetration of any active point into a box wall, the plane or an
+/// obstacle (0 if none).
 pub fn max_penetration(model: &Model, pos: &[Vec3]) -> f64 {
-    pos.iter()
-        .map(|&p| {
-            let wall = model.bounds.excursion(p);
-            let plane = model
-                .plane
-                .and_then(|pl| pl.contact(p))
-                .map_or(0.0, |c| c.depth);
-            let obstacle = model
-                .obstacles
-                .iter()
-                .filter_map(|o| o.contact(p))
-                .map(|c| c.depth)
-                .fold(0.0, f64::max);
-            wall.max(plane).max(obstacle)
+    let depth = |p: Vec3| {
+        let wall = model.bounds.excursion(p);
+        let plane = model
+            .plane
+            .and_then(|pl| pl.contact(p))
+            .map_or(0.0, |c| c.depth);
+        let obstacle = model
+            .obstacles
+            .iter()
+            .filter_map(|o| o.contact(p))
+            .map(|c| c.depth)
+            .fold(0.0, f64::max);
+        wall.max(plane).max(obstacle)
+    };
+    model
+        .bodies()
+        .iter()
+        .flat_map(|body| {
+            let first = body.points().start;
+            (0..body.len())
+                .filter(|&q| body.is_active(q))
+                .map(move |q| depth(pos[first + q]))
         })
         .fold(0.0, f64::max)
 }

@@ -38,7 +38,7 @@ impl SpringKind {
 
 /// Index offsets of the half stencil: every offset whose first non-zero component is positive,
 /// so that each unordered pair of points is visited exactly once.
-const STENCIL: [([isize; 3], SpringKind); 16] = [
+pub(crate) const STENCIL: [([isize; 3], SpringKind); 16] = [
     ([1, 0, 0], SpringKind::Structural),
     ([0, 1, 0], SpringKind::Structural),
     ([0, 0, 1], SpringKind::Structural),
@@ -171,6 +171,14 @@ impl Lattice {
     /// [`Lattice::springs`]: first points `a` in flat-index order, and for each the stencil
     /// entries in order. Rest lengths (m) come from the rest grid, never from positions.
     pub fn for_each_spring(&self, mut f: impl FnMut(usize, usize, f64, SpringKind)) {
+        self.for_each_stencil_spring(|a, b, rest, kind, _| f(a, b, rest, kind));
+    }
+
+    /// [`Lattice::for_each_spring`], also passing each spring's stencil entry (0..16).
+    pub(crate) fn for_each_stencil_spring(
+        &self,
+        mut f: impl FnMut(usize, usize, f64, SpringKind, usize),
+    ) {
         let [nx, ny, nz] = self.counts;
         let h = self.spacing();
         let rest: [f64; 16] = std::array::from_fn(|s| {
@@ -180,7 +188,7 @@ impl Lattice {
         for i in 0..nx {
             for j in 0..ny {
                 for k in 0..nz {
-                    for (&(d, kind), &rest) in STENCIL.iter().zip(&rest) {
+                    for (s, (&(d, kind), &rest)) in STENCIL.iter().zip(&rest).enumerate() {
                         let (Some(i2), Some(j2), Some(k2)) = (
                             offset(i, d[0], nx),
                             offset(j, d[1], ny),
@@ -188,7 +196,7 @@ impl Lattice {
                         ) else {
                             continue;
                         };
-                        f(self.index(i, j, k), self.index(i2, j2, k2), rest, kind);
+                        f(self.index(i, j, k), self.index(i2, j2, k2), rest, kind, s);
                     }
                 }
             }

@@ -30,6 +30,8 @@
 
 #![warn(missing_docs)]
 
+pub mod body;
+pub mod contact;
 pub mod diagnostics;
 pub mod field;
 pub mod forces;
@@ -51,6 +53,7 @@ pub mod vec3;
 pub mod voxel;
 pub mod world;
 
+pub use body::{Body, Material};
 pub use diagnostics::Energy;
 pub use field::ForceField;
 pub use integrator::{Integrator, UnknownIntegrator};

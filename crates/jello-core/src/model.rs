@@ -2,6 +2,7 @@
 
 use std::fmt;
 
+use crate::body::{Body, Material};
 use crate::field::ForceField;
 use crate::integrator::Integrator;
 use crate::lattice::{Lattice, SpringKind, Springs};
@@ -52,14 +53,9 @@ impl std::error::Error for ModelError {}
 /// Everything about a simulation that stays fixed while it steps (MuJoCo's mjModel).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Model {
-    /// Shape of the lattice.
-    pub lattice: Lattice,
-    /// Mass of every point (kg).
-    pub mass: f64,
-    /// Stiffness per spring kind (N/m), indexed by `SpringKind as usize`.
-    pub stiffness: [f64; 3],
-    /// Damping per spring kind (N·s/m), indexed by `SpringKind as usize`.
-    pub damping: [f64; 3],
+    /// The soft bodies, their points one after the other in the state's arrays (see
+    /// [`Model::bodies`]).
+    bodies: Vec<Body>,
     /// Stiffness of the collision penalty springs (N/m).
     pub k_collision: f64,
     /// Damping of the collision penalty springs (N·s/m).
@@ -71,7 +67,7 @@ pub struct Model {
     /// Further static obstacles (planes, spheres, solid boxes), with the same penalty springs;
     /// [`ModelBuilder::obstacle`] checks their values.
     pub obstacles: Vec<Obstacle>,
-    /// Pinned points (flat lattice indices, sorted, no repeats, as [`ModelBuilder::pins`] leaves
+    /// Pinned points (flat indices into the model's points, sorted, no repeats, as [`ModelBuilder::pins`] leaves
     /// them): their acceleration is always zero, so a pinned point at rest is held in place (one
     /// moving keeps its velocity). The springs to them still act on their neighbours.
     pub pins: Vec<u32>,
@@ -88,42 +84,77 @@ pub struct Model {
 }
 
 impl Model {
-    /// Number of mass points.
+    /// The soft bodies. Body `b`'s points are the flat indices [`Body::points`] of every
+    /// per-point array (state, control forces, pins); a model read from a world file has one.
+    pub fn bodies(&self) -> &[Body] {
+        &self.bodies
+    }
+
+    /// Body `b`.
+    pub fn body(&self, b: usize) -> &Body {
+        &self.bodies[b]
+    }
+
+    /// Number of mass points, over all bodies (inactive lattice points of bodies with holes
+    /// included: they are placeholders that never move).
     pub fn point_count(&self) -> usize {
-        self.lattice.len()
+        self.bodies.iter().map(Body::len).sum()
     }
 
-    /// The springs as flat arrays, derived from the lattice on demand (allocates; the force
-    /// kernel walks the stencil instead, and [`Lattice::for_each_spring`] visits them without
-    /// a list).
+    /// The body that point `p` (flat index) belongs to, and its lattice coordinates there.
+    pub fn locate(&self, p: usize) -> (usize, [usize; 3]) {
+        let b = self
+            .bodies
+            .partition_point(|body| body.points().end <= p)
+            .min(self.bodies.len() - 1);
+        let body = &self.bodies[b];
+        (b, body.lattice().coords(p - body.first))
+    }
+
+    /// The springs of every body as flat arrays (flat point indices of the model), derived on
+    /// demand (allocates; the force kernel walks the stencil instead).
     pub fn springs(&self) -> Springs {
-        self.lattice.springs()
+        let mut springs = Springs::default();
+        for body in &self.bodies {
+            let first = body.first as u32;
+            body.for_each_spring(|a, b, rest, kind| {
+                springs.a.push(first + a as u32);
+                springs.b.push(first + b as u32);
+                springs.rest_len.push(rest);
+                springs.kind.push(kind);
+            });
+        }
+        springs
     }
 
-    /// Number of springs.
+    /// Number of springs, over all bodies.
     pub fn spring_count(&self) -> usize {
-        self.lattice.spring_count()
+        self.bodies.iter().map(Body::spring_count).sum()
     }
 
-    /// True when every spring kind shares one stiffness and one damping, as in world files.
-    pub fn has_uniform_springs(&self) -> bool {
-        self.stiffness.iter().all(|&k| k == self.stiffness[0])
-            && self.damping.iter().all(|&d| d == self.damping[0])
-    }
-
-    /// Stiffness of a spring kind (N/m).
-    pub fn stiffness_of(&self, kind: SpringKind) -> f64 {
-        self.stiffness[kind as usize]
+    /// A builder holding every value of this model, to change a few and build anew.
+    pub fn to_builder(&self) -> ModelBuilder {
+        ModelBuilder {
+            bodies: self.bodies.clone(),
+            k_collision: self.k_collision,
+            d_collision: self.d_collision,
+            bounds: self.bounds,
+            plane: self.plane,
+            obstacles: self.obstacles.clone(),
+            pins: self.pins.clone(),
+            field: self.field.clone(),
+            dt: self.dt,
+            integrator: self.integrator,
+            steps_per_frame: self.steps_per_frame,
+            escape_margin: self.escape_margin,
+        }
     }
 }
 
 /// Builds a [`Model`]; every value starts at the classic world's default ([`defaults`]).
 #[derive(Clone, Debug)]
 pub struct ModelBuilder {
-    lattice: Lattice,
-    mass: f64,
-    stiffness: [f64; 3],
-    damping: [f64; 3],
+    bodies: Vec<Body>,
     k_collision: f64,
     d_collision: f64,
     bounds: Aabb,
@@ -140,10 +171,7 @@ pub struct ModelBuilder {
 impl Default for ModelBuilder {
     fn default() -> Self {
         ModelBuilder {
-            lattice: Lattice::classic(),
-            mass: defaults::MASS,
-            stiffness: [defaults::K_ELASTIC; 3],
-            damping: [defaults::D_ELASTIC; 3],
+            bodies: vec![Body::lattice_box(Lattice::classic(), Material::classic())],
             k_collision: defaults::K_COLLISION,
             d_collision: defaults::D_COLLISION,
             bounds: Aabb::classic(),
@@ -165,29 +193,57 @@ impl ModelBuilder {
         Self::default()
     }
 
-    /// Lattice shape (default: the classic 8×8×8 cube of side 1 m).
+    /// The bodies (default: one, the classic 8×8×8 cube of side 1 m of classic jello). The
+    /// setters below that name no body ([`lattice`](Self::lattice), [`mass`](Self::mass),
+    /// [`elastic`](Self::elastic), [`spring_kind`](Self::spring_kind)) change the first.
+    pub fn bodies(mut self, bodies: Vec<Body>) -> Self {
+        self.bodies = bodies;
+        self
+    }
+
+    /// Adds a body after the others.
+    pub fn add_body(mut self, body: Body) -> Self {
+        self.bodies.push(body);
+        self
+    }
+
+    fn first_body(&mut self) -> &mut Body {
+        if self.bodies.is_empty() {
+            let classic = Body::lattice_box(Lattice::classic(), Material::classic());
+            self.bodies.push(classic);
+        }
+        &mut self.bodies[0]
+    }
+
+    /// Makes the first body a full box lattice of this shape, keeping its material and placement
+    /// (default: the classic 8×8×8 cube of side 1 m).
     pub fn lattice(mut self, lattice: Lattice) -> Self {
-        self.lattice = lattice;
+        let body = self.first_body();
+        let boxed = Body::lattice_box(lattice, body.material).placed(body.origin, body.rotation);
+        *body = boxed;
         self
     }
 
-    /// Mass of each point in kg (default 1/512).
+    /// Mass of each point of the first body in kg (default 1/512).
     pub fn mass(mut self, mass: f64) -> Self {
-        self.mass = mass;
+        self.first_body().material.mass = mass;
         self
     }
 
-    /// One stiffness (N/m) and damping (N·s/m) for every spring kind (default 200 and 0.25).
+    /// One stiffness (N/m) and damping (N·s/m) for every spring kind of the first body (default
+    /// 200 and 0.25).
     pub fn elastic(mut self, k: f64, d: f64) -> Self {
-        self.stiffness = [k; 3];
-        self.damping = [d; 3];
+        let m = &mut self.first_body().material;
+        m.stiffness = [k; 3];
+        m.damping = [d; 3];
         self
     }
 
-    /// Stiffness and damping of one spring kind.
+    /// Stiffness and damping of one spring kind of the first body.
     pub fn spring_kind(mut self, kind: SpringKind, k: f64, d: f64) -> Self {
-        self.stiffness[kind as usize] = k;
-        self.damping[kind as usize] = d;
+        let m = &mut self.first_body().material;
+        m.stiffness[kind as usize] = k;
+        m.damping[kind as usize] = d;
         self
     }
 
@@ -259,40 +315,32 @@ impl ModelBuilder {
     }
 
     /// Checks every value and builds the model with its springs.
-    pub fn build(self) -> Result<Model, ModelError> {
-        let [nx, ny, nz] = self.lattice.counts;
-        if nx == 0 || ny == 0 || nz == 0 || nx * ny * nz < 2 {
-            return Err(ModelError::new(format!(
-                "lattice {nx}×{ny}×{nz} needs at least one point per axis and two in all"
-            )));
+    pub fn build(mut self) -> Result<Model, ModelError> {
+        if self.bodies.is_empty() {
+            return Err(ModelError::new("a model needs at least one body"));
         }
-        if nx
-            .checked_mul(ny)
-            .and_then(|v| v.checked_mul(nz))
-            .is_none_or(|n| n > u32::MAX as usize / 2)
-        {
-            return Err(ModelError::new(format!(
-                "lattice {nx}×{ny}×{nz} is too large"
-            )));
+        let several = self.bodies.len() > 1;
+        let mut points = 0usize;
+        for (b, body) in self.bodies.iter_mut().enumerate() {
+            let name = |e: ModelError| {
+                if several {
+                    ModelError::new(format!("body {}: {e}", b + 1))
+                } else {
+                    e
+                }
+            };
+            check_lattice(body.lattice()).map_err(name)?;
+            body.material.check().map_err(name)?;
+            if !(body.origin.is_finite() && body.rotation.iter().all(|r| r.is_finite())) {
+                return Err(name(ModelError::new("placement must be finite")));
+            }
+            body.first = points;
+            points = points
+                .checked_add(body.len())
+                .filter(|&n| n <= u32::MAX as usize / 2)
+                .ok_or_else(|| ModelError::new("the bodies have too many points in all"))?;
         }
-        let s = self.lattice.size;
-        if !(s.is_finite() && s.x > 0.0 && s.y > 0.0 && s.z > 0.0) {
-            return Err(ModelError::new(
-                "lattice side lengths must be finite and positive",
-            ));
-        }
-        positive("mass", self.mass)?;
         positive("dt", self.dt)?;
-        for kind in SpringKind::ALL {
-            positive(
-                &format!("{} stiffness", kind.name()),
-                self.stiffness[kind as usize],
-            )?;
-            non_negative(
-                &format!("{} damping", kind.name()),
-                self.damping[kind as usize],
-            )?;
-        }
         positive("collision stiffness", self.k_collision)?;
         non_negative("collision damping", self.d_collision)?;
         positive("escape margin", self.escape_margin)?;
@@ -300,10 +348,9 @@ impl ModelBuilder {
             return Err(ModelError::new("steps per frame must be at least 1"));
         }
         self.bounds.check("bounding box")?;
-        let points = self.lattice.len();
         if let Some(&p) = self.pins.iter().find(|&&p| p as usize >= points) {
             return Err(ModelError::new(format!(
-                "pinned point {p} does not exist (the lattice has {points} points)"
+                "pinned point {p} does not exist (the model has {points} points)"
             )));
         }
         let mut pins = self.pins;
@@ -322,10 +369,7 @@ impl ModelBuilder {
             }
         }
         Ok(Model {
-            lattice: self.lattice,
-            mass: self.mass,
-            stiffness: self.stiffness,
-            damping: self.damping,
+            bodies: self.bodies,
             k_collision: self.k_collision,
             d_collision: self.d_collision,
             bounds: self.bounds,
@@ -341,7 +385,33 @@ impl ModelBuilder {
     }
 }
 
-fn positive(what: &str, v: f64) -> Result<(), ModelError> {
+/// A lattice with at least one point per axis, two in all, and finite positive sides.
+fn check_lattice(lattice: &Lattice) -> Result<(), ModelError> {
+    let [nx, ny, nz] = lattice.counts;
+    if nx == 0 || ny == 0 || nz == 0 || nx * ny * nz < 2 {
+        return Err(ModelError::new(format!(
+            "lattice {nx}×{ny}×{nz} needs at least one point per axis and two in all"
+        )));
+    }
+    if nx
+        .checked_mul(ny)
+        .and_then(|v| v.checked_mul(nz))
+        .is_none_or(|n| n > u32::MAX as usize / 2)
+    {
+        return Err(ModelError::new(format!(
+            "lattice {nx}×{ny}×{nz} is too large"
+        )));
+    }
+    let s = lattice.size;
+    if !(s.is_finite() && s.x > 0.0 && s.y > 0.0 && s.z > 0.0) {
+        return Err(ModelError::new(
+            "lattice side lengths must be finite and positive",
+        ));
+    }
+    Ok(())
+}
+
+pub(crate) fn positive(what: &str, v: f64) -> Result<(), ModelError> {
     if v.is_finite() && v > 0.0 {
         Ok(())
     } else {
@@ -351,7 +421,7 @@ fn positive(what: &str, v: f64) -> Result<(), ModelError> {
     }
 }
 
-fn non_negative(what: &str, v: f64) -> Result<(), ModelError> {
+pub(crate) fn non_negative(what: &str, v: f64) -> Result<(), ModelError> {
     if v.is_finite() && v >= 0.0 {
         Ok(())
     } else {

@@ -16,6 +16,7 @@
 //! large deformations change the modes. Explicit Euler is unstable for an undamped oscillator at
 //! every step size; with proportional damping its limit is about `d/k` whatever the mass.
 
+use crate::body::Body;
 use crate::integrator::Integrator;
 use crate::model::Model;
 use crate::vec3::Vec3;
@@ -29,9 +30,17 @@ use crate::vec3::Vec3;
 /// stiffest lattice mode), capped by the Gershgorin bound `2·max_p Σ |block|`; lattices with more
 /// than [`POWER_ITERATION_MAX_SPRINGS`] springs use the bound alone. The Rayleigh quotient
 /// approaches from below, so it is raised by 2 %.
-fn largest_eigenvalue(model: &Model, pos: &[Vec3], weight: &[f64; 3], tangent: bool) -> f64 {
-    let n = model.point_count();
-    let s = &model.springs();
+fn largest_eigenvalue(body: &Body, pos: &[Vec3], weight: &[f64; 3], tangent: bool) -> f64 {
+    let n = body.len();
+    let mut s = crate::lattice::Springs::default();
+    body.for_each_spring(|a, b, rest, kind| {
+        s.a.push(a as u32);
+        s.b.push(b as u32);
+        s.rest_len.push(rest);
+        s.kind.push(kind);
+    });
+    let s = &s;
+    let mass = body.material.mass;
     // Per spring: unit direction, axial weight and transverse weight.
     let blocks: Vec<(Vec3, f64, f64)> =
         s.a.iter()
@@ -54,7 +63,7 @@ fn largest_eigenvalue(model: &Model, pos: &[Vec3], weight: &[f64; 3], tangent: b
         sum[a as usize] += norm;
         sum[b as usize] += norm;
     }
-    let gershgorin = 2.0 * sum.iter().copied().fold(0.0, f64::max) / model.mass;
+    let gershgorin = 2.0 * sum.iter().copied().fold(0.0, f64::max) / mass;
     if s.len() > POWER_ITERATION_MAX_SPRINGS || gershgorin == 0.0 {
         return gershgorin;
     }
@@ -70,7 +79,7 @@ fn largest_eigenvalue(model: &Model, pos: &[Vec3], weight: &[f64; 3], tangent: b
     };
     let mut x: Vec<Vec3> = (0..n)
         .map(|p| {
-            let [i, j, k] = model.lattice.coords(p);
+            let [i, j, k] = body.lattice().coords(p);
             let sign = if (i + j + k) % 2 == 0 { 1.0 } else { -1.0 };
             Vec3::new(sign, sign * 0.9, sign * 0.8)
         })
@@ -84,7 +93,7 @@ fn largest_eigenvalue(model: &Model, pos: &[Vec3], weight: &[f64; 3], tangent: b
         rayleigh = x.iter().zip(&y).map(|(a, b)| a.dot(*b)).sum::<f64>();
         std::mem::swap(&mut x, &mut y);
     }
-    (1.02 * rayleigh.abs() / model.mass).min(gershgorin)
+    (1.02 * rayleigh.abs() / mass).min(gershgorin)
 }
 
 /// Springs above which the stiffest-mode search uses the Gershgorin bound alone (power iteration
@@ -143,20 +152,38 @@ pub struct ModeBounds {
 }
 
 impl ModeBounds {
-    /// The bounds at the lattice's rest shape.
+    /// The bounds at the bodies' rest shapes.
     pub fn at_rest(model: &Model) -> Self {
-        Self::at(model, &model.lattice.rest_positions())
+        let rest: Vec<Vec3> = model
+            .bodies()
+            .iter()
+            .flat_map(|b| b.lattice().rest_positions())
+            .collect();
+        Self::at(model, &rest)
     }
 
     /// The bounds with the springs as they are at positions `pos` (a deformed lattice can be
-    /// stiffer than the rest shape).
+    /// stiffer than the rest shape). With several bodies, the stiffest and the most damped over
+    /// the bodies (they are coupled only through contacts, which count as collision springs).
     pub fn at(model: &Model, pos: &[Vec3]) -> Self {
-        ModeBounds {
-            omega2: largest_eigenvalue(model, pos, &model.stiffness, true),
-            gamma: largest_eigenvalue(model, pos, &model.damping, false),
-            collision_omega2: model.k_collision / model.mass,
-            collision_gamma: model.d_collision / model.mass,
+        let mut bounds = ModeBounds {
+            omega2: 0.0,
+            gamma: 0.0,
+            collision_omega2: 0.0,
+            collision_gamma: 0.0,
+        };
+        for body in model.bodies() {
+            let (pos, m) = (&pos[body.points()], &body.material);
+            bounds.omega2 = bounds
+                .omega2
+                .max(largest_eigenvalue(body, pos, &m.stiffness, true));
+            bounds.gamma = bounds
+                .gamma
+                .max(largest_eigenvalue(body, pos, &m.damping, false));
+            bounds.collision_omega2 = bounds.collision_omega2.max(model.k_collision / m.mass);
+            bounds.collision_gamma = bounds.collision_gamma.max(model.d_collision / m.mass);
         }
+        bounds
     }
 
     /// The largest time step (s) at which `integrator` keeps every mode from growing, by the

@@ -33,9 +33,13 @@ impl State {
         }
     }
 
-    /// The model's lattice at its rest positions, at rest.
+    /// Every body at its rest positions and placement, at rest.
     pub fn at_rest(model: &Model) -> Self {
-        let pos = model.lattice.rest_positions();
+        let pos: Vec<Vec3> = model
+            .bodies()
+            .iter()
+            .flat_map(|b| b.rest_positions())
+            .collect();
         let vel = vec![Vec3::ZERO; pos.len()];
         State::new(pos, vel)
     }

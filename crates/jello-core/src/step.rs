@@ -73,7 +73,9 @@ pub struct BlowUp {
     pub time: f64,
     /// The first point (flat index) found at fault.
     pub point: usize,
-    /// Lattice coordinates of that point.
+    /// The body it belongs to (0 for the first).
+    pub body: usize,
+    /// Lattice coordinates of that point in its body.
     pub point_ijk: [usize; 3],
     /// What was found.
     pub cause: BlowUpCause,
@@ -96,6 +98,9 @@ impl fmt::Display for BlowUp {
             "simulation blew up at step {} (t = {:.6} s): point {} ({i}, {j}, {k}) ",
             self.step, self.time, self.point
         )?;
+        if self.body > 0 {
+            write!(f, "of body {} ", self.body + 1)?;
+        }
         match self.cause {
             BlowUpCause::NonFinite => f.write_str("has a non-finite position or velocity")?,
             BlowUpCause::Escaped(p) => write!(
@@ -154,11 +159,13 @@ pub fn step(
     if !sound {
         let (point, cause) = find_blow_up(model, &s.next_pos, &s.next_vel)
             .expect("an unsound state has a point at fault");
+        let (body, point_ijk) = model.locate(point);
         return Err(BlowUp {
             step: state.steps + 1,
             time: state.time,
             point,
-            point_ijk: model.lattice.coords(point),
+            body,
+            point_ijk,
             cause,
             integrator: model.integrator,
             dt,

@@ -453,12 +453,22 @@ impl World {
     /// The world file that holds `model` with `state` as its initial condition. Fails for what the
     /// format cannot say: a lattice other than the classic cube, per-kind springs, another box.
     pub fn from_simulation(model: &Model, state: &State) -> Result<World, ModelError> {
-        if !model.lattice.is_classic() {
+        let [body] = model.bodies() else {
+            return Err(ModelError::new("a world file holds one body only"));
+        };
+        if !(body.is_full()
+            && body.lattice().is_classic()
+            && body.origin == Vec3::ZERO
+            && body.rotation == crate::body::IDENTITY)
+        {
             return Err(ModelError::new(
                 "a world file holds the classic 8×8×8 cube of side 1 only",
             ));
         }
-        if !model.has_uniform_springs() {
+        let m = &body.material;
+        if !(m.stiffness.iter().all(|&k| k == m.stiffness[0])
+            && m.damping.iter().all(|&d| d == m.damping[0]))
+        {
             return Err(ModelError::new(
                 "a world file holds one stiffness and one damping for all springs",
             ));
@@ -483,11 +493,11 @@ impl World {
             integrator: model.integrator,
             dt: model.dt,
             steps_per_frame: model.steps_per_frame,
-            k_elastic: model.stiffness[0],
-            d_elastic: model.damping[0],
+            k_elastic: m.stiffness[0],
+            d_elastic: m.damping[0],
             k_collision: model.k_collision,
             d_collision: model.d_collision,
-            mass: model.mass,
+            mass: m.mass,
             plane: model.plane.map(|p| p.coeffs),
             field: model.field.as_ref().map(|f| (f.res(), f.forces().to_vec())),
             positions: state.pos.clone(),

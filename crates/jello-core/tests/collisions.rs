@@ -10,7 +10,8 @@ use jello_core::{Control, ModelBuilder, Plane, Scratch, State, Vec3};
 fn cube_at(corner: Vec3, v: Vec3) -> State {
     let model = ModelBuilder::new().build().unwrap();
     let pos = model
-        .lattice
+        .body(0)
+        .lattice()
         .rest_positions()
         .into_iter()
         .map(|p| p + corner)
@@ -33,7 +34,7 @@ fn cube_thrown_at_a_wall_bounces_back() {
         jello_core::step(&model, &mut state, &Control::none(), &mut scratch).unwrap();
         deepest = deepest.max(max_penetration(&model, &state.pos));
     }
-    let v = momentum(&model, &state.vel) / (model.mass * 512.0);
+    let v = momentum(&model, &state.vel) / (model.body(0).material.mass * 512.0);
     assert!(deepest > 0.0, "the cube should reach the wall");
     assert!(deepest < 0.3, "penetration {deepest} m");
     assert!(v.x > 1.0, "centre of mass velocity after the bounce: {v:?}");

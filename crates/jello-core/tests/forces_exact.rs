@@ -180,7 +180,8 @@ fn a_cube_across_two_walls() {
         .unwrap();
     let offset = Vec3::new(1.03125, -0.5, -2.1);
     let pos: Vec<Vec3> = model
-        .lattice
+        .body(0)
+        .lattice()
         .rest_positions()
         .iter()
         .map(|p| *p + offset)

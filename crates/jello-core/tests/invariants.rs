@@ -16,7 +16,10 @@ fn internal_forces_sum_to_zero() {
     let vel: Vec<Vec3> = pos.iter().map(|_| rng.vec3() * 3.0).collect();
     let mut acc = vec![Vec3::ZERO; pos.len()];
     accelerations(&model, &pos, &vel, &Control::none(), &mut acc);
-    let forces: Vec<Vec3> = acc.iter().map(|a| *a * model.mass).collect();
+    let forces: Vec<Vec3> = acc
+        .iter()
+        .map(|a| *a * model.body(0).material.mass)
+        .collect();
     let scale = forces.iter().map(|f| f.length()).fold(0.0, f64::max);
     assert!(scale > 1.0, "the deformation should produce forces");
     let total = forces.iter().fold(Vec3::ZERO, |s, f| s + *f);
@@ -91,13 +94,13 @@ fn energy_drift_is_ordered_by_accuracy() {
 fn damped_deformed_cube_returns_to_rest_shape() {
     let model = ModelBuilder::new().dt(1e-3).build().unwrap();
     let mut pos = deformed(&model, Vec3::new(-0.5, -0.5, -0.5), 0.04, 9);
-    let corner = model.lattice.index(7, 7, 7);
+    let corner = model.body(0).lattice().index(7, 7, 7);
     pos[corner] += Vec3::new(0.1, 0.1, 0.1);
     let mut rng = Lcg(4);
     let vel: Vec<Vec3> = pos.iter().map(|_| rng.vec3() * 0.2).collect();
     let mut state = State::new(pos, vel);
     run(&model, &mut state, 3000);
-    let rest = model.lattice.rest_positions();
+    let rest = model.body(0).lattice().rest_positions();
     let mut worst: f64 = 0.0;
     for a in 0..512 {
         for b in a + 1..512 {

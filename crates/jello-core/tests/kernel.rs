@@ -18,12 +18,12 @@ fn reference(model: &Model, pos: &[Vec3], vel: &[Vec3]) -> Vec<Vec3> {
         let l = pos[a] - pos[b];
         let len = l.length();
         let dir = l / len;
-        let force = dir * (-model.stiffness[kind] * (len - s.rest_len[n]))
-            - dir * (model.damping[kind] * (vel[a] - vel[b]).dot(dir));
+        let force = dir * (-model.body(0).material.stiffness[kind] * (len - s.rest_len[n]))
+            - dir * (model.body(0).material.damping[kind] * (vel[a] - vel[b]).dot(dir));
         f[a] += force;
         f[b] -= force;
     }
-    f.iter().map(|f| *f / model.mass).collect()
+    f.iter().map(|f| *f / model.body(0).material.mass).collect()
 }
 
 #[test]
@@ -53,7 +53,8 @@ fn stencil_kernel_matches_the_spring_list() {
             .unwrap();
         let mut rng = Lcg(counts.iter().product::<usize>() as u64);
         let pos: Vec<Vec3> = model
-            .lattice
+            .body(0)
+            .lattice()
             .rest_positions()
             .iter()
             .map(|p| *p - Vec3::new(0.5, 0.5, 0.5) + rng.vec3() * 0.03)
@@ -170,7 +171,8 @@ fn every_integrator_steps_as_the_textbook_writes_it_on_a_threaded_lattice() {
         .build()
         .unwrap();
     let pos: Vec<Vec3> = base
-        .lattice
+        .body(0)
+        .lattice()
         .rest_positions()
         .iter()
         // Centred, so that some points are outside the box walls (±2) and below the plane.

@@ -277,8 +277,8 @@ fn threaded_contacts_are_bit_identical() {
         common::on_threads(threads, || {
             let (model, mut state) = scenes::benchmark(22, Integrator::Rk4).unwrap();
             let model = ModelBuilder::new()
-                .lattice(model.lattice.clone())
-                .mass(model.mass)
+                .lattice(model.body(0).lattice().clone())
+                .mass(model.body(0).material.mass)
                 .field(model.field.clone())
                 .obstacles(vec![
                     Obstacle::Sphere(Sphere::new(Vec3::new(0.3, -0.2, 0.4), 0.5).unwrap()),

@@ -102,7 +102,7 @@ fn pulled_pair(integrator: Integrator, dt: f64, t_end: f64) -> (f64, f64) {
         pulls: (0..2)
             .map(|p| Pull {
                 point: p,
-                target: model.lattice.rest_position(p as usize, 0, 0) + offset,
+                target: model.body(0).lattice().rest_position(p as usize, 0, 0) + offset,
                 stiffness: k,
                 damping: d,
             })
@@ -121,7 +121,7 @@ fn pulled_pair(integrator: Integrator, dt: f64, t_end: f64) -> (f64, f64) {
     let x = |x0: f64| x0 * (-gamma * t).exp() * ((w * t).cos() + gamma / w * (w * t).sin());
     let want = Vec3::new(0.0, x(-0.3), x(0.2)) + offset;
     let err = (0..2)
-        .map(|p| (state.pos[p] - model.lattice.rest_position(p, 0, 0) - want).max_abs())
+        .map(|p| (state.pos[p] - model.body(0).lattice().rest_position(p, 0, 0) - want).max_abs())
         .fold(0.0, f64::max);
     (err, (state.pos[0] - state.pos[1]).length())
 }
@@ -155,8 +155,8 @@ fn pins_and_pulls_are_bit_identical_on_any_thread_count() {
             let (scene, mut state) = scenes::benchmark(22, Integrator::Rk4).unwrap();
             let n = scene.point_count() as u32;
             let model = ModelBuilder::new()
-                .lattice(scene.lattice.clone())
-                .mass(scene.mass)
+                .lattice(scene.body(0).lattice().clone())
+                .mass(scene.body(0).material.mass)
                 .field(scene.field.clone())
                 .pins([0, 7, n / 2, n - 1])
                 .build()

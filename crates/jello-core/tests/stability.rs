@@ -11,7 +11,7 @@ fn blows_up(integrator: Integrator, dt: f64) -> bool {
         .build()
         .unwrap();
     let mut state = State::at_rest(&model);
-    let corner = model.lattice.index(7, 7, 7);
+    let corner = model.body(0).lattice().index(7, 7, 7);
     state.pos[corner] += Vec3::new(1.0, 1.0, 1.0) / 7.0;
     let mut sim = Simulation::new(model, state);
     sim.advance((1.0 / dt) as u64).is_err()

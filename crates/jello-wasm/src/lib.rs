@@ -126,7 +126,13 @@ impl JelloSim {
     /// Points per axis `[nx, ny, nz]`.
     #[wasm_bindgen(getter)]
     pub fn counts(&self) -> Vec<u32> {
-        self.sim.model.lattice.counts.map(|c| c as u32).to_vec()
+        self.sim
+            .model
+            .body(0)
+            .lattice()
+            .counts
+            .map(|c| c as u32)
+            .to_vec()
     }
 
     /// Positions `[x0, y0, z0, x1, …]` (m), a copy as a `Float32Array` (what the GPU takes).
@@ -151,7 +157,7 @@ impl JelloSim {
     /// Rest positions of the lattice `[x0, y0, z0, …]` (m), for the falloff of a grab.
     #[wasm_bindgen(js_name = restPositions)]
     pub fn rest_positions(&self) -> Vec<f32> {
-        let rest = self.sim.model.lattice.rest_positions();
+        let rest = self.sim.model.body(0).rest_positions();
         rest.iter()
             .flat_map(|p| [p.x as f32, p.y as f32, p.z as f32])
             .collect()
@@ -236,19 +242,19 @@ impl JelloSim {
     /// Structural spring stiffness (N/m); every kind has it in a world file.
     #[wasm_bindgen(getter)]
     pub fn stiffness(&self) -> f64 {
-        self.sim.model.stiffness[SpringKind::Structural as usize]
+        self.sim.model.body(0).material.stiffness[SpringKind::Structural as usize]
     }
 
     /// Structural spring damping (N·s/m).
     #[wasm_bindgen(getter)]
     pub fn damping(&self) -> f64 {
-        self.sim.model.damping[SpringKind::Structural as usize]
+        self.sim.model.body(0).material.damping[SpringKind::Structural as usize]
     }
 
     /// Mass of each point (kg).
     #[wasm_bindgen(getter)]
     pub fn mass(&self) -> f64 {
-        self.sim.model.mass
+        self.sim.model.body(0).material.mass
     }
 
     /// Simulated time (s) since load or reset.
@@ -284,7 +290,10 @@ impl JelloSim {
         mass: f64,
     ) -> Result<(), JsError> {
         let integrator = integrator.parse::<Integrator>().map_err(js_err)?;
-        let model = builder_from(&self.sim.model)
+        let model = self
+            .sim
+            .model
+            .to_builder()
             .integrator(integrator)
             .dt(dt)
             .elastic(stiffness, damping)
@@ -357,7 +366,7 @@ impl JelloSim {
 
 impl JelloSim {
     fn new(model: Model, state: State, name: &str) -> JelloSim {
-        let lattice = &model.lattice;
+        let lattice = model.body(0).lattice();
         let triangles = lattice.surface_triangles().concat();
         let surface: Vec<u32> = lattice
             .surface_points()
@@ -385,27 +394,6 @@ impl JelloSim {
             surface_springs,
         }
     }
-}
-
-/// A builder holding every value of `model`, to change a few and build anew.
-fn builder_from(model: &Model) -> ModelBuilder {
-    let mut b = ModelBuilder::new()
-        .lattice(model.lattice.clone())
-        .mass(model.mass)
-        .collision(model.k_collision, model.d_collision)
-        .bounds(model.bounds)
-        .plane(model.plane)
-        .obstacles(model.obstacles.clone())
-        .pins(model.pins.iter().copied())
-        .field(model.field.clone())
-        .dt(model.dt)
-        .integrator(model.integrator)
-        .steps_per_frame(model.steps_per_frame)
-        .escape_margin(model.escape_margin);
-    for kind in SpringKind::ALL {
-        b = b.spring_kind(kind, model.stiffness_of(kind), model.damping[kind as usize]);
-    }
-    b
 }
 
 /// The blow-up in words for the viewer's banner (the core's `Display` speaks to the command
@@ -465,7 +453,12 @@ mod tests {
         let m = &s.sim.model;
         assert_eq!(m.integrator, Integrator::SymplecticEuler);
         assert_eq!(
-            (m.dt, m.stiffness, m.damping, m.mass),
+            (
+                m.dt,
+                m.body(0).material.stiffness,
+                m.body(0).material.damping,
+                m.body(0).material.mass
+            ),
             (0.0002, [300.0; 3], [0.5; 3], 0.002)
         );
         assert!(m.plane.is_some() && m.field.is_some());

@@ -45,8 +45,8 @@ pub fn info(args: InfoArgs) -> Result<(), CliError> {
     );
     println!(
         "mass           {} kg per point, {} kg in all",
-        m.mass,
-        m.mass * m.point_count() as f64
+        m.body(0).material.mass,
+        m.body(0).material.mass * m.point_count() as f64
     );
     match &m.plane {
         Some(p) => {
@@ -64,8 +64,8 @@ pub fn info(args: InfoArgs) -> Result<(), CliError> {
         ),
         None => println!("force field    none"),
     }
-    let [nx, ny, nz] = m.lattice.counts;
-    let by_kind = m.lattice.spring_count_by_kind();
+    let [nx, ny, nz] = m.body(0).lattice().counts;
+    let by_kind = m.body(0).lattice().spring_count_by_kind();
     println!(
         "lattice        {nx}×{ny}×{nz} = {} points, {} springs ({} {}, {} {}, {} {})",
         m.point_count(),

@@ -62,7 +62,8 @@ impl Lcg {
 pub fn deformed(model: &Model, offset: Vec3, jitter: f64, seed: u64) -> Vec<Vec3> {
     let mut rng = Lcg(seed);
     model
-        .lattice
+        .body(0)
+        .lattice()
         .rest_positions()
         .into_iter()
         .map(|p| p + offset + rng.vec3() * jitter)

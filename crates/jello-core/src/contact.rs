@@ -1,0 +1,219 @@
+//! Contacts between bodies: penalty springs between the points of different bodies, found
+//! through a hashed uniform grid (the broad phase).
+//!
+//! **Method.** Every active point of a body is a ball of radius [`Body::contact_radius`] (half the
+//! body's smallest lattice spacing). Two balls of different bodies that overlap are pushed apart
+//! along the line between their centres by a penalty spring with the model's collision stiffness
+//! and damping, the same law as the walls: `kCollision·depth·n − dCollision ((vA − vB)·n) n`, with
+//! `depth = rA + rB − |pA − pB|` and `n` the unit vector from B to A. The force on B is exactly the
+//! opposite, so contacts conserve linear momentum.
+//!
+//! **Limits.** Bodies keep a gap of about one radius between their cages at rest (the cage
+//! encloses the skin, so skins rest a little apart); a point moving more than a radius per step
+//! relative to another body can pass through it; two points at the same place exert no force (no
+//! direction); and a body does not collide with itself.
+//!
+//! **Broad phase.** Points are sorted into cubic grid cells the size of the largest ball diameter
+//! by a counting sort over a hash of the cell; each point then looks at the 27 cells around its
+//! own. Buffers are sized once, so a pass allocates nothing; the sums run in a fixed order, so the
+//! forces are bit for bit the same whatever the thread count.
+
+use crate::body::Body;
+use crate::model::Model;
+use crate::soa::Soa;
+use crate::vec3::Vec3;
+
+/// The buffers of the contact pass, sized once for a model.
+#[derive(Clone, Debug, Default)]
+pub struct Contacts {
+    /// Contact force on every point (N).
+    forces: Soa,
+    /// Bucket starts of the hashed grid (`buckets + 1` entries).
+    starts: Vec<u32>,
+    /// Active points sorted by bucket; in each bucket by index.
+    entries: Vec<u32>,
+    /// Per sorted entry: its grid cell.
+    entry_cells: Vec<[i32; 3]>,
+    /// Per point: its grid cell (for the sort).
+    point_cells: Vec<[i32; 3]>,
+    /// Per body: the ball radius (m).
+    radius: Vec<f64>,
+    /// Side of a grid cell (m).
+    cell: f64,
+}
+
+impl Contacts {
+    /// Buffers for `model`; empty (and never used) for a model of one body.
+    pub fn new(model: &Model) -> Self {
+        let bodies = model.bodies();
+        if bodies.len() < 2 {
+            return Contacts::default();
+        }
+        let n = model.point_count();
+        let active: usize = bodies.iter().map(Body::active_count).sum();
+        let radius: Vec<f64> = bodies.iter().map(Body::contact_radius).collect();
+        let cell = 2.0 * radius.iter().copied().fold(0.0, f64::max);
+        let buckets = (2 * active).next_power_of_two();
+        Contacts {
+            forces: Soa::zeros(n),
+            starts: vec![0; buckets + 1],
+            entries: vec![0; active],
+            entry_cells: vec![[0; 3]; active],
+            point_cells: vec![[0; 3]; n],
+            radius,
+            cell,
+        }
+    }
+
+    /// True when the buffers fit `model`.
+    pub(crate) fn fits(&self, model: &Model) -> bool {
+        if model.bodies().len() < 2 {
+            return true;
+        }
+        self.forces.len() == model.point_count() && self.radius.len() == model.bodies().len()
+    }
+
+    /// The contact forces of the last [`Contacts::compute`].
+    pub fn forces(&self) -> &Soa {
+        &self.forces
+    }
+
+    /// The contact forces between the bodies of `model` at positions `p` and velocities `v`.
+    pub fn compute(&mut self, model: &Model, p: &Soa, v: &Soa) {
+        let bodies = model.bodies();
+        let Contacts {
+            forces,
+            starts,
+            entries,
+            entry_cells,
+            point_cells,
+            radius,
+            cell,
+        } = self;
+        forces.fill_zero();
+        if bodies.len() < 2 {
+            return;
+        }
+        let inv = 1.0 / *cell;
+        let (px, py, pz) = (p.x(), p.y(), p.z());
+        let mask = starts.len() - 2;
+        // Counting sort of the active points by bucket.
+        starts.fill(0);
+        for body in bodies {
+            for q in active_points(body) {
+                let c = [px[q], py[q], pz[q]].map(|x| (x * inv).floor() as i32);
+                point_cells[q] = c;
+                starts[hash(c) & mask] += 1;
+            }
+        }
+        let mut sum = 0;
+        for s in starts.iter_mut() {
+            let count = *s;
+            *s = sum;
+            sum += count;
+        }
+        for body in bodies {
+            for q in active_points(body) {
+                let c = point_cells[q];
+                let slot = &mut starts[hash(c) & mask];
+                entries[*slot as usize] = q as u32;
+                entry_cells[*slot as usize] = c;
+                *slot += 1;
+            }
+        }
+        // Each bucket's start is now the next one's; shift back.
+        for b in (1..starts.len()).rev() {
+            starts[b] = starts[b - 1];
+        }
+        starts[0] = 0;
+        // Each active point sums the forces from the other bodies' balls around it.
+        let (kc, dc) = (model.k_collision, model.d_collision);
+        let (vx, vy, vz) = (v.x(), v.y(), v.z());
+        let [fx, fy, fz] = forces.parts_mut();
+        for (b, body) in bodies.iter().enumerate() {
+            let others = body.points();
+            for a in active_points(body) {
+                let c = point_cells[a];
+                let (pa, va) = (
+                    Vec3::new(px[a], py[a], pz[a]),
+                    Vec3::new(vx[a], vy[a], vz[a]),
+                );
+                let mut f = Vec3::ZERO;
+                for n in 0..27 {
+                    let d = [n / 9 - 1, n / 3 % 3 - 1, n % 3 - 1];
+                    let near = [
+                        c[0].wrapping_add(d[0]),
+                        c[1].wrapping_add(d[1]),
+                        c[2].wrapping_add(d[2]),
+                    ];
+                    let bucket = hash(near) & mask;
+                    let range = starts[bucket] as usize..starts[bucket + 1] as usize;
+                    for (&e, &ec) in entries[range.clone()].iter().zip(&entry_cells[range]) {
+                        // Another cell hashed to the same bucket, or the same body: skip.
+                        let e = e as usize;
+                        if ec != near || others.contains(&e) {
+                            continue;
+                        }
+                        let (pb, vb) = (
+                            Vec3::new(px[e], py[e], pz[e]),
+                            Vec3::new(vx[e], vy[e], vz[e]),
+                        );
+                        let reach = radius[b] + radius[model.locate(e).0];
+                        f += pair_force(pa - pb, va - vb, reach, kc, dc);
+                    }
+                }
+                (fx[a], fy[a], fz[a]) = (f.x, f.y, f.z);
+            }
+        }
+    }
+}
+
+/// The active points of a body, as flat indices of the model.
+fn active_points(body: &Body) -> impl Iterator<Item = usize> + '_ {
+    body.points()
+        .filter(move |&q| body.is_active(q - body.points().start))
+}
+
+/// A hash of a grid cell (the three large primes of Teschner et al. 2003).
+#[inline]
+fn hash(c: [i32; 3]) -> usize {
+    ((c[0] as u32).wrapping_mul(73_856_093)
+        ^ (c[1] as u32).wrapping_mul(19_349_663)
+        ^ (c[2] as u32).wrapping_mul(83_492_791)) as usize
+}
+
+/// The penalty force on ball A from ball B at separation `d = pA − pB` and relative velocity
+/// `w = vA − vB`, when they overlap (`|d| < reach`): exactly minus the force on B from A.
+#[inline]
+pub fn pair_force(d: Vec3, w: Vec3, reach: f64, kc: f64, dc: f64) -> Vec3 {
+    let l2 = d.length_squared();
+    if !(l2 < reach * reach && l2 > 0.0) {
+        return Vec3::ZERO;
+    }
+    let l = l2.sqrt();
+    let n = d / l;
+    n * (kc * (reach - l)) - n * (dc * w.dot(n))
+}
+
+/// Depth (m) of the deepest overlap between balls of different bodies, and the penalty energy
+/// `Σ ½ kCollision depth²` over the pairs (J). By brute force over pairs of bodies' active
+/// points: a diagnostic, never part of stepping.
+pub fn overlap(model: &Model, pos: &[Vec3]) -> (f64, f64) {
+    let bodies = model.bodies();
+    let (mut deepest, mut energy) = (0.0f64, 0.0);
+    for (i, a) in bodies.iter().enumerate() {
+        for b in &bodies[i + 1..] {
+            let reach = a.contact_radius() + b.contact_radius();
+            for p in active_points(a) {
+                for q in active_points(b) {
+                    let depth = reach - (pos[p] - pos[q]).length();
+                    if depth > 0.0 {
+                        deepest = deepest.max(depth);
+                        energy += 0.5 * model.k_collision * depth * depth;
+                    }
+                }
+            }
+        }
+    }
+    (deepest, energy)
+}
