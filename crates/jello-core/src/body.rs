@@ -24,6 +24,7 @@ use crate::lattice::{Lattice, SpringKind, STENCIL};
 use crate::model::ModelError;
 use crate::skin::Skin;
 use crate::vec3::Vec3;
+use crate::voxel::Voxels;
 
 /// What a body is made of: the mass of each point, and the stiffness and damping of each spring
 /// kind. Per-spring values are exact; [`Material::from_modulus`] derives them from
@@ -188,6 +189,44 @@ impl Body {
             skin: None,
             first: 0,
         })
+    }
+
+    /// The body of a closed, outward-wound triangle mesh voxelised with `cells` cells along its
+    /// longest side ([`Voxels::from_mesh`], at most `max_cells` cells in all), carrying the mesh
+    /// as its skin, resting where the mesh is.
+    pub fn from_mesh(
+        vertices: &[Vec3],
+        triangles: &[[u32; 3]],
+        cells: usize,
+        max_cells: usize,
+        material: Material,
+    ) -> Result<Self, ModelError> {
+        let voxels = Voxels::from_mesh(vertices, triangles, cells, max_cells)?;
+        let skin = Skin::embed(&voxels, vertices, triangles);
+        Ok(Body::from_voxels(&voxels, material)?.with_skin(skin))
+    }
+
+    /// The body of the kept cells of `voxels`, resting where they are.
+    pub fn from_voxels(voxels: &Voxels, material: Material) -> Result<Self, ModelError> {
+        let body = Body::from_cells(voxels.lattice(), voxels.occupied.clone(), material)?;
+        Ok(body.placed(voxels.origin, IDENTITY))
+    }
+
+    /// The same body with a material given independently of the resolution
+    /// ([`Material::from_modulus`]): modulus (Pa), viscosity (Pa·s) and density (kg/m³) over the
+    /// volume of its kept cells.
+    pub fn with_modulus(mut self, modulus: f64, viscosity: f64, density: f64) -> Self {
+        let h = self.lattice.spacing();
+        let volume = self.cell_count() as f64 * h.x * h.y * h.z;
+        self.material = Material::from_modulus(
+            modulus,
+            viscosity,
+            density,
+            self.min_spacing(),
+            volume,
+            self.active_count,
+        );
+        self
     }
 
     /// The same body resting with lattice point `(0, 0, 0)` at `origin`, its rest shape turned by

@@ -3,10 +3,12 @@
 //!
 //! **Method.** Every active point of a body is a ball of radius [`Body::contact_radius`] (half the
 //! body's smallest lattice spacing). Two balls of different bodies that overlap are pushed apart
-//! along the line between their centres by a penalty spring with the model's collision stiffness
-//! and damping, the same law as the walls: `kCollision·depth·n − dCollision ((vA − vB)·n) n`, with
-//! `depth = rA + rB − |pA − pB|` and `n` the unit vector from B to A. The force on B is exactly the
-//! opposite, so contacts conserve linear momentum.
+//! along the line between their centres by a penalty spring with the model's collision stiffness,
+//! and damped with its collision damping: `kCollision·depth·n − dCollision (vA − vB)`, with
+//! `depth = rA + rB − |pA − pB|` and `n` the unit vector from B to A. The damping acts on the whole
+//! relative velocity, not only along `n` as at the walls: it also resists sliding (a viscous
+//! friction), without which a stack of frictionless balls would never settle. The force on B is
+//! exactly the opposite, so contacts conserve linear momentum.
 //!
 //! **Limits.** Bodies keep a gap of about one radius between their cages at rest (the cage
 //! encloses the skin, so skins rest a little apart); a point moving more than a radius per step
@@ -191,8 +193,7 @@ pub fn pair_force(d: Vec3, w: Vec3, reach: f64, kc: f64, dc: f64) -> Vec3 {
         return Vec3::ZERO;
     }
     let l = l2.sqrt();
-    let n = d / l;
-    n * (kc * (reach - l)) - n * (dc * w.dot(n))
+    d * (kc * (reach - l) / l) - w * dc
 }
 
 /// Depth (m) of the deepest overlap between balls of different bodies, and the penalty energy

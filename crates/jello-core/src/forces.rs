@@ -785,13 +785,14 @@ fn block_accelerations_impl(model: &Model, point: PointInputs<'_>, acc: [&mut [f
     let control = point.control.map(|c| &c[..len]);
     let (kc, dc, mass) = (model.k_collision, model.d_collision, point.mass);
     let (lo, hi) = (model.bounds.min, model.bounds.max);
-    let obstacles = !model.obstacles.is_empty() || point.contact.is_some();
+    let obstacles =
+        !model.obstacles.is_empty() || point.contact.is_some() || model.gravity != Vec3::ZERO;
     let block = point.first..point.first + len;
     let pulls = point
         .pulls
         .iter()
         .any(|p| block.contains(&(p.point as usize)));
-    // With obstacles, contacts or pulls, the force is finished (and divided by the mass) after
+    // With obstacles, contacts, gravity or pulls, the force is finished (and divided by the mass) after
     // the main loop.
     let deferred = obstacles || pulls;
 
@@ -861,7 +862,7 @@ fn block_accelerations_impl(model: &Model, point: PointInputs<'_>, acc: [&mut [f
 }
 
 /// The rest of the force on a block (contacts with other bodies, obstacles, then pulls), then
-/// over the mass.
+/// over the mass, plus gravity.
 #[inline(always)]
 fn finish_forces(
     model: &Model,
@@ -910,9 +911,10 @@ fn finish_forces(
         let f = pull.force(p, v);
         (ax[t], ay[t], az[t]) = (ax[t] + f.x, ay[t] + f.y, az[t] + f.z);
     }
-    for a in [ax, ay, az] {
+    let g = model.gravity.to_array();
+    for (a, g) in [ax, ay, az].into_iter().zip(g) {
         for a in a.iter_mut() {
-            *a /= mass;
+            *a = *a / mass + g;
         }
     }
 }

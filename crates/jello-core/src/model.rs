@@ -7,6 +7,7 @@ use crate::field::ForceField;
 use crate::integrator::Integrator;
 use crate::lattice::{Lattice, SpringKind, Springs};
 pub use crate::obstacle::{Aabb, Obstacle, Plane};
+use crate::vec3::Vec3;
 
 /// Defaults of the classic jello world (the official `jello.w`), used wherever a value is not
 /// given. One place for them: the builder and the command line both read these.
@@ -73,6 +74,9 @@ pub struct Model {
     pub pins: Vec<u32>,
     /// The external force field, when present.
     pub field: Option<ForceField>,
+    /// Uniform acceleration of every active point (m/s²), on top of the field (which is a
+    /// force, the same on a light point as on a heavy one); zero in classic worlds.
+    pub gravity: Vec3,
     /// Time step (s).
     pub dt: f64,
     /// The time-stepping scheme.
@@ -143,6 +147,7 @@ impl Model {
             obstacles: self.obstacles.clone(),
             pins: self.pins.clone(),
             field: self.field.clone(),
+            gravity: self.gravity,
             dt: self.dt,
             integrator: self.integrator,
             steps_per_frame: self.steps_per_frame,
@@ -162,6 +167,7 @@ pub struct ModelBuilder {
     obstacles: Vec<Obstacle>,
     pins: Vec<u32>,
     field: Option<ForceField>,
+    gravity: Vec3,
     dt: f64,
     integrator: Integrator,
     steps_per_frame: u32,
@@ -179,6 +185,7 @@ impl Default for ModelBuilder {
             obstacles: Vec::new(),
             pins: Vec::new(),
             field: None,
+            gravity: Vec3::ZERO,
             dt: defaults::DT,
             integrator: Integrator::Rk4,
             steps_per_frame: defaults::STEPS_PER_FRAME,
@@ -290,6 +297,12 @@ impl ModelBuilder {
         self
     }
 
+    /// Uniform acceleration (m/s², default zero): see [`Model::gravity`].
+    pub fn gravity(mut self, g: Vec3) -> Self {
+        self.gravity = g;
+        self
+    }
+
     /// Time step in seconds (default 0.0005).
     pub fn dt(mut self, dt: f64) -> Self {
         self.dt = dt;
@@ -341,6 +354,9 @@ impl ModelBuilder {
                 .ok_or_else(|| ModelError::new("the bodies have too many points in all"))?;
         }
         positive("dt", self.dt)?;
+        if !self.gravity.is_finite() {
+            return Err(ModelError::new("gravity must be finite"));
+        }
         positive("collision stiffness", self.k_collision)?;
         non_negative("collision damping", self.d_collision)?;
         positive("escape margin", self.escape_margin)?;
@@ -377,6 +393,7 @@ impl ModelBuilder {
             obstacles: self.obstacles,
             pins,
             field: self.field,
+            gravity: self.gravity,
             dt: self.dt,
             integrator: self.integrator,
             steps_per_frame: self.steps_per_frame,

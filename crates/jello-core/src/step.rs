@@ -74,7 +74,7 @@ pub struct BlowUp {
     /// The first point (flat index) found at fault.
     pub point: usize,
     /// The body it belongs to (0 for the first).
-    pub body: usize,
+    pub body: u32,
     /// Lattice coordinates of that point in its body.
     pub point_ijk: [usize; 3],
     /// What was found.
@@ -164,7 +164,7 @@ pub fn step(
             step: state.steps + 1,
             time: state.time,
             point,
-            body,
+            body: body as u32,
             point_ijk,
             cause,
             integrator: model.integrator,

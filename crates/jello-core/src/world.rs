@@ -476,6 +476,11 @@ impl World {
         if model.bounds != Aabb::classic() {
             return Err(ModelError::new("a world file holds the box [-2, 2]³ only"));
         }
+        if model.gravity != Vec3::ZERO {
+            return Err(ModelError::new(
+                "a world file holds no gravity besides its force field",
+            ));
+        }
         if !model.pins.is_empty() {
             return Err(ModelError::new("a world file holds no pinned points"));
         }

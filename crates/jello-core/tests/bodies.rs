@@ -1,0 +1,472 @@
+//! Bodies with holes, several bodies, contacts between them, gravity and resolution-independent
+//! materials: checked against brute force and physics, not against the kernel itself.
+
+#[path = "common/alloc_watch.rs"]
+mod alloc_watch;
+mod common;
+#[path = "common/meshes.rs"]
+mod meshes;
+
+use common::{max_diff, on_threads, Lcg as Rng};
+use jello_core::contact::pair_force;
+use jello_core::diagnostics::{body_centre_of_mass, momentum};
+use jello_core::forces::accelerations;
+use jello_core::{
+    step, Aabb, Body, Control, Integrator, Lattice, Material, Model, ModelBuilder, Obstacle,
+    Scratch, Sphere, State, Vec3,
+};
+use meshes::{cuboid, torus};
+
+const MAX_CELLS: usize = 1 << 20;
+
+/// A random set of kept cells, about `fill` of them.
+fn random_cells(cells: usize, fill: f64, rng: &mut Rng) -> Vec<bool> {
+    let mut kept: Vec<bool> = (0..cells)
+        .map(|_| (rng.next() + 1.0) * 0.5 < fill)
+        .collect();
+    kept[cells / 2] = true;
+    kept
+}
+
+/// The springs of a body by the rule "two points are joined by a spring of the stencil when some
+/// kept cell has both as corners (a bend spring: when both its halves are springs)", by brute
+/// force over pairs of points: (a, b, rest length, kind index).
+fn brute_force_springs(
+    counts: [usize; 3],
+    size: Vec3,
+    cells: &[bool],
+) -> Vec<(usize, usize, f64, usize)> {
+    let [nx, ny, nz] = counts;
+    let (cy, cz) = (ny - 1, nz - 1);
+    let h = Vec3::new(
+        size.x / (nx - 1) as f64,
+        size.y / (ny - 1) as f64,
+        size.z / (nz - 1) as f64,
+    );
+    let index = |p: [usize; 3]| (p[0] * ny + p[1]) * nz + p[2];
+    let in_kept_cell = |p: [usize; 3], q: [usize; 3]| {
+        // Cells with both as corners: lower corner c with c ≤ p, q ≤ c + 1 on every axis.
+        let lo = [0, 1, 2].map(|a| p[a].max(q[a]).saturating_sub(1));
+        let hi = [0, 1, 2].map(|a| p[a].min(q[a]));
+        (lo[0]..=hi[0].min(nx - 2)).any(|i| {
+            (lo[1]..=hi[1].min(ny - 2))
+                .any(|j| (lo[2]..=hi[2].min(nz - 2)).any(|k| cells[(i * cy + j) * cz + k]))
+        })
+    };
+    let points: Vec<[usize; 3]> = (0..nx)
+        .flat_map(|i| (0..ny).flat_map(move |j| (0..nz).map(move |k| [i, j, k])))
+        .collect();
+    let mut springs = Vec::new();
+    for &p in &points {
+        for &q in &points {
+            if index(q) <= index(p) {
+                continue;
+            }
+            let d = [0, 1, 2].map(|a| q[a] as isize - p[a] as isize);
+            let rest = Vec3::new(d[0] as f64 * h.x, d[1] as f64 * h.y, d[2] as f64 * h.z).length();
+            let steps: Vec<isize> = d.iter().map(|c| c.abs()).collect();
+            let ones = steps.iter().filter(|&&c| c == 1).count();
+            let twos = steps.iter().filter(|&&c| c == 2).count();
+            let zeros = steps.iter().filter(|&&c| c == 0).count();
+            if ones == 1 && zeros == 2 && in_kept_cell(p, q) {
+                springs.push((index(p), index(q), rest, 0));
+            } else if ones >= 2 && ones + zeros == 3 && in_kept_cell(p, q) {
+                springs.push((index(p), index(q), rest, 1));
+            } else if twos == 1 && zeros == 2 {
+                let mid = [0, 1, 2].map(|a| (p[a] + q[a]) / 2);
+                if in_kept_cell(p, mid) && in_kept_cell(mid, q) {
+                    springs.push((index(p), index(q), rest, 2));
+                }
+            }
+        }
+    }
+    springs.sort_by_key(|s| (s.0, s.1));
+    springs
+}
+
+#[test]
+fn the_springs_of_a_body_with_holes_are_those_of_its_kept_cells() {
+    let mut rng = Rng(7);
+    for (counts, fill) in [
+        ([3, 3, 3], 0.5),
+        ([4, 5, 3], 0.4),
+        ([5, 4, 6], 0.7),
+        ([6, 6, 6], 0.2),
+    ] {
+        let size = Vec3::new(1.0, 1.3, 0.8);
+        let cells = random_cells(counts.iter().map(|n| n - 1).product(), fill, &mut rng);
+        let lattice = Lattice::new(counts, size);
+        let body = Body::from_cells(lattice, cells.clone(), Material::classic()).unwrap();
+        let mut got = Vec::new();
+        body.for_each_spring(|a, b, rest, kind| {
+            got.push((a.min(b), a.max(b), rest, kind as usize))
+        });
+        got.sort_by_key(|s| (s.0, s.1));
+        let want = brute_force_springs(counts, size, &cells);
+        assert_eq!(got.len(), want.len(), "{counts:?}");
+        for (g, w) in got.iter().zip(&want) {
+            assert_eq!((g.0, g.1, g.3), (w.0, w.1, w.3), "{counts:?}");
+            assert!((g.2 - w.2).abs() < 1e-15);
+        }
+        let mut by_kind = [0; 3];
+        want.iter().for_each(|s| by_kind[s.3] += 1);
+        assert_eq!(body.spring_count_by_kind(), by_kind);
+        // The active points are exactly the corners of kept cells, which every spring joins.
+        let mut touched = vec![false; body.len()];
+        want.iter()
+            .for_each(|s| (touched[s.0], touched[s.1]) = (true, true));
+        assert_eq!(body.active_mask(), &touched[..]);
+    }
+}
+
+/// Accelerations of a body with holes at a deformed state: spring forces summed by brute force
+/// from the independent spring rule, over the mass; inactive points do not accelerate.
+#[test]
+fn a_body_with_holes_feels_exactly_its_springs() {
+    let mut rng = Rng(11);
+    // Large enough for several chunks and the block loop.
+    let counts = [9, 7, 10];
+    let size = Vec3::new(1.0, 0.8, 1.2);
+    let cells = random_cells(8 * 6 * 9, 0.55, &mut rng);
+    let material = Material {
+        mass: 0.01,
+        stiffness: [150.0, 90.0, 40.0],
+        damping: [0.3, 0.2, 0.1],
+    };
+    let body = Body::from_cells(Lattice::new(counts, size), cells.clone(), material).unwrap();
+    let model = ModelBuilder::new()
+        .bodies(vec![body.clone()])
+        .bounds(Aabb::new(Vec3::new(-9.0, -9.0, -9.0), Vec3::new(9.0, 9.0, 9.0)).unwrap())
+        .build()
+        .unwrap();
+    let state = State::at_rest(&model);
+    let pos: Vec<Vec3> = state.pos.iter().map(|&p| p + rng.vec3() * 0.02).collect();
+    let vel: Vec<Vec3> = pos.iter().map(|_| rng.vec3()).collect();
+    let mut want = vec![Vec3::ZERO; pos.len()];
+    for (a, b, rest, kind) in brute_force_springs(counts, size, &cells) {
+        let d = pos[a] - pos[b];
+        let l = d.length();
+        let u = d / l;
+        let f = u * (-material.stiffness[kind] * (l - rest))
+            - u * (material.damping[kind] * (vel[a] - vel[b]).dot(u));
+        want[a] += f;
+        want[b] -= f;
+    }
+    let want: Vec<Vec3> = want.iter().map(|f| *f / material.mass).collect();
+    let mut got = vec![Vec3::ZERO; pos.len()];
+    accelerations(&model, &pos, &vel, &Control::none(), &mut got);
+    let scale = want.iter().map(|a| a.length()).fold(0.0, f64::max);
+    assert!(
+        max_diff(&got, &want) <= 1e-12 * scale,
+        "{}",
+        max_diff(&got, &want)
+    );
+    for (p, a) in got.iter().enumerate() {
+        if !body.is_active(p) {
+            assert_eq!(*a, Vec3::ZERO, "inactive point {p}");
+        }
+    }
+}
+
+#[test]
+fn keeping_every_cell_is_the_box_bit_for_bit() {
+    let lattice = Lattice::new([6, 5, 7], Vec3::new(1.0, 1.0, 1.0));
+    let full =
+        Body::from_cells(lattice.clone(), vec![true; 5 * 4 * 6], Material::classic()).unwrap();
+    assert_eq!(full, Body::lattice_box(lattice, Material::classic()));
+}
+
+/// A voxelised torus (a body with a hole through it) at rest with no forces stays at rest.
+#[test]
+fn a_shape_at_rest_stays_at_rest() {
+    let mesh = torus(0.4, 0.15, 24, 12);
+    let body = Body::from_mesh(
+        &mesh.vertices,
+        &mesh.triangles,
+        10,
+        MAX_CELLS,
+        Material::classic(),
+    )
+    .unwrap();
+    assert!(body.active_count() < body.len());
+    let model = ModelBuilder::new().bodies(vec![body]).build().unwrap();
+    let mut state = State::at_rest(&model);
+    let rest = state.pos.clone();
+    common::run(&model, &mut state, 500);
+    assert!(
+        max_diff(&state.pos, &rest) < 1e-13,
+        "{}",
+        max_diff(&state.pos, &rest)
+    );
+}
+
+/// A cube body of `n` points per side and side `side`, resting with its lower corner at `at`.
+fn cube(n: usize, side: f64, at: Vec3, material: Material) -> Body {
+    Body::lattice_box(Lattice::new([n; 3], Vec3::new(side, side, side)), material)
+        .placed(at, jello_core::body::IDENTITY)
+}
+
+fn jelly(mass: f64) -> Material {
+    Material {
+        mass,
+        stiffness: [400.0; 3],
+        damping: [1.0; 3],
+    }
+}
+
+/// The pair force is exactly antisymmetric, so contacts conserve momentum to rounding.
+#[test]
+fn the_contact_force_is_equal_and_opposite() {
+    let mut rng = Rng(3);
+    for _ in 0..1000 {
+        let (d, w) = (rng.vec3() * 0.1, rng.vec3());
+        let f = pair_force(d, w, 0.12, 400.0, 0.25);
+        assert_eq!(f, -pair_force(-d, -w, 0.12, 400.0, 0.25));
+    }
+}
+
+/// Two bodies thrown at each other in empty space bounce apart: they never pass through each
+/// other, and internal plus contact forces conserve linear momentum.
+#[test]
+fn colliding_bodies_bounce_and_conserve_momentum() {
+    let far = Aabb::new(Vec3::new(-50.0, -50.0, -50.0), Vec3::new(50.0, 50.0, 50.0)).unwrap();
+    let a = cube(5, 0.4, Vec3::new(-0.6, 0.0, 0.0), jelly(0.01));
+    let b = cube(4, 0.5, Vec3::new(0.2, 0.1, 0.05), jelly(0.03));
+    let model = ModelBuilder::new()
+        .bodies(vec![a, b])
+        .bounds(far)
+        .collision(800.0, 0.5)
+        .build()
+        .unwrap();
+    let mut state = State::at_rest(&model);
+    let (ra, rb) = (model.body(0).points(), model.body(1).points());
+    state.vel[ra.clone()]
+        .iter_mut()
+        .for_each(|v| *v = Vec3::new(1.5, 0.0, 0.0));
+    state.vel[rb.clone()]
+        .iter_mut()
+        .for_each(|v| *v = Vec3::new(-1.0, 0.2, 0.0));
+    let p0 = momentum(&model, &state.vel);
+    let mut scratch = Scratch::new(&model);
+    let mut touched = false;
+    for _ in 0..3000 {
+        step(&model, &mut state, &Control::none(), &mut scratch).unwrap();
+        let max_a = state.pos[ra.clone()]
+            .iter()
+            .map(|p| p.x)
+            .fold(f64::MIN, f64::max);
+        let min_b = state.pos[rb.clone()]
+            .iter()
+            .map(|p| p.x)
+            .fold(f64::MAX, f64::min);
+        assert!(max_a < min_b, "the bodies passed into each other");
+        touched |= min_b - max_a < 0.1;
+    }
+    assert!(touched, "the bodies never met");
+    let p1 = momentum(&model, &state.vel);
+    assert!(
+        (p1 - p0).length() < 1e-12 * p0.length().max(1.0),
+        "{p0:?} → {p1:?}"
+    );
+    let va = body_centre_of_mass(&model, 0, &state.vel).x;
+    let vb = body_centre_of_mass(&model, 1, &state.vel).x;
+    assert!(va < 0.0 && vb > 0.0, "they bounce apart: {va} {vb}");
+}
+
+/// One cube stacked on another on the floor, under gravity: the upper stays on top and the
+/// bodies come to rest without sinking into each other.
+#[test]
+fn stacked_bodies_stay_stacked() {
+    let floor = Aabb::new(Vec3::new(-2.0, 0.0, -2.0), Vec3::new(2.0, 4.0, 2.0)).unwrap();
+    let lower = cube(5, 0.5, Vec3::new(-0.25, 0.0, -0.25), jelly(0.02));
+    let upper = cube(5, 0.4, Vec3::new(-0.2, 0.65, -0.2), jelly(0.015));
+    let model = ModelBuilder::new()
+        .bodies(vec![lower, upper])
+        .bounds(floor)
+        .collision(2000.0, 2.0)
+        .gravity(Vec3::new(0.0, -9.81, 0.0))
+        .dt(0.0002)
+        .build()
+        .unwrap();
+    let mut state = State::at_rest(&model);
+    let mut scratch = Scratch::new(&model);
+    let (rl, ru) = (model.body(0).points(), model.body(1).points());
+    for _ in 0..15000 {
+        step(&model, &mut state, &Control::none(), &mut scratch).unwrap();
+
+        let top_of_lower = state.pos[rl.clone()]
+            .iter()
+            .map(|p| p.y)
+            .fold(f64::MIN, f64::max);
+        let bottom_of_upper = state.pos[ru.clone()]
+            .iter()
+            .map(|p| p.y)
+            .fold(f64::MAX, f64::min);
+        assert!(
+            bottom_of_upper > top_of_lower,
+            "the upper body sank into the lower"
+        );
+    }
+    // At rest: the upper body is held a contact distance above the lower.
+    let v = state.vel.iter().map(|v| v.length()).fold(0.0, f64::max);
+    assert!(v < 0.02, "still moving at {v} m/s");
+    let (deepest, _) = jello_core::contact::overlap(&model, &state.pos);
+    let reach = model.body(0).contact_radius() + model.body(1).contact_radius();
+    assert!(deepest < 0.5 * reach, "overlap {deepest} of {reach}");
+}
+
+/// A body dropped on a sphere comes to rest on it: draped over the sphere, not moving, and not
+/// sunk in deeper than half a cell.
+#[test]
+fn a_body_dropped_on_a_sphere_rests_on_it() {
+    let room = Aabb::new(Vec3::new(-2.0, -1.0, -2.0), Vec3::new(2.0, 3.0, 2.0)).unwrap();
+    let slab = cuboid(Vec3::new(-0.3, 0.6, -0.3), Vec3::new(0.3, 0.9, 0.3));
+    let body = Body::from_mesh(
+        &slab.vertices,
+        &slab.triangles,
+        8,
+        MAX_CELLS,
+        Material::classic(),
+    )
+    .unwrap()
+    .with_modulus(8000.0, 200.0, 400.0);
+    let sphere = Sphere::new(Vec3::new(0.0, 0.0, 0.0), 0.3).unwrap();
+    let model = ModelBuilder::new()
+        .bodies(vec![body])
+        .bounds(room)
+        .obstacle(Obstacle::Sphere(sphere))
+        .collision(3000.0, 3.0)
+        .gravity(Vec3::new(0.0, -9.81, 0.0))
+        .dt(0.0002)
+        .integrator(Integrator::SymplecticEuler)
+        .build()
+        .unwrap();
+    let mut state = State::at_rest(&model);
+    common::run(&model, &mut state, 20000);
+    let body = model.body(0);
+    let v = (0..body.len())
+        .filter(|&p| body.is_active(p))
+        .map(|p| state.vel[p].length())
+        .fold(0.0, f64::max);
+    assert!(v < 0.05, "still moving at {v} m/s");
+    let centre = body_centre_of_mass(&model, 0, &state.pos);
+    assert!(
+        centre.y > 0.0 && centre.y < 1.0,
+        "rests on the sphere: {centre:?}"
+    );
+    assert!(
+        centre.x.abs() < 0.05 && centre.z.abs() < 0.05,
+        "centred: {centre:?}"
+    );
+    let penetration = jello_core::diagnostics::max_penetration(&model, &state.pos);
+    // The penalty springs hold the weight at a depth of weight / (kCollision · points touching):
+    // a fraction of a cell here.
+    assert!(penetration < 0.5 * body.min_spacing(), "{penetration}");
+}
+
+/// Several bodies with holes, large enough for threads, give bit-identical results on 1, 2 and
+/// 3 threads.
+#[test]
+fn several_bodies_are_bit_identical_on_any_thread_count() {
+    let mesh = torus(0.5, 0.2, 32, 16);
+    let a = Body::from_mesh(&mesh.vertices, &mesh.triangles, 30, MAX_CELLS, jelly(0.01)).unwrap();
+    assert!(a.len() >= jello_core::forces::PARALLEL_MIN_POINTS);
+    let box_mesh = cuboid(Vec3::new(-0.3, -0.3, 0.25), Vec3::new(0.3, 0.3, 0.6));
+    let b = Body::from_mesh(
+        &box_mesh.vertices,
+        &box_mesh.triangles,
+        8,
+        MAX_CELLS,
+        jelly(0.004),
+    )
+    .unwrap();
+    let model = ModelBuilder::new()
+        .bodies(vec![a, b])
+        .gravity(Vec3::new(0.0, 0.0, -9.81))
+        .dt(0.0002)
+        .build()
+        .unwrap();
+    let mut start = State::at_rest(&model);
+    for p in model.body(1).points() {
+        start.vel[p] = Vec3::new(0.0, 0.0, -3.0);
+    }
+    let run = |threads| {
+        on_threads(threads, || {
+            let mut state = start.clone();
+            common::run(&model, &mut state, 60);
+            state
+        })
+    };
+    let one = run(1);
+    assert!(
+        jello_core::contact::overlap(&model, &one.pos).0 > 0.0,
+        "the bodies touch"
+    );
+    assert_eq!(one, run(2));
+    assert_eq!(one, run(3));
+}
+
+/// With the material given by modulus, viscosity and density, refining the lattice keeps the
+/// body's mass and its lowest frequency: a bar stretched by 2 % and let go contracts back in
+/// about the same time at 4 and at 8 cells across.
+#[test]
+fn a_modulus_material_does_not_depend_on_the_resolution() {
+    let half_period = |cells: usize| {
+        let n = cells + 1;
+        let body = Body::lattice_box(
+            Lattice::new([2 * cells + 1, n, n], Vec3::new(1.0, 0.5, 0.5)),
+            Material::classic(),
+        )
+        .with_modulus(2.0e4, 0.0, 1000.0);
+        let mass = body.total_mass();
+        let model = ModelBuilder::new()
+            .bodies(vec![body])
+            .bounds(Aabb::new(Vec3::new(-5.0, -5.0, -5.0), Vec3::new(5.0, 5.0, 5.0)).unwrap())
+            .dt(2e-5)
+            .build()
+            .unwrap();
+        let mut state = State::at_rest(&model);
+        state.pos.iter_mut().for_each(|p| p.x *= 1.02);
+        let length = |s: &State| {
+            let xs = s.pos.iter().map(|p| p.x);
+            xs.clone().fold(f64::MIN, f64::max) - xs.fold(f64::MAX, f64::min)
+        };
+        let mut scratch = Scratch::new(&model);
+        let mut last = length(&state);
+        loop {
+            step(&model, &mut state, &Control::none(), &mut scratch).unwrap();
+            let now = length(&state);
+            if now > last {
+                return (state.time, mass);
+            }
+            last = now;
+        }
+    };
+    let (t4, m4) = half_period(4);
+    let (t8, m8) = half_period(8);
+    assert!((m4 - m8).abs() < 1e-12 * m4, "{m4} {m8}");
+    assert!(
+        (m4 - 250.0).abs() < 1e-9,
+        "1 × 0.5 × 0.5 m at 1000 kg/m³: {m4}"
+    );
+    assert!((t4 / t8 - 1.0).abs() < 0.1, "half periods {t4} and {t8}");
+}
+
+/// Stepping several bodies with holes allocates nothing.
+#[test]
+fn stepping_several_bodies_does_not_allocate() {
+    let mesh = torus(0.4, 0.15, 24, 12);
+    let a = Body::from_mesh(&mesh.vertices, &mesh.triangles, 10, MAX_CELLS, jelly(0.01)).unwrap();
+    let b = cube(4, 0.3, Vec3::new(-0.15, -0.15, 0.2), jelly(0.01));
+    let model: Model = ModelBuilder::new().bodies(vec![a, b]).build().unwrap();
+    let mut state = State::at_rest(&model);
+    let mut scratch = Scratch::new(&model);
+    let control = Control::none();
+    step(&model, &mut state, &control, &mut scratch).unwrap();
+    let (_, bytes) = alloc_watch::total_allocation(|| {
+        for _ in 0..20 {
+            step(&model, &mut state, &control, &mut scratch).unwrap();
+        }
+    });
+    assert_eq!(bytes, 0);
+}
