@@ -29,6 +29,14 @@ impl CliError {
         }
     }
 
+    /// Bad command-line usage (exit 2).
+    pub fn usage(message: impl Into<String>) -> Self {
+        CliError {
+            message: message.into(),
+            code: EXIT_USAGE,
+        }
+    }
+
     /// A blow-up (exit 3).
     pub fn blow_up(message: impl Into<String>) -> Self {
         CliError {

@@ -1,21 +1,25 @@
-//! `jello run --export OUT.glb`: the run's surface as one animated binary glTF file
-//! (morph targets, see [`jello_core::gltf`]), written atomically once the run succeeds.
+//! `jello run --export OUT.glb`: the run's surface (each body's skin, or the cage of a body
+//! without one) as one animated binary glTF file (morph targets, see [`jello_core::gltf`]),
+//! written atomically once the run succeeds.
 
 use std::path::{Path, PathBuf};
 
 use jello_core::gltf::{MeshAnimation, MAX_FRAMES};
-use jello_core::{Model, State};
+use jello_core::surface::{CageVertices, Surface};
+use jello_core::{Model, State, Vec3};
 
 use crate::error::CliError;
 use crate::fsio::{check_writable_target, write_atomic};
 
-/// Records frames of the lattice's surface while a run steps.
+/// Records frames of the model's surface while a run steps.
 pub struct GlbExport {
     path: PathBuf,
     /// Steps between frames.
     every: u64,
-    /// The lattice points on the surface: the mesh's vertices, in this order.
-    points: Vec<usize>,
+    /// What is exported: skins and cages.
+    surface: Surface,
+    /// The surface's vertices in the current frame.
+    positions: Vec<Vec3>,
     animation: MeshAnimation,
 }
 
@@ -34,18 +38,8 @@ impl GlbExport {
                 path.display()
             )));
         }
-        let lattice = model.body(0).lattice();
-        let points = lattice.surface_points();
-        let mut vertex_of = vec![u32::MAX; lattice.len()];
-        for (v, &p) in points.iter().enumerate() {
-            vertex_of[p] = v as u32;
-        }
-        let triangles: Vec<[u32; 3]> = lattice
-            .surface_triangles()
-            .into_iter()
-            .map(|t| t.map(|p| vertex_of[p as usize]))
-            .collect();
-        if triangles.is_empty() {
+        let surface = Surface::new(model, CageVertices::Used);
+        if surface.triangles().is_empty() {
             return Err(CliError::input(format!(
                 "{}: the lattice is flat and has no surface to export",
                 path.display()
@@ -54,8 +48,9 @@ impl GlbExport {
         Ok(GlbExport {
             path: path.to_path_buf(),
             every,
-            animation: MeshAnimation::new(points.len(), triangles),
-            points,
+            animation: MeshAnimation::new(surface.vertex_count(), surface.triangles().to_vec()),
+            surface,
+            positions: Vec::new(),
         })
     }
 
@@ -65,10 +60,10 @@ impl GlbExport {
     }
 
     /// Records `state` as the next frame.
-    pub fn record(&mut self, state: &State) -> Result<(), CliError> {
-        let positions: Vec<_> = self.points.iter().map(|&p| state.pos[p]).collect();
+    pub fn record(&mut self, model: &Model, state: &State) -> Result<(), CliError> {
+        self.surface.positions(model, state, &mut self.positions);
         self.animation
-            .push(state.time, &positions)
+            .push(state.time, &self.positions)
             .map_err(|e| CliError::input(format!("{}: {e}", self.path.display())))
     }
 

@@ -1,11 +1,13 @@
-//! Frames of a run written as files: PLY or OBJ meshes of the surface, or CSV of every point.
+//! Frames of a run written as files: PLY or OBJ meshes of the surface (each body's skin, or its
+//! cage with every lattice point as a vertex), or CSV of every point.
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 use clap::ValueEnum;
+use jello_core::surface::{CageVertices, Surface};
 use jello_core::world::Num;
-use jello_core::{Model, State};
+use jello_core::{Model, State, Vec3};
 
 use crate::error::CliError;
 use crate::fsio::write_atomic;
@@ -13,11 +15,12 @@ use crate::fsio::write_atomic;
 /// File format of the frames.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 pub enum FrameFormat {
-    /// ASCII PLY: every point as a vertex, the lattice surface as triangles.
+    /// ASCII PLY: each body's skin, or every lattice point as a vertex with the cage surface as
+    /// triangles.
     Ply,
-    /// Wavefront OBJ: every point as a vertex, the lattice surface as triangles.
+    /// Wavefront OBJ: the same mesh as PLY.
     Obj,
-    /// CSV: one row per point with i, j, k, position and velocity.
+    /// CSV: one row per lattice point with body, i, j, k, position and velocity.
     Csv,
 }
 
@@ -35,7 +38,8 @@ impl FrameFormat {
 pub struct FrameWriter {
     dir: PathBuf,
     format: FrameFormat,
-    triangles: Vec<[u32; 3]>,
+    surface: Surface,
+    positions: Vec<Vec3>,
     written: usize,
 }
 
@@ -47,7 +51,8 @@ impl FrameWriter {
         Ok(FrameWriter {
             dir: dir.to_path_buf(),
             format,
-            triangles: model.body(0).lattice().surface_triangles(),
+            surface: Surface::new(model, CageVertices::All),
+            positions: Vec::new(),
             written: 0,
         })
     }
@@ -59,6 +64,9 @@ impl FrameWriter {
 
     /// Writes `state` as the next frame, `frame_000000.ply` and so on.
     pub fn write(&mut self, model: &Model, state: &State) -> Result<(), CliError> {
+        if self.format != FrameFormat::Csv {
+            self.surface.positions(model, state, &mut self.positions);
+        }
         let text = match self.format {
             FrameFormat::Ply => self.ply(state),
             FrameFormat::Obj => self.obj(state),
@@ -75,7 +83,8 @@ impl FrameWriter {
     }
 
     fn ply(&self, state: &State) -> String {
-        let mut s = String::with_capacity(40 * state.len() + 16 * self.triangles.len());
+        let triangles = self.surface.triangles();
+        let mut s = String::with_capacity(40 * self.positions.len() + 16 * triangles.len());
         let _ = write!(
             s,
             "ply\nformat ascii 1.0\ncomment jello frame, step {}, t = {} s\n\
@@ -83,30 +92,31 @@ impl FrameWriter {
              element face {}\nproperty list uchar uint vertex_indices\nend_header\n",
             state.steps,
             Num(state.time),
-            state.len(),
-            self.triangles.len()
+            self.positions.len(),
+            triangles.len()
         );
-        for p in &state.pos {
+        for p in &self.positions {
             let _ = writeln!(s, "{} {} {}", Num(p.x), Num(p.y), Num(p.z));
         }
-        for [a, b, c] in &self.triangles {
+        for [a, b, c] in triangles {
             let _ = writeln!(s, "3 {a} {b} {c}");
         }
         s
     }
 
     fn obj(&self, state: &State) -> String {
-        let mut s = String::with_capacity(40 * state.len() + 16 * self.triangles.len());
+        let triangles = self.surface.triangles();
+        let mut s = String::with_capacity(40 * self.positions.len() + 16 * triangles.len());
         let _ = writeln!(
             s,
             "# jello frame, step {}, t = {} s",
             state.steps,
             Num(state.time)
         );
-        for p in &state.pos {
+        for p in &self.positions {
             let _ = writeln!(s, "v {} {} {}", Num(p.x), Num(p.y), Num(p.z));
         }
-        for [a, b, c] in &self.triangles {
+        for [a, b, c] in triangles {
             let _ = writeln!(s, "f {} {} {}", a + 1, b + 1, c + 1);
         }
         s
@@ -115,12 +125,13 @@ impl FrameWriter {
 
 fn csv(model: &Model, state: &State) -> String {
     let mut s = String::with_capacity(80 * state.len());
-    s.push_str("i,j,k,x,y,z,vx,vy,vz\n");
+    s.push_str("body,i,j,k,x,y,z,vx,vy,vz\n");
     for (n, (p, v)) in state.pos.iter().zip(&state.vel).enumerate() {
-        let [i, j, k] = model.body(0).lattice().coords(n);
+        let (body, [i, j, k]) = model.locate(n);
         let _ = writeln!(
             s,
-            "{i},{j},{k},{},{},{},{},{},{}",
+            "{},{i},{j},{k},{},{},{},{},{},{}",
+            body + 1,
             Num(p.x),
             Num(p.y),
             Num(p.z),

@@ -5,7 +5,7 @@ use std::io::{Read, Write};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU64, Ordering};
 
-use jello_core::{ReadOptions, World};
+use jello_core::{Integrator, ReadOptions, SceneFile, Simulation, World};
 
 use crate::error::CliError;
 
@@ -13,14 +13,71 @@ use crate::error::CliError;
 /// keeps a wrong path (a device, a huge binary) from exhausting memory.
 pub const MAX_WORLD_BYTES: u64 = 64 << 20;
 
+/// What a simulation was read from: a classic world file or a TOML scene.
+#[derive(Clone, Debug)]
+pub enum Source {
+    /// A `.w` world file.
+    World(World),
+    /// A `.toml` scene file.
+    Scene(SceneFile),
+}
+
+/// True when `path` names a scene file (`.toml`, any case).
+pub fn is_scene(path: &Path) -> bool {
+    path.extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("toml"))
+}
+
+/// Reads a world file or, for a `.toml` name, a scene file, with the integrator and time step
+/// replaced when given; errors name the file, the line (and the column for TOML).
+pub fn load(
+    path: &Path,
+    integrator: Option<Integrator>,
+    dt: Option<f64>,
+) -> Result<(Simulation, Source), CliError> {
+    let name = path.display().to_string();
+    if is_scene(path) {
+        let bytes = read_bounded(path)?;
+        let mut scene =
+            SceneFile::parse(&bytes, &name).map_err(|e| CliError::input(e.to_string()))?;
+        if let Some(i) = integrator {
+            scene.simulation.integrator = i.name().to_string();
+        }
+        if let Some(dt) = dt {
+            scene.simulation.dt = dt;
+        }
+        let made = scene
+            .to_scene(&name)
+            .map_err(|e| CliError::input(e.to_string()))?;
+        return Ok((
+            Simulation::new(made.model, made.state),
+            Source::Scene(scene),
+        ));
+    }
+    let mut world = read_world(path, ReadOptions { integrator })?;
+    if let Some(dt) = dt {
+        world.dt = dt;
+    }
+    let sim =
+        Simulation::from_world(&world).map_err(|e| CliError::input(format!("{name}: {e}")))?;
+    Ok((sim, Source::World(world)))
+}
+
 /// Reads and parses a world file; errors name the file and the line.
 pub fn read_world(path: &Path, options: ReadOptions) -> Result<World, CliError> {
+    let name = path.display().to_string();
+    let bytes = read_bounded(path)?;
+    World::parse(&bytes, &name, options).map_err(|e| CliError::input(e.to_string()))
+}
+
+/// The bytes of an input file, at most [`MAX_WORLD_BYTES`].
+pub fn read_bounded(path: &Path) -> Result<Vec<u8>, CliError> {
     let name = path.display().to_string();
     let file =
         fs::File::open(path).map_err(|e| CliError::input(format!("{name}: cannot open: {e}")))?;
     if file.metadata().map(|m| m.is_dir()).unwrap_or(false) {
         return Err(CliError::input(format!(
-            "{name}: is a directory, expected a world file"
+            "{name}: is a directory, expected a file"
         )));
     }
     let mut bytes = Vec::new();
@@ -29,11 +86,11 @@ pub fn read_world(path: &Path, options: ReadOptions) -> Result<World, CliError> 
         .map_err(|e| CliError::input(format!("{name}: cannot read: {e}")))?;
     if bytes.len() as u64 > MAX_WORLD_BYTES {
         return Err(CliError::input(format!(
-            "{name}: larger than {} MiB, which no world file is",
+            "{name}: larger than {} MiB, which no world or scene file is",
             MAX_WORLD_BYTES >> 20
         )));
     }
-    World::parse(&bytes, &name, options).map_err(|e| CliError::input(e.to_string()))
+    Ok(bytes)
 }
 
 /// Writes `bytes` to `path` atomically: into a temporary file beside it, flushed to disk, then

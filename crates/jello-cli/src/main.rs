@@ -7,7 +7,7 @@ mod frames;
 mod fsio;
 mod progress;
 
-use clap::{Parser, Subcommand};
+use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
 
 /// Jello: a mass-spring soft-body simulator of the classic jello cube.
 #[derive(Parser, Debug)]
@@ -19,11 +19,12 @@ struct Cli {
 
 #[derive(Subcommand, Debug)]
 enum Command {
-    /// Run a world headless and print a summary; optionally save frames and the final state.
+    /// Run a world or scene headless and print a summary; optionally save frames, an animated
+    /// glTF and the final state.
     Run(commands::run::RunArgs),
-    /// Write a new world file.
-    Create(commands::create::CreateArgs),
-    /// Describe a world file: header, counts, energies, stable time steps.
+    /// Write a new world file, or a scene of bodies (.toml).
+    Create(Box<commands::create::CreateArgs>),
+    /// Describe a world or scene file: header, bodies, energies, stable time steps.
     Info(commands::info::InfoArgs),
     /// Measure steps/s and spring evaluations/s on the benchmark scene.
     Bench(commands::bench::BenchArgs),
@@ -32,7 +33,8 @@ enum Command {
 }
 
 fn main() {
-    let cli = Cli::parse();
+    let matches = Cli::command().get_matches();
+    let cli = Cli::from_arg_matches(&matches).unwrap_or_else(|e| e.exit());
     // A JELLO_SIMD the core cannot honour is reported before anything runs.
     if let Err(e) = jello_core::simd::tier_from_env() {
         eprintln!("jello: error: {e}");
@@ -40,7 +42,12 @@ fn main() {
     }
     let result = match cli.command {
         Command::Run(args) => commands::run::run(args),
-        Command::Create(args) => commands::create::create(args),
+        Command::Create(args) => {
+            let sub = matches
+                .subcommand_matches("create")
+                .expect("the create subcommand has its matches");
+            commands::create::create(*args, sub)
+        }
         Command::Info(args) => commands::info::info(args),
         Command::Bench(args) => commands::bench::bench(args),
         Command::View(args) => commands::view::view(args),

@@ -303,9 +303,9 @@ fn frames_in_every_format() {
                 "csv" => {
                     let lines: Vec<&str> = text.lines().collect();
                     assert_eq!(lines.len(), 513, "{name}");
-                    assert_eq!(lines[0], "i,j,k,x,y,z,vx,vy,vz");
-                    assert!(lines[1..].iter().all(|l| l.split(',').count() == 9));
-                    assert!(lines[1].starts_with("0,0,0,"));
+                    assert_eq!(lines[0], "body,i,j,k,x,y,z,vx,vy,vz");
+                    assert!(lines[1..].iter().all(|l| l.split(',').count() == 10));
+                    assert!(lines[1].starts_with("1,0,0,0,"));
                 }
                 _ => unreachable!(),
             }

@@ -133,18 +133,19 @@ fn read_obj(text: &str) -> Mesh {
     }
 }
 
-/// Positions and velocities of a CSV frame, checking the `i,j,k` columns against the row order.
+/// Positions and velocities of a CSV frame, checking the `body,i,j,k` columns against the row
+/// order.
 fn read_csv(text: &str) -> (Vec<Vec3>, Vec<Vec3>) {
     let mut lines = text.lines();
-    assert_eq!(lines.next(), Some("i,j,k,x,y,z,vx,vy,vz"));
+    assert_eq!(lines.next(), Some("body,i,j,k,x,y,z,vx,vy,vz"));
     let (mut pos, mut vel) = (Vec::new(), Vec::new());
     for (n, line) in lines.enumerate() {
         let w: Vec<&str> = line.split(',').collect();
-        assert_eq!(w.len(), 9, "{line}");
-        let ijk = [n / 64, (n / 8) % 8, n % 8].map(|c| c.to_string());
-        assert_eq!(w[..3], ijk, "row {n}");
-        pos.push(vec3(&w[3..6]));
-        vel.push(vec3(&w[6..9]));
+        assert_eq!(w.len(), 10, "{line}");
+        let ijk = [1, n / 64, (n / 8) % 8, n % 8].map(|c| c.to_string());
+        assert_eq!(w[..4], ijk, "row {n}");
+        pos.push(vec3(&w[4..7]));
+        vel.push(vec3(&w[7..10]));
     }
     (pos, vel)
 }

@@ -127,6 +127,19 @@ pub const IDENTITY: [Vec3; 3] = [
     Vec3::new(0.0, 0.0, 1.0),
 ];
 
+/// Rows of the rotation by `rx` degrees about x, then `ry` about y, then `rz` about z
+/// (`R = Rz · Ry · Rx`).
+pub fn rotation_xyz([rx, ry, rz]: [f64; 3]) -> [Vec3; 3] {
+    let (sx, cx) = rx.to_radians().sin_cos();
+    let (sy, cy) = ry.to_radians().sin_cos();
+    let (sz, cz) = rz.to_radians().sin_cos();
+    [
+        Vec3::new(cz * cy, cz * sy * sx - sz * cx, cz * sy * cx + sz * sx),
+        Vec3::new(sz * cy, sz * sy * sx + cz * cx, sz * sy * cx - cz * sx),
+        Vec3::new(-sy, cy * sx, cy * cx),
+    ]
+}
+
 impl Body {
     /// A full box lattice: every point, every spring of the stencil, resting with point
     /// `(0, 0, 0)` at the origin.

@@ -1,22 +1,27 @@
-//! `jello create`: write a new world file, everything the original createWorld does and more.
+//! `jello create`: write a new world file, everything the original createWorld does and more;
+//! or, for an `OUT.toml`, a scene of bodies from meshes and lattices (see [`super::scene`]).
 
 use std::path::PathBuf;
 use std::str::FromStr;
 
 use clap::Args;
+use jello_core::body::rotation_xyz;
 use jello_core::diagnostics::centre_of_mass;
 use jello_core::field::RES_RANGE;
 use jello_core::{defaults, Aabb, ForceField, Integrator, Lattice, Vec3, World};
 
 use super::{parse_integrator, parse_non_negative, parse_positive};
 use crate::error::CliError;
-use crate::fsio::{check_writable_target, write_atomic};
+use crate::fsio::{check_writable_target, is_scene, write_atomic};
 
 /// Arguments of `jello create`.
+///
+/// Options marked "per body" follow the `--mesh` or `--cube` they apply to in a scene; for a
+/// world file they are given at most once.
 #[derive(Args, Debug)]
 pub struct CreateArgs {
-    /// The world file to write.
-    #[arg(value_name = "OUT.w")]
+    /// The file to write: a world file (.w), or a scene file (.toml) of bodies and obstacles.
+    #[arg(value_name = "OUT.w|OUT.toml")]
     pub out: PathBuf,
     /// Integrator (Euler, RK2, RK4, SymplecticEuler; any case).
     #[arg(long, value_parser = parse_integrator, default_value = "RK4")]
@@ -27,25 +32,26 @@ pub struct CreateArgs {
     /// Simulation steps per displayed frame (the `n` of the file).
     #[arg(short = 'n', long, default_value_t = defaults::STEPS_PER_FRAME, value_parser = clap::value_parser!(u32).range(1..))]
     pub steps_per_frame: u32,
-    /// Stiffness of every lattice spring (N/m).
-    #[arg(long, value_parser = parse_positive, default_value_t = defaults::K_ELASTIC)]
-    pub k_elastic: f64,
-    /// Damping of every lattice spring (N·s/m).
-    #[arg(long, value_parser = parse_non_negative, default_value_t = defaults::D_ELASTIC)]
-    pub d_elastic: f64,
+    /// Stiffness of every lattice spring (N/m) [default: 200]; per body.
+    #[arg(long, value_parser = parse_positive)]
+    pub k_elastic: Vec<f64>,
+    /// Damping of every lattice spring (N·s/m) [default: 0.25]; per body.
+    #[arg(long, value_parser = parse_non_negative)]
+    pub d_elastic: Vec<f64>,
     /// Stiffness of the collision penalty springs (N/m).
     #[arg(long, value_parser = parse_positive, default_value_t = defaults::K_COLLISION)]
     pub k_collision: f64,
     /// Damping of the collision penalty springs (N·s/m).
     #[arg(long, value_parser = parse_non_negative, default_value_t = defaults::D_COLLISION)]
     pub d_collision: f64,
-    /// Mass of each of the 512 points (kg) [default: 1/512].
-    #[arg(long, value_parser = parse_positive, conflicts_with = "total_mass")]
-    pub mass: Option<f64>,
-    /// Mass of the whole cube (kg), spread over its 512 points.
+    /// Mass of each point (kg) [default: 1/512]; per body.
     #[arg(long, value_parser = parse_positive)]
-    pub total_mass: Option<f64>,
-    /// Inclined plane a x + b y + c z + d = 0, given as A,B,C,D [default: none].
+    pub mass: Vec<f64>,
+    /// Mass of the whole body (kg), spread over its points; per body.
+    #[arg(long, value_parser = parse_positive)]
+    pub total_mass: Vec<f64>,
+    /// Inclined plane a x + b y + c z + d = 0, given as A,B,C,D [default: none]; points are kept
+    /// on the side of the (first) body's centre of mass.
     #[arg(long, value_name = "A,B,C,D", allow_hyphen_values = true)]
     pub plane: Option<Numbers<4>>,
     #[arg(
@@ -58,14 +64,14 @@ pub struct CreateArgs {
     /// Force field grid resolution (2 to 30).
     #[arg(long, default_value_t = 30, value_parser = clap::value_parser!(u32).range(2..=30))]
     pub res: u32,
-    /// Side length of the initial cube (m); its rest shape stays the 1 m cube.
+    /// Side length of the initial cube (m); its rest shape stays the 1 m cube (world files).
     #[arg(long, value_parser = parse_positive, default_value_t = 1.0)]
     pub scale: f64,
-    /// Rotation of the initial cube about its centre, in degrees about x, then y, then z.
+    /// Rotation about the body's centre, in degrees about x, then y, then z; per body.
     #[arg(long, value_name = "RX,RY,RZ", allow_hyphen_values = true)]
-    pub rotate: Option<Numbers<3>>,
+    pub rotate: Vec<Numbers<3>>,
     /// Where lattice point (0,0,0) sits after scaling and rotation (m); the default keeps the
-    /// original cube, 0 to 1 on each axis.
+    /// original cube, 0 to 1 on each axis (world files).
     #[arg(
         long,
         value_name = "X,Y,Z",
@@ -74,23 +80,103 @@ pub struct CreateArgs {
     )]
     pub offset: Numbers<3>,
     /// Move one point after placing the cube: I,J,K:DX,DY,DZ (repeatable), e.g. the dragged
-    /// corner of the official jello.w is 7,7,7:0.142857,0.142857,0.142857.
+    /// corner of the official jello.w is 7,7,7:0.142857,0.142857,0.142857 (world files).
     #[arg(long, value_name = "I,J,K:DX,DY,DZ", allow_hyphen_values = true)]
     pub drag: Vec<Drag>,
-    /// Initial velocity of every point (m/s).
-    #[arg(
-        long,
-        value_name = "VX,VY,VZ",
-        allow_hyphen_values = true,
-        default_value = "0,0,0"
-    )]
-    pub velocity: Numbers<3>,
-    /// Initial spin: angular velocity about the cube's centre of mass (rad/s), added to --velocity.
+    /// Initial velocity of every point (m/s) [default: 0,0,0]; per body.
+    #[arg(long, value_name = "VX,VY,VZ", allow_hyphen_values = true)]
+    pub velocity: Vec<Numbers<3>>,
+    /// Initial spin: angular velocity about the body's centre of mass (rad/s), added to
+    /// --velocity; per body.
     #[arg(long, value_name = "WX,WY,WZ", allow_hyphen_values = true)]
-    pub spin: Option<Numbers<3>>,
-    /// Overwrite OUT.w if it exists.
+    pub spin: Vec<Numbers<3>>,
+    /// Scene: a body voxelised from a closed mesh (.obj, or .stl in ASCII or binary),
+    /// embedded in the scene; repeatable.
+    #[arg(long, value_name = "FILE.obj|FILE.stl")]
+    pub mesh: Vec<PathBuf>,
+    /// Scene: a body that is a full lattice of N×N×N points; repeatable.
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(2..=256))]
+    pub cube: Vec<u32>,
+    /// Cells along the longest side of a --mesh [default: 10]; per body.
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..=512))]
+    pub cells: Vec<u32>,
+    /// Side length of a --cube (m) [default: 1]; per body.
+    #[arg(long, value_parser = parse_positive)]
+    pub size: Vec<f64>,
+    /// Where the centre of the body's rest bounding box goes (m) [default: a mesh stays where it
+    /// is, a cube has its corner at the origin]; per body.
+    #[arg(long, value_name = "X,Y,Z", allow_hyphen_values = true)]
+    pub at: Vec<Numbers<3>>,
+    /// A name for the body; per body.
+    #[arg(long)]
+    pub name: Vec<String>,
+    /// Density (kg/m³) over the body's cells, instead of --mass; per body.
+    #[arg(long, value_parser = parse_positive)]
+    pub density: Vec<f64>,
+    /// Stiffness independent of the resolution (Pa): every spring gets modulus × spacing,
+    /// instead of --k-elastic; per body.
+    #[arg(long, value_parser = parse_positive)]
+    pub modulus: Vec<f64>,
+    /// Damping independent of the resolution (Pa·s): every spring gets viscosity × spacing,
+    /// instead of --d-elastic; per body.
+    #[arg(long, value_parser = parse_non_negative)]
+    pub viscosity: Vec<f64>,
+    /// Pin the body's points within R m of X,Y,Z (at rest, after placing it); without R, the
+    /// nearest point; per body, repeatable.
+    #[arg(long, value_name = "X,Y,Z[,R]", allow_hyphen_values = true)]
+    pub pin: Vec<PinArg>,
+    /// Scene: a solid sphere obstacle; repeatable.
+    #[arg(long, value_name = "X,Y,Z,R", allow_hyphen_values = true)]
+    pub sphere: Vec<Numbers<4>>,
+    /// Scene: a solid box obstacle from (X0,Y0,Z0) to (X1,Y1,Z1); repeatable.
+    #[arg(
+        long = "box",
+        value_name = "X0,Y0,Z0,X1,Y1,Z1",
+        allow_hyphen_values = true
+    )]
+    pub solid_box: Vec<Numbers<6>>,
+    /// Scene: acceleration of every point (m/s²), e.g. 0,0,-9.81.
+    #[arg(long, value_name = "GX,GY,GZ", allow_hyphen_values = true)]
+    pub gravity: Option<Numbers<3>>,
+    /// Scene: the walls, from (X0,Y0,Z0) to (X1,Y1,Z1) [default: -2,-2,-2,2,2,2].
+    #[arg(long, value_name = "X0,Y0,Z0,X1,Y1,Z1", allow_hyphen_values = true)]
+    pub bounds: Option<Numbers<6>>,
+    /// Overwrite OUT if it exists.
     #[arg(long)]
     pub force: bool,
+}
+
+/// `X,Y,Z[,R]`: a region of points to pin.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PinArg {
+    /// Centre (m).
+    pub at: [f64; 3],
+    /// Radius (m); 0 for the nearest point.
+    pub radius: f64,
+}
+
+impl FromStr for PinArg {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        let parts = s.split(',').count();
+        match parts {
+            3 => Ok(PinArg {
+                at: s.parse::<Numbers<3>>()?.0,
+                radius: 0.0,
+            }),
+            4 => {
+                let [x, y, z, r] = s.parse::<Numbers<4>>()?.0;
+                if r < 0.0 {
+                    return Err(format!("expected a radius ≥ 0, found {r} in \"{s}\""));
+                }
+                Ok(PinArg {
+                    at: [x, y, z],
+                    radius: r,
+                })
+            }
+            _ => Err(format!("expected X,Y,Z or X,Y,Z,R, found \"{s}\"")),
+        }
+    }
 }
 
 /// `N` comma-separated finite numbers.
@@ -119,7 +205,7 @@ impl<const N: usize> FromStr for Numbers<N> {
 }
 
 impl Numbers<3> {
-    fn vec3(self) -> Vec3 {
+    pub(crate) fn vec3(self) -> Vec3 {
         Vec3::from_array(self.0)
     }
 }
@@ -229,6 +315,11 @@ impl FromStr for FieldSpec {
 }
 
 impl FieldSpec {
+    /// The force at `p` of a field that does not depend on the mass (every one but gravity).
+    pub(crate) fn force_on(self, p: Vec3) -> Vec3 {
+        self.force(p, 0.0)
+    }
+
     /// The force at `p` for points of mass `mass`.
     fn force(self, p: Vec3, mass: f64) -> Vec3 {
         match self {
@@ -249,8 +340,20 @@ impl FieldSpec {
     }
 }
 
-/// Writes the world the options describe.
-pub fn create(args: CreateArgs) -> Result<(), CliError> {
+/// The one value of a per-body option in a world file (which holds one body).
+fn one<T: Copy>(values: &[T], flag: &str) -> Result<Option<T>, CliError> {
+    match values {
+        [] => Ok(None),
+        [v] => Ok(Some(*v)),
+        _ => Err(CliError::usage(format!(
+            "{flag} is given {} times; a world file holds one body (write a .toml scene for several)",
+            values.len()
+        ))),
+    }
+}
+
+/// Writes the world or scene the options describe.
+pub fn create(args: CreateArgs, matches: &clap::ArgMatches) -> Result<(), CliError> {
     let out = &args.out;
     check_writable_target(out)?;
     if out.exists() && !args.force {
@@ -259,17 +362,54 @@ pub fn create(args: CreateArgs) -> Result<(), CliError> {
             out.display()
         )));
     }
-    let mass = match (args.mass, args.total_mass) {
+    if is_scene(out) {
+        return super::scene::create_scene(&args, matches);
+    }
+    let scene_only = [
+        ("--mesh", !args.mesh.is_empty()),
+        ("--cube", !args.cube.is_empty()),
+        ("--cells", !args.cells.is_empty()),
+        ("--size", !args.size.is_empty()),
+        ("--at", !args.at.is_empty()),
+        ("--name", !args.name.is_empty()),
+        ("--density", !args.density.is_empty()),
+        ("--modulus", !args.modulus.is_empty()),
+        ("--viscosity", !args.viscosity.is_empty()),
+        ("--pin", !args.pin.is_empty()),
+        ("--sphere", !args.sphere.is_empty()),
+        ("--box", !args.solid_box.is_empty()),
+        ("--gravity", args.gravity.is_some()),
+        ("--bounds", args.bounds.is_some()),
+    ];
+    if let Some((flag, _)) = scene_only.iter().find(|(_, given)| *given) {
+        return Err(CliError::usage(format!(
+            "{flag} makes a scene: name the output file .toml (a .w world holds the classic cube only)"
+        )));
+    }
+    let mass = match (
+        one(&args.mass, "--mass")?,
+        one(&args.total_mass, "--total-mass")?,
+    ) {
+        (Some(_), Some(_)) => {
+            return Err(CliError::usage(
+                "give either --mass or --total-mass, not both",
+            ))
+        }
         (Some(m), _) => m,
         (None, Some(total)) => total / 512.0,
         (None, None) => defaults::MASS,
     };
+    let k_elastic = one(&args.k_elastic, "--k-elastic")?.unwrap_or(defaults::K_ELASTIC);
+    let d_elastic = one(&args.d_elastic, "--d-elastic")?.unwrap_or(defaults::D_ELASTIC);
+    let rotate = one(&args.rotate, "--rotate")?;
+    let velocity = one(&args.velocity, "--velocity")?.unwrap_or(Numbers([0.0; 3]));
+    let spin = one(&args.spin, "--spin")?;
 
     // Place the cube: scale about its centre, rotate about its centre, move its corner, drag.
     let lattice = Lattice::classic();
     let rest = lattice.rest_positions();
     let centre = Vec3::new(0.5, 0.5, 0.5);
-    let rotation = args.rotate.map(|r| rotation_xyz(r.0));
+    let rotation = rotate.map(|r| rotation_xyz(r.0));
     let corner = transform(Vec3::ZERO, centre, args.scale, rotation.as_ref());
     let offset = args.offset.vec3() - corner;
     let mut positions: Vec<Vec3> = rest
@@ -283,10 +423,10 @@ pub fn create(args: CreateArgs) -> Result<(), CliError> {
 
     // Velocities: uniform plus rigid spin about the centre of mass.
     let com = centre_of_mass(&positions);
-    let v0 = args.velocity.vec3();
+    let v0 = velocity.vec3();
     let velocities: Vec<Vec3> = positions
         .iter()
-        .map(|&p| match args.spin {
+        .map(|&p| match spin {
             Some(w) => v0 + w.vec3().cross(p - com),
             None => v0,
         })
@@ -314,8 +454,8 @@ pub fn create(args: CreateArgs) -> Result<(), CliError> {
         integrator: args.integrator,
         dt: args.dt,
         steps_per_frame: args.steps_per_frame,
-        k_elastic: args.k_elastic,
-        d_elastic: args.d_elastic,
+        k_elastic,
+        d_elastic,
         k_collision: args.k_collision,
         d_collision: args.d_collision,
         mass,
@@ -341,17 +481,4 @@ fn transform(p: Vec3, centre: Vec3, scale: f64, rotation: Option<&[Vec3; 3]>) ->
         None => d,
     };
     centre + d
-}
-
-/// Rows of the rotation by `rx` degrees about x, then `ry` about y, then `rz` about z.
-fn rotation_xyz([rx, ry, rz]: [f64; 3]) -> [Vec3; 3] {
-    let (sx, cx) = rx.to_radians().sin_cos();
-    let (sy, cy) = ry.to_radians().sin_cos();
-    let (sz, cz) = rz.to_radians().sin_cos();
-    // R = Rz · Ry · Rx.
-    [
-        Vec3::new(cz * cy, cz * sy * sx - sz * cx, cz * sy * cx + sz * sx),
-        Vec3::new(sz * cy, sz * sy * sx + cz * cx, sz * sy * cx - cz * sx),
-        Vec3::new(-sy, cy * sx, cy * cx),
-    ]
 }

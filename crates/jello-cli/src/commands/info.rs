@@ -1,20 +1,21 @@
-//! `jello info`: what a world file holds, its energies and the stable time step per integrator.
+//! `jello info`: what a world or scene file holds (per body: points, springs, cells, skin,
+//! mass), its energies and the stable time step per integrator.
 
 use std::path::PathBuf;
 
 use clap::Args;
 use jello_core::diagnostics::{centre_of_mass, energy, max_penetration, momentum};
 use jello_core::stability::ModeBounds;
-use jello_core::{Integrator, ReadOptions, Simulation, SpringKind};
+use jello_core::{Integrator, Model, SpringKind};
 
 use super::parse_integrator;
 use crate::error::CliError;
-use crate::fsio::read_world;
+use crate::fsio::{load, Source};
 
 /// Arguments of `jello info`.
 #[derive(Args, Debug)]
 pub struct InfoArgs {
-    /// World file (.w) to describe.
+    /// World file (.w) or scene file (.toml) to describe.
     pub world: PathBuf,
     /// Read the file as if it named this integrator (for files with an unknown one).
     #[arg(long, value_parser = parse_integrator)]
@@ -23,31 +24,61 @@ pub struct InfoArgs {
 
 /// Prints the header, counts, energies and stability estimates.
 pub fn info(args: InfoArgs) -> Result<(), CliError> {
-    let world = read_world(
-        &args.world,
-        ReadOptions {
-            integrator: args.integrator,
-        },
-    )?;
+    let (sim, source) = load(&args.world, args.integrator, None)?;
     let name = args.world.display().to_string();
-    let sim =
-        Simulation::from_world(&world).map_err(|e| CliError::input(format!("{name}: {e}")))?;
     let (m, s) = (&sim.model, &sim.state);
 
-    println!("world          {name}");
+    let world = match &source {
+        Source::World(world) => {
+            println!("world          {name}");
+            Some(world)
+        }
+        Source::Scene(_) => {
+            println!("scene          {name}");
+            None
+        }
+    };
     println!(
         "integrator     {}, dt = {} s, {} step(s) per frame",
         m.integrator, m.dt, m.steps_per_frame
     );
-    println!(
-        "springs        kElastic = {} N/m, dElastic = {} N·s/m; collision kCollision = {} N/m, dCollision = {} N·s/m",
-        world.k_elastic, world.d_elastic, world.k_collision, world.d_collision
-    );
-    println!(
-        "mass           {} kg per point, {} kg in all",
-        m.body(0).material.mass,
-        m.body(0).material.mass * m.point_count() as f64
-    );
+    if let Some(world) = world {
+        println!(
+            "springs        kElastic = {} N/m, dElastic = {} N·s/m; collision kCollision = {} N/m, dCollision = {} N·s/m",
+            world.k_elastic, world.d_elastic, world.k_collision, world.d_collision
+        );
+        println!(
+            "mass           {} kg per point, {} kg in all",
+            m.body(0).material.mass,
+            m.body(0).material.mass * m.point_count() as f64
+        );
+    } else {
+        println!(
+            "collision      kCollision = {} N/m, dCollision = {} N·s/m; gravity ({}, {}, {}) m/s²",
+            m.k_collision, m.d_collision, m.gravity.x, m.gravity.y, m.gravity.z
+        );
+        let b = m.bounds;
+        println!(
+            "box            ({}, {}, {}) to ({}, {}, {}) m; {} obstacle(s), {} pinned point(s)",
+            b.min.x,
+            b.min.y,
+            b.min.z,
+            b.max.x,
+            b.max.y,
+            b.max.z,
+            m.obstacles.len(),
+            m.pins.len()
+        );
+        if let Source::Scene(scene) = &source {
+            for (b, spec) in scene.bodies.iter().enumerate() {
+                let name = spec
+                    .name
+                    .clone()
+                    .unwrap_or_else(|| format!("body{}", b + 1));
+                print_body(m, b, &name);
+            }
+        }
+    }
     match &m.plane {
         Some(p) => {
             let [a, b, c, d] = p.coeffs;
@@ -64,19 +95,21 @@ pub fn info(args: InfoArgs) -> Result<(), CliError> {
         ),
         None => println!("force field    none"),
     }
-    let [nx, ny, nz] = m.body(0).lattice().counts;
-    let by_kind = m.body(0).lattice().spring_count_by_kind();
-    println!(
-        "lattice        {nx}×{ny}×{nz} = {} points, {} springs ({} {}, {} {}, {} {})",
-        m.point_count(),
-        m.spring_count(),
-        by_kind[0],
-        SpringKind::Structural.name(),
-        by_kind[1],
-        SpringKind::Shear.name(),
-        by_kind[2],
-        SpringKind::Bend.name()
-    );
+    if world.is_some() {
+        let [nx, ny, nz] = m.body(0).lattice().counts;
+        let by_kind = m.body(0).lattice().spring_count_by_kind();
+        println!(
+            "lattice        {nx}×{ny}×{nz} = {} points, {} springs ({} {}, {} {}, {} {})",
+            m.point_count(),
+            m.spring_count(),
+            by_kind[0],
+            SpringKind::Structural.name(),
+            by_kind[1],
+            SpringKind::Shear.name(),
+            by_kind[2],
+            SpringKind::Bend.name()
+        );
+    }
     let e = energy(m, s);
     println!(
         "energy         {:.6e} J: kinetic {:.6e}, spring {:.6e}, collision {:.6e}",
@@ -110,4 +143,40 @@ pub fn info(args: InfoArgs) -> Result<(), CliError> {
         println!("             {marker} {:<16} {verdict}", integrator.name());
     }
     Ok(())
+}
+
+/// One body's line: points, springs, cells, skin and mass.
+fn print_body(m: &Model, b: usize, name: &str) {
+    let body = m.body(b);
+    let [nx, ny, nz] = body.lattice().counts;
+    let by_kind = body.spring_count_by_kind();
+    let skin = match &body.skin {
+        Some(skin) => format!(
+            "skin {} vertices, {} triangles",
+            skin.len(),
+            skin.triangles.len()
+        ),
+        None => "no skin (the cage is drawn)".to_string(),
+    };
+    let k = body.material.stiffness;
+    println!(
+        "body {:<9} {name}: {} points (lattice {nx}×{ny}×{nz}), {} springs ({} {}, {} {}, {} {}), \
+         {} cells of {:.4} m, {skin}, mass {:.6} kg ({} kg per point), stiffness {}/{}/{} N/m",
+        b + 1,
+        body.active_count(),
+        body.spring_count(),
+        by_kind[0],
+        SpringKind::Structural.name(),
+        by_kind[1],
+        SpringKind::Shear.name(),
+        by_kind[2],
+        SpringKind::Bend.name(),
+        body.cell_count(),
+        body.min_spacing(),
+        body.total_mass(),
+        body.material.mass,
+        k[0],
+        k[1],
+        k[2]
+    );
 }

@@ -4,6 +4,7 @@ pub mod bench;
 pub mod create;
 pub mod info;
 pub mod run;
+pub mod scene;
 pub mod view;
 
 use jello_core::Integrator;

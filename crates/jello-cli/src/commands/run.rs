@@ -5,13 +5,13 @@ use std::time::Instant;
 
 use clap::Args;
 use jello_core::diagnostics::{energy, max_penetration};
-use jello_core::{Integrator, ReadOptions, Simulation};
+use jello_core::Integrator;
 
 use super::{parse_integrator, parse_positive};
 use crate::error::CliError;
 use crate::export::GlbExport;
 use crate::frames::{FrameFormat, FrameWriter};
-use crate::fsio::{check_writable_target, read_world, write_atomic};
+use crate::fsio::{check_writable_target, is_scene, load, write_atomic, Source};
 use crate::progress::Progress;
 
 /// Simulated time run when neither `--steps` nor `--time` is given (s).
@@ -20,7 +20,7 @@ const DEFAULT_TIME: f64 = 1.0;
 /// Arguments of `jello run`.
 #[derive(Args, Debug)]
 pub struct RunArgs {
-    /// World file (.w) to run.
+    /// World file (.w) or scene file (.toml) to run.
     pub world: PathBuf,
     /// Number of steps to take [default: as many as 1 s of simulated time takes].
     #[arg(long, conflicts_with = "time")]
@@ -34,8 +34,9 @@ pub struct RunArgs {
     /// Time step to use instead of the file's (s).
     #[arg(long, value_parser = parse_positive)]
     pub dt: Option<f64>,
-    /// Save the final state as a world file (written only if the run succeeds).
-    #[arg(long, value_name = "OUT.w")]
+    /// Save the final state as a world file, or as a scene file when running a scene (written
+    /// only if the run succeeds).
+    #[arg(long, value_name = "OUT.w|OUT.toml")]
     pub save: Option<PathBuf>,
     /// Write frames into this folder (created when missing).
     #[arg(long, value_name = "DIR")]
@@ -46,8 +47,9 @@ pub struct RunArgs {
     /// Frame file format.
     #[arg(long, value_enum, default_value_t = FrameFormat::Ply, requires = "frames")]
     pub format: FrameFormat,
-    /// Write the surface's motion as one animated binary glTF 2.0 file (morph targets), for
-    /// Blender, three.js and other glTF readers; written only if the run succeeds.
+    /// Write the surface's motion (each body's skin, or its cage) as one animated binary glTF 2.0
+    /// file (morph targets), for Blender, three.js and other glTF readers; written only if the
+    /// run succeeds.
     #[arg(long, value_name = "OUT.glb")]
     pub export: Option<PathBuf>,
     /// Frames per simulated second in the --export file (a frame every round(1/(fps·dt)) steps).
@@ -60,18 +62,19 @@ pub struct RunArgs {
 
 /// Runs the world and prints a one-line summary.
 pub fn run(args: RunArgs) -> Result<(), CliError> {
-    let options = ReadOptions {
-        integrator: args.integrator,
-    };
-    let mut world = read_world(&args.world, options)?;
-    if let Some(dt) = args.dt {
-        world.dt = dt;
-    }
+    let (mut sim, source) = load(&args.world, args.integrator, args.dt)?;
     let name = args.world.display().to_string();
-    let mut sim =
-        Simulation::from_world(&world).map_err(|e| CliError::input(format!("{name}: {e}")))?;
     if let Some(out) = &args.save {
         check_writable_target(out)?;
+        let scene = matches!(source, Source::Scene(_));
+        if scene != is_scene(out) {
+            return Err(CliError::input(format!(
+                "{}: a {} saves as {}",
+                out.display(),
+                if scene { "scene" } else { "world" },
+                if scene { ".toml" } else { ".w" }
+            )));
+        }
     }
 
     let dt = sim.model.dt;
@@ -97,7 +100,7 @@ pub fn run(args: RunArgs) -> Result<(), CliError> {
         f.write(&sim.model, &sim.state)?;
     }
     if let Some(x) = export.as_mut() {
-        x.record(&sim.state)?;
+        x.record(&sim.model, &sim.state)?;
     }
     let start = Instant::now();
     for done in 1..=total {
@@ -113,7 +116,7 @@ pub fn run(args: RunArgs) -> Result<(), CliError> {
         }
         if let Some(x) = export.as_mut() {
             if done % x.every() == 0 {
-                x.record(&sim.state)?;
+                x.record(&sim.model, &sim.state)?;
             }
         }
         progress.update(done);
@@ -123,7 +126,7 @@ pub fn run(args: RunArgs) -> Result<(), CliError> {
     // The export ends on the final state, whether or not a frame fell due there.
     if let Some(x) = export.as_mut() {
         if total % x.every() != 0 {
-            x.record(&sim.state)?;
+            x.record(&sim.model, &sim.state)?;
         }
     }
 
@@ -140,10 +143,14 @@ pub fn run(args: RunArgs) -> Result<(), CliError> {
         None => None,
     };
     if let Some(out) = &args.save {
-        let saved = sim
-            .to_world()
-            .map_err(|e| CliError::io(format!("{}: {e}", out.display())))?;
-        write_atomic(out, saved.to_text().as_bytes())?;
+        let text = match &source {
+            Source::World(_) => sim
+                .to_world()
+                .map_err(|e| CliError::io(format!("{}: {e}", out.display())))?
+                .to_text(),
+            Source::Scene(scene) => scene.with_state(&sim.model, &sim.state).to_toml(),
+        };
+        write_atomic(out, text.as_bytes())?;
     }
     if let (Some(x), Some(bytes)) = (&export, &glb) {
         x.write(bytes)?;

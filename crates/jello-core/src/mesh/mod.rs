@@ -132,6 +132,43 @@ impl TriMesh {
         stl::parse(bytes, name)
     }
 
+    /// A mesh from vertex positions and triangles held in memory (a scene file's embedded mesh),
+    /// with the same checks as the readers: finite coordinates, indices in range, and a closed,
+    /// manifold, consistently oriented surface (then unused vertices are dropped and an
+    /// inside-out mesh is flipped). Errors name triangles counted from 1; `name` labels them.
+    pub fn from_parts(
+        vertices: &[Vec3],
+        triangles: &[[u32; 3]],
+        name: &str,
+    ) -> Result<TriMesh, MeshError> {
+        let mut raw = check::Raw::new(name, check::Format::StlBinary);
+        for (v, &p) in vertices.iter().enumerate() {
+            if !p.is_finite() {
+                return Err(MeshError::new(
+                    name,
+                    0,
+                    format!("vertex {v} (counted from 0) has a coordinate that is not finite"),
+                ));
+            }
+            raw.push_vertex(p, 0)?;
+        }
+        for (t, tri) in triangles.iter().enumerate() {
+            if let Some(&v) = tri.iter().find(|&&v| v as usize >= vertices.len()) {
+                return Err(MeshError::new(
+                    name,
+                    0,
+                    format!(
+                        "triangle {} refers to vertex {v}, but there are {} (counted from 0)",
+                        t + 1,
+                        vertices.len()
+                    ),
+                ));
+            }
+            raw.push_triangle(*tri, 0);
+        }
+        raw.finish()
+    }
+
     /// Reads a mesh file, choosing the reader by the extension of `name` (`.obj` or `.stl`, in
     /// any case); an unknown or missing extension is an error naming the known ones.
     pub fn parse(bytes: &[u8], name: &str) -> Result<TriMesh, MeshError> {

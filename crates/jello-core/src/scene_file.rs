@@ -1,0 +1,689 @@
+//! Scene files: a whole simulation in TOML (settings, bodies, obstacles, field, pinned points),
+//! self-contained (a body's mesh is embedded and voxelised again when the file is read, by the
+//! same deterministic code), for the command line, the viewer and Python alike.
+//!
+//! ```toml
+//! [simulation]
+//! integrator = "RK4"          # Euler, RK2, RK4, SymplecticEuler
+//! dt = 0.0005                 # s
+//! steps_per_frame = 1
+//! gravity = [0.0, 0.0, -9.81] # m/s², on every point whatever its mass
+//!
+//! [collision]                 # the penalty springs of walls, obstacles and contacts
+//! stiffness = 400.0           # N/m
+//! damping = 0.25              # N·s/m
+//!
+//! [box]                       # the walls
+//! min = [-2.0, -2.0, -2.0]
+//! max = [2.0, 2.0, 2.0]
+//!
+//! [[obstacle]]
+//! type = "sphere"             # or "plane" (coeffs = [a, b, c, d], allowed where a x + b y + c z + d ≥ 0)
+//! centre = [0.0, 0.0, -1.0]   # or "box" (min, max)
+//! radius = 0.5
+//!
+//! [[body]]
+//! name = "cube"
+//! cube = { points = [8, 8, 8], size = [1.0, 1.0, 1.0] }   # or mesh = { vertices, triangles }, cells
+//! centre = [0.0, 0.0, 0.5]    # where the middle of its rest bounding box goes
+//! rotation = [0.0, 0.0, 30.0] # degrees about x, then y, then z
+//! velocity = [0.0, 0.0, 0.0]  # m/s
+//! spin = [0.0, 0.0, 0.0]      # rad/s, about its centre of mass
+//! total_mass = 1.0            # kg; or mass (per point), or density (kg/m³)
+//! stiffness = [200.0, 200.0, 200.0]  # N/m: structural, shear, bend; or modulus (Pa)
+//! damping = [0.25, 0.25, 0.25]       # N·s/m; or viscosity (Pa·s)
+//! pins = [{ at = [0.0, 0.0, 1.0], radius = 0.1 }]   # points within radius held (0: nearest)
+//! ```
+//!
+//! Every key is checked: an unknown key, a wrong type or a missing value is an error naming the
+//! file, line and column.
+
+use std::fmt;
+use std::ops::Range;
+
+use serde::{Deserialize, Serialize};
+
+use crate::body::{rotation_xyz, Body, Material, IDENTITY};
+use crate::field::ForceField;
+use crate::integrator::Integrator;
+use crate::lattice::Lattice;
+use crate::mesh::TriMesh;
+use crate::model::{defaults, Aabb, Model, ModelBuilder, ModelError, Obstacle, Plane};
+use crate::obstacle::Sphere;
+use crate::skin::Skin;
+use crate::state::State;
+use crate::vec3::Vec3;
+
+/// The most cells a voxelised mesh may have (over its whole grid).
+pub const MAX_CELLS: usize = 1 << 22;
+
+/// A scene file that could not be read or made into a simulation: the file, the line and column
+/// (1-based; 0 when unknown) and what was expected.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct SceneError {
+    /// The file's name as given.
+    pub source_name: String,
+    /// Line (from 1), or 0 when the error belongs to no line.
+    pub line: usize,
+    /// Column (from 1), or 0.
+    pub column: usize,
+    /// What is wrong.
+    pub message: String,
+}
+
+impl fmt::Display for SceneError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match (self.line, self.column) {
+            (0, _) => write!(f, "{}: {}", self.source_name, self.message),
+            (l, 0) => write!(f, "{}:{l}: {}", self.source_name, self.message),
+            (l, c) => write!(f, "{}:{l}:{c}: {}", self.source_name, self.message),
+        }
+    }
+}
+
+impl std::error::Error for SceneError {}
+
+/// A scene as written in its file.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SceneFile {
+    /// Time stepping and gravity.
+    #[serde(default)]
+    pub simulation: Settings,
+    /// The penalty springs of walls, obstacles and contacts between bodies.
+    #[serde(default)]
+    pub collision: Collision,
+    /// The walls (default: the classic box `[−2, 2]³`).
+    #[serde(default, rename = "box", skip_serializing_if = "Option::is_none")]
+    pub bounds: Option<BoxSpec>,
+    /// A force field sampled on a grid over the box.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub field: Option<FieldSpec>,
+    /// Static obstacles.
+    #[serde(default, rename = "obstacle", skip_serializing_if = "Vec::is_empty")]
+    pub obstacles: Vec<ObstacleSpec>,
+    /// The bodies (at least one).
+    #[serde(rename = "body")]
+    pub bodies: Vec<BodySpec>,
+}
+
+/// `[simulation]`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct Settings {
+    /// Euler, RK2, RK4 or SymplecticEuler (any case).
+    pub integrator: String,
+    /// Time step (s).
+    pub dt: f64,
+    /// Steps per displayed frame.
+    pub steps_per_frame: u32,
+    /// Acceleration of every point (m/s²).
+    pub gravity: [f64; 3],
+}
+
+impl Default for Settings {
+    fn default() -> Self {
+        Settings {
+            integrator: "RK4".into(),
+            dt: defaults::DT,
+            steps_per_frame: defaults::STEPS_PER_FRAME,
+            gravity: [0.0; 3],
+        }
+    }
+}
+
+/// `[collision]`.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct Collision {
+    /// N/m.
+    pub stiffness: f64,
+    /// N·s/m.
+    pub damping: f64,
+}
+
+impl Default for Collision {
+    fn default() -> Self {
+        Collision {
+            stiffness: defaults::K_COLLISION,
+            damping: defaults::D_COLLISION,
+        }
+    }
+}
+
+/// An axis-aligned box: `[box]` or a box obstacle.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BoxSpec {
+    /// Lower corner (m).
+    pub min: [f64; 3],
+    /// Upper corner (m).
+    pub max: [f64; 3],
+}
+
+/// `[field]`: forces (N) at the nodes of a `resolution³` grid over the box, in the world file's
+/// order (x slowest, z fastest).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FieldSpec {
+    /// Nodes per axis.
+    pub resolution: usize,
+    /// One force per node.
+    pub forces: Vec<[f64; 3]>,
+}
+
+/// `[[obstacle]]`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "type", rename_all = "lowercase", deny_unknown_fields)]
+pub enum ObstacleSpec {
+    /// Points are kept where `a x + b y + c z + d ≥ 0`.
+    Plane {
+        /// `[a, b, c, d]`.
+        coeffs: [f64; 4],
+    },
+    /// A solid ball.
+    Sphere {
+        /// Centre (m).
+        centre: [f64; 3],
+        /// Radius (m).
+        radius: f64,
+    },
+    /// A solid axis-aligned box.
+    Box {
+        /// Lower corner (m).
+        min: [f64; 3],
+        /// Upper corner (m).
+        max: [f64; 3],
+    },
+}
+
+/// `[[body]]`: a shape (exactly one of `cube` and `mesh`), its placement, motion and material.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BodySpec {
+    /// A name for messages and exports.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub name: Option<String>,
+    /// A box lattice.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub cube: Option<CubeSpec>,
+    /// A closed triangle mesh, voxelised into `cells` cells along its longest side.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub mesh: Option<MeshSpec>,
+    /// Where the middle of the rest bounding box goes (m); default: a cube's lower corner at the
+    /// origin, a mesh where it is.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub centre: Option<[f64; 3]>,
+    /// Degrees about x, then y, then z, about the centre.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub rotation: Option<[f64; 3]>,
+    /// Initial velocity (m/s).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub velocity: Option<[f64; 3]>,
+    /// Initial angular velocity about the centre of mass (rad/s).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub spin: Option<[f64; 3]>,
+    /// Mass of each point (kg).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub mass: Option<f64>,
+    /// Mass of the body (kg), spread over its points.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub total_mass: Option<f64>,
+    /// Density (kg/m³) over the volume of its cells.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub density: Option<f64>,
+    /// Stiffness of structural, shear and bend springs (N/m).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub stiffness: Option<[f64; 3]>,
+    /// Damping of structural, shear and bend springs (N·s/m).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub damping: Option<[f64; 3]>,
+    /// A stiffness that does not depend on the resolution (Pa): every spring `modulus · h`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub modulus: Option<f64>,
+    /// A damping that does not depend on the resolution (Pa·s): every spring `viscosity · h`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub viscosity: Option<f64>,
+    /// Pinned points.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub pins: Vec<PinSpec>,
+    /// A saved state: every lattice point's position and velocity (replaces placement and
+    /// motion).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub state: Option<StateSpec>,
+}
+
+/// `cube = { points, size }`.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CubeSpec {
+    /// Points per axis.
+    pub points: [usize; 3],
+    /// Side lengths (m).
+    pub size: [f64; 3],
+}
+
+/// `mesh = { vertices, triangles, cells }`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MeshSpec {
+    /// Cells along the longest side of its bounding box.
+    pub cells: usize,
+    /// Vertex positions (m).
+    pub vertices: Vec<[f64; 3]>,
+    /// Triangles, wound outward, indices from 0.
+    pub triangles: Vec<[u32; 3]>,
+}
+
+/// `{ at, radius }`: the active points within `radius` of `at` at rest are held (radius 0: the
+/// nearest one).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PinSpec {
+    /// Centre of the region (m), in the placed rest shape.
+    pub at: [f64; 3],
+    /// Radius of the region (m).
+    pub radius: f64,
+}
+
+/// A saved body state.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct StateSpec {
+    /// Position of every lattice point (m).
+    pub positions: Vec<[f64; 3]>,
+    /// Velocity of every lattice point (m/s).
+    pub velocities: Vec<[f64; 3]>,
+}
+
+/// A scene made ready to step: the model, its initial state, and per body its name.
+#[derive(Clone, Debug)]
+pub struct Scene {
+    /// What does not change while stepping.
+    pub model: Model,
+    /// The initial state.
+    pub state: State,
+    /// Per body, its name.
+    pub names: Vec<String>,
+}
+
+fn v3(a: [f64; 3]) -> Vec3 {
+    Vec3::new(a[0], a[1], a[2])
+}
+
+/// 1-based line and column of byte `offset` in `text`.
+fn line_column(text: &str, offset: usize) -> (usize, usize) {
+    let before = &text[..offset.min(text.len())];
+    let line = before.matches('\n').count() + 1;
+    let column = before.rsplit('\n').next().map_or(0, |l| l.chars().count()) + 1;
+    (line, column)
+}
+
+impl SceneFile {
+    /// Reads a scene from the bytes of a TOML file; `name` labels errors.
+    pub fn parse(bytes: &[u8], name: &str) -> Result<SceneFile, SceneError> {
+        let error = |line, column, message: String| SceneError {
+            source_name: name.to_string(),
+            line,
+            column,
+            message,
+        };
+        let text = std::str::from_utf8(bytes).map_err(|e| {
+            let (line, column) = line_column(
+                std::str::from_utf8(&bytes[..e.valid_up_to()]).unwrap_or(""),
+                e.valid_up_to(),
+            );
+            error(line, column, "expected UTF-8 text".into())
+        })?;
+        let scene: SceneFile = toml::from_str(text).map_err(|e| {
+            let (line, column) = e.span().map_or((0, 0), |s| line_column(text, s.start));
+            error(line, column, e.message().trim_end().to_string())
+        })?;
+        // Semantic checks that serde cannot make, at the line of the body's header.
+        if scene.bodies.is_empty() {
+            return Err(error(0, 0, "expected at least one [[body]]".into()));
+        }
+        for (b, body) in scene.bodies.iter().enumerate() {
+            body.check().map_err(|m| {
+                let line = body_header_line(text, b);
+                error(line, 0, format!("body {}: {m}", b + 1))
+            })?;
+        }
+        Ok(scene)
+    }
+
+    /// The scene as TOML text.
+    pub fn to_toml(&self) -> String {
+        let mut text =
+            String::from("# A Jello scene (see `jello create --help` and the README).\n");
+        text.push_str(&toml::to_string(self).expect("a scene always serialises"));
+        text
+    }
+
+    /// The model and initial state this scene describes.
+    pub fn to_scene(&self, name: &str) -> Result<Scene, SceneError> {
+        let error = |message: String| SceneError {
+            source_name: name.to_string(),
+            line: 0,
+            column: 0,
+            message,
+        };
+        let integrator: Integrator = self
+            .simulation
+            .integrator
+            .parse()
+            .map_err(|e: crate::integrator::UnknownIntegrator| error(e.to_string()))?;
+        let bounds = match self.bounds {
+            Some(b) => Aabb::new(v3(b.min), v3(b.max)).map_err(|e| error(format!("box: {e}")))?,
+            None => Aabb::classic(),
+        };
+        let field = match &self.field {
+            Some(f) => Some(
+                ForceField::new(
+                    f.resolution,
+                    bounds,
+                    f.forces.iter().map(|&p| v3(p)).collect(),
+                )
+                .map_err(|e| error(format!("field: {e}")))?,
+            ),
+            None => None,
+        };
+        let mut obstacles = Vec::new();
+        for (i, o) in self.obstacles.iter().enumerate() {
+            let what = |e: ModelError| error(format!("obstacle {}: {e}", i + 1));
+            obstacles.push(match *o {
+                ObstacleSpec::Plane { coeffs } => {
+                    Obstacle::Plane(Plane::new(coeffs).map_err(what)?)
+                }
+                ObstacleSpec::Sphere { centre, radius } => {
+                    Obstacle::Sphere(Sphere::new(v3(centre), radius).map_err(what)?)
+                }
+                ObstacleSpec::Box { min, max } => {
+                    Obstacle::Box(Aabb::new(v3(min), v3(max)).map_err(what)?)
+                }
+            });
+        }
+        let mut bodies = Vec::new();
+        let mut names = Vec::new();
+        for (b, spec) in self.bodies.iter().enumerate() {
+            let body = spec
+                .to_body(name)
+                .map_err(|e| error(format!("body {}: {e}", b + 1)))?;
+            names.push(
+                spec.name
+                    .clone()
+                    .unwrap_or_else(|| format!("body{}", b + 1)),
+            );
+            bodies.push(body);
+        }
+        let mut model = ModelBuilder::new()
+            .bodies(bodies)
+            .integrator(integrator)
+            .dt(self.simulation.dt)
+            .steps_per_frame(self.simulation.steps_per_frame)
+            .gravity(v3(self.simulation.gravity))
+            .collision(self.collision.stiffness, self.collision.damping)
+            .bounds(bounds)
+            .obstacles(obstacles)
+            .field(field)
+            .build()
+            .map_err(|e| error(e.to_string()))?;
+        let mut state = State::at_rest(&model);
+        let mut pins = Vec::new();
+        for (b, spec) in self.bodies.iter().enumerate() {
+            let body = model.body(b);
+            let range = body.points();
+            spec.initial_state(body, &mut state, range.clone())
+                .map_err(|e| error(format!("body {}: {e}", b + 1)))?;
+            for (n, pin) in spec.pins.iter().enumerate() {
+                let at = v3(pin.at);
+                let active = range.clone().filter(|&p| body.is_active(p - range.start));
+                let distance = |p: &usize| (state.pos[*p] - at).length();
+                let held: Vec<u32> = if pin.radius > 0.0 {
+                    active
+                        .filter(|p| distance(p) <= pin.radius)
+                        .map(|p| p as u32)
+                        .collect()
+                } else {
+                    // Radius 0: the nearest point (the first of equals).
+                    active
+                        .min_by(|a, b| distance(a).total_cmp(&distance(b)))
+                        .map(|p| p as u32)
+                        .into_iter()
+                        .collect()
+                };
+                if !(pin.radius >= 0.0 && pin.radius.is_finite()) {
+                    return Err(error(format!(
+                        "body {}: pin {} needs a finite radius ≥ 0 (0: the nearest point)",
+                        b + 1,
+                        n + 1
+                    )));
+                }
+                if held.is_empty() {
+                    return Err(error(format!(
+                        "body {}: pin {} holds no point (none within {} m of {:?})",
+                        b + 1,
+                        n + 1,
+                        pin.radius,
+                        pin.at
+                    )));
+                }
+                pins.extend(held);
+            }
+        }
+        if !pins.is_empty() {
+            model = model
+                .to_builder()
+                .pins(pins)
+                .build()
+                .map_err(|e| error(e.to_string()))?;
+        }
+        check_start(&model, &state).map_err(error)?;
+        Ok(Scene {
+            model,
+            state,
+            names,
+        })
+    }
+
+    /// This scene with every body's state replaced by `state` (for saving a run's end).
+    pub fn with_state(&self, model: &Model, state: &State) -> SceneFile {
+        let mut scene = self.clone();
+        for (spec, body) in scene.bodies.iter_mut().zip(model.bodies()) {
+            let r = body.points();
+            spec.state = Some(StateSpec {
+                positions: state.pos[r.clone()].iter().map(|p| p.to_array()).collect(),
+                velocities: state.vel[r].iter().map(|v| v.to_array()).collect(),
+            });
+        }
+        scene
+    }
+}
+
+/// Line of the header of the `b`-th `[[body]]` (0 when not found).
+fn body_header_line(text: &str, b: usize) -> usize {
+    text.lines()
+        .enumerate()
+        .filter(|(_, l)| {
+            let t = l.trim_start();
+            t.starts_with("[[body]]") || t.starts_with("[[ body ]]")
+        })
+        .nth(b)
+        .map_or(0, |(n, _)| n + 1)
+}
+
+/// Bodies must start inside the box, apart from each other, and outside the obstacles.
+fn check_start(model: &Model, state: &State) -> Result<(), String> {
+    let bounds = model.bounds;
+    for (b, body) in model.bodies().iter().enumerate() {
+        let r = body.points();
+        for p in r.clone().filter(|&p| body.is_active(p - r.start)) {
+            let q = state.pos[p];
+            if bounds.excursion(q) > 0.0 {
+                return Err(format!(
+                    "body {} starts outside the box (a point at {:?} is outside {:?} to {:?})",
+                    b + 1,
+                    q.to_array(),
+                    bounds.min.to_array(),
+                    bounds.max.to_array()
+                ));
+            }
+            if let Some(o) = model.obstacles.iter().position(|o| o.contact(q).is_some()) {
+                return Err(format!(
+                    "body {} starts inside obstacle {} (a point at {:?})",
+                    b + 1,
+                    o + 1,
+                    q.to_array()
+                ));
+            }
+        }
+    }
+    let (overlap, _) = crate::contact::overlap(model, &state.pos);
+    if overlap > 0.0 {
+        return Err(format!(
+            "bodies start interpenetrating (by {overlap:.3e} m, counting each point as a ball of half its lattice spacing); move them apart"
+        ));
+    }
+    Ok(())
+}
+
+impl BodySpec {
+    /// Checks the combination of keys.
+    fn check(&self) -> Result<(), String> {
+        match (&self.cube, &self.mesh) {
+            (Some(_), Some(_)) => return Err("give either cube or mesh, not both".into()),
+            (None, None) => return Err("expected a shape: cube = { … } or mesh = { … }".into()),
+            _ => {}
+        }
+        let masses = [self.mass, self.total_mass, self.density]
+            .iter()
+            .filter(|m| m.is_some())
+            .count();
+        if masses > 1 {
+            return Err("give at most one of mass, total_mass and density".into());
+        }
+        if self.stiffness.is_some() && self.modulus.is_some() {
+            return Err("give either stiffness or modulus, not both".into());
+        }
+        if self.damping.is_some() && self.viscosity.is_some() {
+            return Err("give either damping or viscosity, not both".into());
+        }
+        Ok(())
+    }
+
+    /// The body, placed, with its material.
+    fn to_body(&self, file: &str) -> Result<Body, String> {
+        let material = Material::classic();
+        let mut body = match (&self.cube, &self.mesh) {
+            (Some(c), None) => Body::lattice_box(Lattice::new(c.points, v3(c.size)), material),
+            (None, Some(m)) => {
+                let vertices: Vec<Vec3> = m.vertices.iter().map(|&p| v3(p)).collect();
+                let mesh = TriMesh::from_parts(&vertices, &m.triangles, &format!("{file}: mesh"))
+                    .map_err(|e| e.to_string())?;
+                let voxels = crate::voxel::Voxels::from_mesh(
+                    &mesh.vertices,
+                    &mesh.triangles,
+                    m.cells,
+                    MAX_CELLS,
+                )
+                .map_err(|e| e.to_string())?;
+                let skin = Skin::embed(&voxels, &mesh.vertices, &mesh.triangles);
+                Body::from_voxels(&voxels, material)
+                    .map_err(|e| e.to_string())?
+                    .with_skin(skin)
+            }
+            _ => return Err("expected exactly one shape".into()),
+        };
+        // Placement: turn about the middle of the rest bounding box, then move it to `centre`.
+        let size = body.lattice().size;
+        let half = size * 0.5;
+        let rotation = self.rotation.map_or(IDENTITY, rotation_xyz);
+        let turned_half = Vec3::new(
+            rotation[0].dot(half),
+            rotation[1].dot(half),
+            rotation[2].dot(half),
+        );
+        let centre = match self.centre {
+            Some(c) => v3(c),
+            None => body.origin + half,
+        };
+        let origin = if self.rotation.is_none() && self.centre.is_none() {
+            body.origin
+        } else {
+            centre - turned_half
+        };
+        body = body.placed(origin, rotation);
+        // Material.
+        let h = body.lattice().spacing();
+        let cell_volume = h.x * h.y * h.z;
+        let volume = body.cell_count() as f64 * cell_volume;
+        let n = body.active_count() as f64;
+        let mut m = body.material;
+        if let Some(mass) = self.mass {
+            m.mass = mass;
+        } else if let Some(total) = self.total_mass {
+            m.mass = total / n;
+        } else if let Some(density) = self.density {
+            m.mass = density * volume / n;
+        }
+        if let Some(k) = self.stiffness {
+            m.stiffness = k;
+        }
+        if let Some(d) = self.damping {
+            m.damping = d;
+        }
+        if let Some(e) = self.modulus {
+            m.stiffness = [e * body.min_spacing(); 3];
+        }
+        if let Some(eta) = self.viscosity {
+            m.damping = [eta * body.min_spacing(); 3];
+        }
+        m.check().map_err(|e| e.to_string())?;
+        body.material = m;
+        Ok(body)
+    }
+
+    /// Writes the body's initial positions and velocities into `state[range]`.
+    fn initial_state(
+        &self,
+        body: &Body,
+        state: &mut State,
+        range: Range<usize>,
+    ) -> Result<(), String> {
+        if let Some(s) = &self.state {
+            let n = range.len();
+            if s.positions.len() != n || s.velocities.len() != n {
+                return Err(format!(
+                    "state needs {n} positions and {n} velocities (one per lattice point), found {} and {}",
+                    s.positions.len(),
+                    s.velocities.len()
+                ));
+            }
+            for (q, (p, v)) in range.zip(s.positions.iter().zip(&s.velocities)) {
+                let (p, v) = (v3(*p), v3(*v));
+                if !(p.is_finite() && v.is_finite()) {
+                    return Err("state values must be finite".into());
+                }
+                (state.pos[q], state.vel[q]) = (p, v);
+            }
+            return Ok(());
+        }
+        let first = range.start;
+        let active = |q: &usize| body.is_active(q - first);
+        let count = range.clone().filter(active).count() as f64;
+        let com = range
+            .clone()
+            .filter(active)
+            .fold(Vec3::ZERO, |s, q| s + state.pos[q])
+            / count;
+        let v0 = self.velocity.map_or(Vec3::ZERO, v3);
+        let w = self.spin.map_or(Vec3::ZERO, v3);
+        if !(v0.is_finite() && w.is_finite()) {
+            return Err("velocity and spin must be finite".into());
+        }
+        for q in range.filter(active) {
+            state.vel[q] = v0 + w.cross(state.pos[q] - com);
+        }
+        Ok(())
+    }
+}
