@@ -103,8 +103,23 @@ pub struct SceneFile {
     #[serde(default, rename = "obstacle", skip_serializing_if = "Vec::is_empty")]
     pub obstacles: Vec<ObstacleSpec>,
     /// The bodies (at least one).
-    #[serde(rename = "body")]
+    #[serde(default, rename = "body")]
     pub bodies: Vec<BodySpec>,
+    /// Where each body's table starts in the file it was read from, for errors found when the
+    /// scene is made into a model.
+    #[serde(skip)]
+    origin: SourceLines,
+}
+
+/// Lines of the `[[body]]` headers in the text a scene was read from: where it came from, not
+/// part of its value (two scenes with the same content are equal wherever they were read).
+#[derive(Clone, Debug, Default)]
+struct SourceLines(Vec<usize>);
+
+impl PartialEq for SourceLines {
+    fn eq(&self, _: &Self) -> bool {
+        true
+    }
 }
 
 /// `[simulation]`.
@@ -320,6 +335,14 @@ fn line_column(text: &str, offset: usize) -> (usize, usize) {
 }
 
 impl SceneFile {
+    /// A scene of these bodies with every other setting at its default.
+    pub fn new(bodies: Vec<BodySpec>) -> Self {
+        SceneFile {
+            bodies,
+            ..SceneFile::default()
+        }
+    }
+
     /// Reads a scene from the bytes of a TOML file; `name` labels errors.
     pub fn parse(bytes: &[u8], name: &str) -> Result<SceneFile, SceneError> {
         let error = |line, column, message: String| SceneError {
@@ -335,7 +358,7 @@ impl SceneFile {
             );
             error(line, column, "expected UTF-8 text".into())
         })?;
-        let scene: SceneFile = toml::from_str(text).map_err(|e| {
+        let mut scene: SceneFile = toml::from_str(text).map_err(|e| {
             let (line, column) = e.span().map_or((0, 0), |s| line_column(text, s.start));
             error(line, column, e.message().trim_end().to_string())
         })?;
@@ -343,11 +366,14 @@ impl SceneFile {
         if scene.bodies.is_empty() {
             return Err(error(0, 0, "expected at least one [[body]]".into()));
         }
+        scene.origin = SourceLines(
+            (0..scene.bodies.len())
+                .map(|b| body_header_line(text, b))
+                .collect(),
+        );
         for (b, body) in scene.bodies.iter().enumerate() {
-            body.check().map_err(|m| {
-                let line = body_header_line(text, b);
-                error(line, 0, format!("body {}: {m}", b + 1))
-            })?;
+            body.check()
+                .map_err(|m| error(scene.origin.0[b], 0, format!("body {}: {m}", b + 1)))?;
         }
         Ok(scene)
     }
@@ -405,10 +431,14 @@ impl SceneFile {
         }
         let mut bodies = Vec::new();
         let mut names = Vec::new();
+        let at_body = |b: usize, message: String| SceneError {
+            source_name: name.to_string(),
+            line: self.origin.0.get(b).copied().unwrap_or(0),
+            column: 0,
+            message: format!("body {}: {message}", b + 1),
+        };
         for (b, spec) in self.bodies.iter().enumerate() {
-            let body = spec
-                .to_body(name)
-                .map_err(|e| error(format!("body {}: {e}", b + 1)))?;
+            let body = spec.to_body(name).map_err(|e| at_body(b, e))?;
             names.push(
                 spec.name
                     .clone()
@@ -434,7 +464,7 @@ impl SceneFile {
             let body = model.body(b);
             let range = body.points();
             spec.initial_state(body, &mut state, range.clone())
-                .map_err(|e| error(format!("body {}: {e}", b + 1)))?;
+                .map_err(|e| at_body(b, e))?;
             for (n, pin) in spec.pins.iter().enumerate() {
                 let at = v3(pin.at);
                 let active = range.clone().filter(|&p| body.is_active(p - range.start));
@@ -453,20 +483,24 @@ impl SceneFile {
                         .collect()
                 };
                 if !(pin.radius >= 0.0 && pin.radius.is_finite()) {
-                    return Err(error(format!(
-                        "body {}: pin {} needs a finite radius ≥ 0 (0: the nearest point)",
-                        b + 1,
-                        n + 1
-                    )));
+                    return Err(at_body(
+                        b,
+                        format!(
+                            "pin {} needs a finite radius ≥ 0 (0: the nearest point)",
+                            n + 1
+                        ),
+                    ));
                 }
                 if held.is_empty() {
-                    return Err(error(format!(
-                        "body {}: pin {} holds no point (none within {} m of {:?})",
-                        b + 1,
-                        n + 1,
-                        pin.radius,
-                        pin.at
-                    )));
+                    return Err(at_body(
+                        b,
+                        format!(
+                            "pin {} holds no point (none within {} m of {:?})",
+                            n + 1,
+                            pin.radius,
+                            pin.at
+                        ),
+                    ));
                 }
                 pins.extend(held);
             }

@@ -232,25 +232,23 @@ pub fn create_scene(args: &CreateArgs, matches: &ArgMatches) -> Result<(), CliEr
             max: [x1, y1, z1],
         }
     }));
-    let mut scene = SceneFile {
-        simulation: Settings {
-            integrator: args.integrator.name().to_string(),
-            dt: args.dt,
-            steps_per_frame: args.steps_per_frame,
-            gravity,
-        },
-        collision: Collision {
-            stiffness: args.k_collision,
-            damping: args.d_collision,
-        },
-        bounds: Some(BoxSpec {
-            min: bounds.min.to_array(),
-            max: bounds.max.to_array(),
-        }),
-        field,
-        obstacles,
-        bodies,
+    let mut scene = SceneFile::new(bodies);
+    scene.simulation = Settings {
+        integrator: args.integrator.name().to_string(),
+        dt: args.dt,
+        steps_per_frame: args.steps_per_frame,
+        gravity,
     };
+    scene.collision = Collision {
+        stiffness: args.k_collision,
+        damping: args.d_collision,
+    };
+    scene.bounds = Some(BoxSpec {
+        min: bounds.min.to_array(),
+        max: bounds.max.to_array(),
+    });
+    scene.field = field;
+    scene.obstacles = obstacles;
     // The plane keeps the bodies on the side where the first body's centre of mass lies.
     if let Some(p) = args.plane {
         let made = scene
