@@ -5,7 +5,7 @@
 // Jello's z-up frame into glTF's y-up one).
 import assert from 'node:assert/strict';
 import { execFileSync } from 'node:child_process';
-import { mkdtempSync, readFileSync, rmSync } from 'node:fs';
+import { mkdtempSync, readFileSync, rmSync, writeFileSync } from 'node:fs';
 import { tmpdir } from 'node:os';
 import { join } from 'node:path';
 import { test } from 'node:test';
@@ -147,6 +147,61 @@ test('a failed export leaves no file behind', () => {
     assert.equal(code, 1);
     assert.match(stderr, /more than the 4096 one glTF file holds/);
     assert.throws(() => readFileSync(glbPath), /ENOENT/);
+  } finally {
+    rmSync(dir, { recursive: true, force: true });
+  }
+});
+
+/** A torus about the z axis (radii R and r, m × n quads) as OBJ text, and its vertices. */
+function torusObj(R, r, m, n, z) {
+  const vertices = [];
+  const lines = [];
+  for (let i = 0; i < m; i++) {
+    const u = (2 * Math.PI * i) / m;
+    for (let j = 0; j < n; j++) {
+      const v = (2 * Math.PI * j) / n;
+      const p = [(R + r * Math.cos(v)) * Math.cos(u), (R + r * Math.cos(v)) * Math.sin(u), r * Math.sin(v) + z];
+      vertices.push(p);
+      lines.push(`v ${p.join(' ')}`);
+    }
+  }
+  const at = (i, j) => (i % m) * n + (j % n) + 1;
+  for (let i = 0; i < m; i++) {
+    for (let j = 0; j < n; j++) {
+      lines.push(`f ${at(i, j)} ${at(i + 1, j)} ${at(i + 1, j + 1)}`);
+      lines.push(`f ${at(i, j)} ${at(i + 1, j + 1)} ${at(i, j + 1)}`);
+    }
+  }
+  return { text: lines.join('\n') + '\n', vertices, triangles: 2 * m * n };
+}
+
+test('a scene made from a mesh exports its skin as a valid animated glTF', async () => {
+  const dir = mkdtempSync(join(tmpdir(), 'jello-export-scene-'));
+  try {
+    const torus = torusObj(0.5, 0.2, 24, 12, 1.0);
+    writeFileSync(join(dir, 'ring.obj'), torus.text);
+    const scene = join(dir, 'ring.toml');
+    execFileSync(JELLO, ['create', scene, '--mesh', join(dir, 'ring.obj'), '--cells', '10',
+      '--sphere', '0,0,0,0.4', '--gravity', '0,0,-9.81'], { encoding: 'utf8' });
+    const glbPath = join(dir, 'ring.glb');
+    execFileSync(JELLO, ['run', scene, '--time', '1', '--export', glbPath, '-q'], { encoding: 'utf8' });
+    const bytes = new Uint8Array(readFileSync(glbPath));
+    const report = await validator.validateBytes(bytes);
+    assert.equal(report.issues.numErrors, 0, JSON.stringify(report.issues.messages, null, 1));
+    assert.equal(report.issues.numWarnings, 0, JSON.stringify(report.issues.messages, null, 1));
+    const glb = readGlb(bytes);
+    const primitive = glb.json.meshes[0].primitives[0];
+    // The skin is the input mesh: its vertices, its triangles, at rest in the first frame.
+    assert.equal(glb.json.accessors[primitive.attributes.POSITION].count, torus.vertices.length);
+    assert.equal(glb.json.accessors[primitive.indices].count, 3 * torus.triangles);
+    const first = floats(glb, primitive.attributes.POSITION);
+    torus.vertices.forEach(([x, y, z], v) => {
+      const want = [x, z, -y];
+      for (let c = 0; c < 3; c++) {
+        assert.ok(Math.abs(first[3 * v + c] - want[c]) < 1e-6, `vertex ${v}`);
+      }
+    });
+    assert.equal(primitive.targets.length + 1, 31, '1 s at 30 frames per second, and the start');
   } finally {
     rmSync(dir, { recursive: true, force: true });
   }

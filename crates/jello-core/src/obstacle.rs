@@ -28,6 +28,12 @@ impl Contact {
         let n = self.normal;
         n * (k * self.depth) - n * (d * v.dot(n))
     }
+
+    /// The penalty force of an obstacle (sphere, solid box, plane obstacle) on a point moving at
+    /// `v`: the same spring, and damping of the whole velocity (see the obstacle kernel).
+    pub fn obstacle_force(&self, v: Vec3, k: f64, d: f64) -> Vec3 {
+        self.normal * (k * self.depth) - v * d
+    }
 }
 
 /// An axis-aligned box: the box that holds the jello (its walls push points back in), or a solid
@@ -323,10 +329,14 @@ pub(crate) fn wall_force(c: f64, v: f64, lo: f64, hi: f64, kc: f64, dc: f64) -> 
     }
 }
 
-/// The penalty force of a contact given in branch-free form (`depth ≤ 0` means none).
+/// The penalty force of an obstacle's contact given in branch-free form (`depth ≤ 0` means
+/// none): `kCollision·depth·n − dCollision·v`. Unlike the walls and the inclined plane of SPEC.md,
+/// whose damping acts along the normal only, an obstacle damps the whole velocity of a point
+/// touching it, so that it also resists sliding (a viscous friction): without it a body could
+/// never come to rest on a sphere unless perfectly centred.
 #[inline(always)]
 pub(crate) fn penalty(depth: f64, n: Vec3, v: Vec3, kc: f64, dc: f64) -> Vec3 {
-    let push = n * (kc * depth) - n * (dc * v.dot(n));
+    let push = n * (kc * depth) - v * dc;
     if depth > 0.0 {
         push
     } else {

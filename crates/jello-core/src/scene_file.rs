@@ -512,7 +512,10 @@ impl SceneFile {
                 .build()
                 .map_err(|e| error(e.to_string()))?;
         }
-        check_start(&model, &state).map_err(error)?;
+        // A saved state (a run's end) may rest against anything; a scene's start must be clear.
+        if self.bodies.iter().all(|b| b.state.is_none()) {
+            check_start(&model, &state).map_err(error)?;
+        }
         Ok(Scene {
             model,
             state,

@@ -135,7 +135,7 @@ pub struct CreateArgs {
         allow_hyphen_values = true
     )]
     pub solid_box: Vec<Numbers<6>>,
-    /// Scene: acceleration of every point (m/s²), e.g. 0,0,-9.81.
+    /// Scene: acceleration of every point (m/s²) [default: 0,0,-9.81, z is up; 0,0,0 for none].
     #[arg(long, value_name = "GX,GY,GZ", allow_hyphen_values = true)]
     pub gravity: Option<Numbers<3>>,
     /// Scene: the walls, from (X0,Y0,Z0) to (X1,Y1,Z1) [default: -2,-2,-2,2,2,2].

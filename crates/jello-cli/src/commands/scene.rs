@@ -19,6 +19,10 @@ use crate::fsio::{read_bounded, write_atomic};
 /// Cells along a mesh's longest side when `--cells` is not given.
 pub const DEFAULT_CELLS: u32 = 10;
 
+/// Gravity of a scene when neither `--gravity` nor `--field` is given (m/s²; z is up, as in the
+/// classic worlds and the viewer).
+pub const DEFAULT_GRAVITY: [f64; 3] = [0.0, 0.0, -9.81];
+
 /// Which body each value of a per-body option belongs to: the last `--mesh` or `--cube` before
 /// it. `starts` are the bodies' positions on the command line, in order.
 fn owners(
@@ -191,7 +195,7 @@ pub fn create_scene(args: &CreateArgs, matches: &ArgMatches) -> Result<(), CliEr
         }
         None => Aabb::classic(),
     };
-    let mut gravity = args.gravity.map_or([0.0; 3], |g| g.0);
+    let mut gravity = args.gravity.map_or(DEFAULT_GRAVITY, |g| g.0);
     let field = match args.field {
         FieldSpec::None => None,
         // In a scene gravity is an acceleration, the same on light and heavy points.
@@ -199,20 +203,17 @@ pub fn create_scene(args: &CreateArgs, matches: &ArgMatches) -> Result<(), CliEr
             gravity = [0.0, 0.0, -g];
             None
         }
+        _ if args.gravity.is_none() => {
+            // A field replaces the default gravity (as in world files, where it is the field).
+            gravity = [0.0; 3];
+            sampled(args, bounds)?
+        }
         FieldSpec::Gravity(_) => {
             return Err(CliError::usage(
                 "give either --gravity or --field gravity, not both",
             ))
         }
-        spec => {
-            let res = args.res as usize;
-            let f = ForceField::from_fn(res, bounds, |p| spec.force_on(p))
-                .map_err(|e| CliError::input(format!("--field: {e}")))?;
-            Some(SceneField {
-                resolution: res,
-                forces: f.forces().iter().map(|v| v.to_array()).collect(),
-            })
-        }
+        _ => sampled(args, bounds)?,
     };
     let mut obstacles: Vec<ObstacleSpec> = args
         .sphere
@@ -283,6 +284,18 @@ pub fn create_scene(args: &CreateArgs, matches: &ArgMatches) -> Result<(), CliEr
         m.pins.len()
     );
     Ok(())
+}
+
+/// The `--field` sampled over the box.
+fn sampled(args: &CreateArgs, bounds: Aabb) -> Result<Option<SceneField>, CliError> {
+    let res = args.res as usize;
+    let spec = args.field;
+    let f = ForceField::from_fn(res, bounds, |p| spec.force_on(p))
+        .map_err(|e| CliError::input(format!("--field: {e}")))?;
+    Ok(Some(SceneField {
+        resolution: res,
+        forces: f.forces().iter().map(|v| v.to_array()).collect(),
+    }))
 }
 
 /// A body's shape as given on the command line.
