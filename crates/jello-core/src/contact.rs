@@ -36,6 +36,8 @@ pub struct Contacts {
     entries: Vec<u32>,
     /// Per sorted entry: its grid cell.
     entry_cells: Vec<[i32; 3]>,
+    /// Per sorted entry: its body's ball radius (m).
+    entry_radius: Vec<f64>,
     /// Per point: its grid cell (for the sort).
     point_cells: Vec<[i32; 3]>,
     /// Per body: the ball radius (m).
@@ -61,6 +63,7 @@ impl Contacts {
             starts: vec![0; buckets + 1],
             entries: vec![0; active],
             entry_cells: vec![[0; 3]; active],
+            entry_radius: vec![0.0; active],
             point_cells: vec![[0; 3]; n],
             radius,
             cell,
@@ -88,6 +91,7 @@ impl Contacts {
             starts,
             entries,
             entry_cells,
+            entry_radius,
             point_cells,
             radius,
             cell,
@@ -114,12 +118,12 @@ impl Contacts {
             *s = sum;
             sum += count;
         }
-        for body in bodies {
+        for (b, body) in bodies.iter().enumerate() {
             for q in active_points(body) {
                 let c = point_cells[q];
                 let slot = &mut starts[hash(c) & mask];
-                entries[*slot as usize] = q as u32;
-                entry_cells[*slot as usize] = c;
+                let e = *slot as usize;
+                (entries[e], entry_cells[e], entry_radius[e]) = (q as u32, c, radius[b]);
                 *slot += 1;
             }
         }
@@ -150,7 +154,11 @@ impl Contacts {
                     ];
                     let bucket = hash(near) & mask;
                     let range = starts[bucket] as usize..starts[bucket + 1] as usize;
-                    for (&e, &ec) in entries[range.clone()].iter().zip(&entry_cells[range]) {
+                    let near_entries = entries[range.clone()]
+                        .iter()
+                        .zip(&entry_cells[range.clone()])
+                        .zip(&entry_radius[range]);
+                    for ((&e, &ec), &rb) in near_entries {
                         // Another cell hashed to the same bucket, or the same body: skip.
                         let e = e as usize;
                         if ec != near || others.contains(&e) {
@@ -160,7 +168,7 @@ impl Contacts {
                             Vec3::new(px[e], py[e], pz[e]),
                             Vec3::new(vx[e], vy[e], vz[e]),
                         );
-                        let reach = radius[b] + radius[model.locate(e).0];
+                        let reach = radius[b] + rb;
                         f += pair_force(pa - pb, va - vb, reach, kc, dc);
                     }
                 }
