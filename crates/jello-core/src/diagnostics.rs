@@ -29,7 +29,6 @@ impl Energy {
 pub fn energy(model: &Model, state: &State) -> Energy {
     let (mut kinetic, mut spring, mut collision) = (0.0, 0.0, 0.0);
     for body in model.bodies() {
-        let first = body.points().start;
         let (pos, vel) = (&state.pos[body.points()], &state.vel[body.points()]);
         let active = |&(q, _): &(usize, &Vec3)| body.is_active(q);
         kinetic += 0.5
@@ -61,7 +60,6 @@ pub fn energy(model: &Model, state: &State) -> Energy {
             .sum::<f64>()
             * 0.5
             * model.k_collision;
-        let _ = first;
     }
     if model.bodies().len() > 1 {
         collision += crate::contact::overlap(model, &state.pos).1;
@@ -87,6 +85,19 @@ pub fn body_centre_of_mass(model: &Model, body: usize, pos: &[Vec3]) -> Vec3 {
         .filter(|&q| body.is_active(q))
         .fold(Vec3::ZERO, |acc, q| acc + pos[first + q]);
     sum / body.active_count() as f64
+}
+
+/// Centre of mass (m) of every body's active points at positions `pos`: for one body, exactly
+/// [`body_centre_of_mass`].
+pub fn model_centre_of_mass(model: &Model, pos: &[Vec3]) -> Vec3 {
+    if let [_] = model.bodies() {
+        return body_centre_of_mass(model, 0, pos);
+    }
+    let (sum, mass) = (0..model.bodies().len()).fold((Vec3::ZERO, 0.0), |(sum, mass), b| {
+        let m = model.body(b).total_mass();
+        (sum + body_centre_of_mass(model, b, pos) * m, mass + m)
+    });
+    sum / mass
 }
 
 /// Total linear momentum (kg·m/s) of every body's active points.

@@ -4,7 +4,7 @@
 use std::path::PathBuf;
 
 use clap::Args;
-use jello_core::diagnostics::{centre_of_mass, energy, max_penetration, momentum};
+use jello_core::diagnostics::{energy, max_penetration, model_centre_of_mass, momentum};
 use jello_core::stability::ModeBounds;
 use jello_core::{Integrator, Model, SpringKind};
 
@@ -118,7 +118,7 @@ pub fn info(args: InfoArgs) -> Result<(), CliError> {
         e.spring,
         e.collision
     );
-    let c = centre_of_mass(&s.pos);
+    let c = model_centre_of_mass(m, &s.pos);
     let p = momentum(m, &s.vel);
     println!("centre of mass ({:.6}, {:.6}, {:.6}) m", c.x, c.y, c.z);
     println!("momentum       ({:.6}, {:.6}, {:.6}) kg·m/s", p.x, p.y, p.z);
