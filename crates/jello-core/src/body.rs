@@ -20,7 +20,7 @@
 
 use std::ops::Range;
 
-use crate::lattice::{Lattice, SpringKind, STENCIL};
+use crate::lattice::{Lattice, SpringKind, Springs, STENCIL};
 use crate::model::ModelError;
 use crate::skin::Skin;
 use crate::vec3::Vec3;
@@ -188,20 +188,11 @@ impl Body {
             return Err(ModelError::new("a body needs at least one kept cell"));
         }
         let links = link_bits(&lattice, &cells);
-        let active: Vec<bool> = corners_of_kept(&lattice, &cells);
-        let active_count = active.iter().filter(|&&a| a).count();
-        Ok(Body {
-            lattice,
-            cells: Some(cells),
-            links,
-            active,
-            active_count,
-            material,
-            origin: Vec3::ZERO,
-            rotation: IDENTITY,
-            skin: None,
-            first: 0,
-        })
+        let active = corners_of_kept(&lattice, &cells);
+        let mut body = Body::lattice_box(lattice, material);
+        body.active_count = active.iter().filter(|&&a| a).count();
+        (body.cells, body.links, body.active) = (Some(cells), links, active);
+        Ok(body)
     }
 
     /// The body of a closed, outward-wound triangle mesh voxelised with `cells` cells along its
@@ -360,6 +351,19 @@ impl Body {
         });
     }
 
+    /// The springs as flat arrays (lattice indices of the body), in [`Body::for_each_spring`]
+    /// order; allocates.
+    pub fn springs(&self) -> Springs {
+        let mut springs = Springs::default();
+        self.for_each_spring(|a, b, rest, kind| {
+            springs.a.push(a as u32);
+            springs.b.push(b as u32);
+            springs.rest_len.push(rest);
+            springs.kind.push(kind);
+        });
+        springs
+    }
+
     /// Number of springs of each kind, indexed by `SpringKind as usize`.
     pub fn spring_count_by_kind(&self) -> [usize; 3] {
         if self.links.is_empty() {
@@ -463,7 +467,7 @@ impl Body {
 }
 
 /// Per point, whether it is a corner of a kept cell.
-fn corners_of_kept(lattice: &Lattice, cells: &[bool]) -> Vec<bool> {
+pub(crate) fn corners_of_kept(lattice: &Lattice, cells: &[bool]) -> Vec<bool> {
     let [nx, ny, nz] = lattice.counts;
     let (cy, cz) = (ny - 1, nz - 1);
     let mut active = vec![false; nx * ny * nz];

@@ -121,12 +121,11 @@ impl Model {
         let mut springs = Springs::default();
         for body in &self.bodies {
             let first = body.first as u32;
-            body.for_each_spring(|a, b, rest, kind| {
-                springs.a.push(first + a as u32);
-                springs.b.push(first + b as u32);
-                springs.rest_len.push(rest);
-                springs.kind.push(kind);
-            });
+            let s = body.springs();
+            springs.a.extend(s.a.iter().map(|a| first + a));
+            springs.b.extend(s.b.iter().map(|b| first + b));
+            springs.rest_len.extend(s.rest_len);
+            springs.kind.extend(s.kind);
         }
         springs
     }

@@ -39,7 +39,6 @@
 //! file, line and column.
 
 use std::fmt;
-use std::ops::Range;
 
 use serde::{Deserialize, Serialize};
 
@@ -50,7 +49,6 @@ use crate::lattice::Lattice;
 use crate::mesh::TriMesh;
 use crate::model::{defaults, Aabb, Model, ModelBuilder, ModelError, Obstacle, Plane};
 use crate::obstacle::Sphere;
-use crate::skin::Skin;
 use crate::state::State;
 use crate::vec3::Vec3;
 
@@ -463,7 +461,7 @@ impl SceneFile {
         for (b, spec) in self.bodies.iter().enumerate() {
             let body = model.body(b);
             let range = body.points();
-            spec.initial_state(body, &mut state, range.clone())
+            spec.initial_state(&model, b, &mut state)
                 .map_err(|e| at_body(b, e))?;
             for (n, pin) in spec.pins.iter().enumerate() {
                 let at = v3(pin.at);
@@ -617,17 +615,14 @@ impl BodySpec {
                 let vertices: Vec<Vec3> = m.vertices.iter().map(|&p| v3(p)).collect();
                 let mesh = TriMesh::from_parts(&vertices, &m.triangles, &format!("{file}: mesh"))
                     .map_err(|e| e.to_string())?;
-                let voxels = crate::voxel::Voxels::from_mesh(
+                Body::from_mesh(
                     &mesh.vertices,
                     &mesh.triangles,
                     m.cells,
                     MAX_CELLS,
+                    material,
                 )
-                .map_err(|e| e.to_string())?;
-                let skin = Skin::embed(&voxels, &mesh.vertices, &mesh.triangles);
-                Body::from_voxels(&voxels, material)
-                    .map_err(|e| e.to_string())?
-                    .with_skin(skin)
+                .map_err(|e| e.to_string())?
             }
             _ => return Err("expected exactly one shape".into()),
         };
@@ -680,13 +675,10 @@ impl BodySpec {
         Ok(body)
     }
 
-    /// Writes the body's initial positions and velocities into `state[range]`.
-    fn initial_state(
-        &self,
-        body: &Body,
-        state: &mut State,
-        range: Range<usize>,
-    ) -> Result<(), String> {
+    /// Writes body `b`'s initial positions and velocities into the state.
+    fn initial_state(&self, model: &Model, b: usize, state: &mut State) -> Result<(), String> {
+        let body = model.body(b);
+        let range = body.points();
         if let Some(s) = &self.state {
             let n = range.len();
             if s.positions.len() != n || s.velocities.len() != n {
@@ -707,12 +699,7 @@ impl BodySpec {
         }
         let first = range.start;
         let active = |q: &usize| body.is_active(q - first);
-        let count = range.clone().filter(active).count() as f64;
-        let com = range
-            .clone()
-            .filter(active)
-            .fold(Vec3::ZERO, |s, q| s + state.pos[q])
-            / count;
+        let com = crate::diagnostics::body_centre_of_mass(model, b, &state.pos);
         let v0 = self.velocity.map_or(Vec3::ZERO, v3);
         let w = self.spin.map_or(Vec3::ZERO, v3);
         if !(v0.is_finite() && w.is_finite()) {

@@ -41,23 +41,7 @@ impl Voxels {
 
     /// Per lattice point, whether it is a corner of a kept cell.
     pub fn active_points(&self) -> Vec<bool> {
-        let lattice = self.lattice();
-        let [nx, ny, nz] = lattice.counts;
-        let mut active = vec![false; nx * ny * nz];
-        let [cx, cy, cz] = self.cells;
-        for i in 0..cx {
-            for j in 0..cy {
-                for k in 0..cz {
-                    if !self.occupied[self.index([i, j, k])] {
-                        continue;
-                    }
-                    for (a, b, c) in CORNERS {
-                        active[lattice.index(i + a, j + b, k + c)] = true;
-                    }
-                }
-            }
-        }
-        active
+        crate::body::corners_of_kept(&self.lattice(), &self.occupied)
     }
 
     /// Rest positions of the lattice points (m), in the mesh's own frame.

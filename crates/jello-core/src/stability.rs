@@ -32,14 +32,7 @@ use crate::vec3::Vec3;
 /// approaches from below, so it is raised by 2 %.
 fn largest_eigenvalue(body: &Body, pos: &[Vec3], weight: &[f64; 3], tangent: bool) -> f64 {
     let n = body.len();
-    let mut s = crate::lattice::Springs::default();
-    body.for_each_spring(|a, b, rest, kind| {
-        s.a.push(a as u32);
-        s.b.push(b as u32);
-        s.rest_len.push(rest);
-        s.kind.push(kind);
-    });
-    let s = &s;
+    let s = &body.springs();
     let mass = body.material.mass;
     // Per spring: unit direction, axial weight and transverse weight.
     let blocks: Vec<(Vec3, f64, f64)> =
