@@ -2,37 +2,18 @@
 
 use std::fs;
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
-use std::sync::atomic::{AtomicUsize, Ordering};
+use std::process::Output;
 
 use jello_core::{Integrator, ReadOptions, World};
 
-/// A fresh folder under the system temp dir, removed when dropped.
-struct TempDir(PathBuf);
+mod common;
+
+use common::TempDir;
 
 impl TempDir {
-    fn new(label: &str) -> Self {
-        static COUNTER: AtomicUsize = AtomicUsize::new(0);
-        let n = COUNTER.fetch_add(1, Ordering::Relaxed);
-        let path =
-            std::env::temp_dir().join(format!("jello-cli-test-{}-{n}-{label}", std::process::id()));
-        let _ = fs::remove_dir_all(&path);
-        fs::create_dir_all(&path).unwrap();
-        TempDir(path)
-    }
-
-    fn path(&self, name: &str) -> PathBuf {
-        self.0.join(name)
-    }
-
     /// Runs `jello ARGS` in this folder.
     fn jello(&self, args: &[&str]) -> Run {
-        let out = Command::new(env!("CARGO_BIN_EXE_jello"))
-            .args(args)
-            .current_dir(&self.0)
-            .output()
-            .expect("cannot start jello");
-        Run::new(args, out)
+        Run::new(args, self.run(args))
     }
 
     /// Names of the files in the folder (not recursive), sorted.
@@ -68,12 +49,6 @@ impl TempDir {
         args.extend_from_slice(extra);
         self.jello(&args).success();
         assert!(self.path(name).is_file());
-    }
-}
-
-impl Drop for TempDir {
-    fn drop(&mut self) {
-        let _ = fs::remove_dir_all(&self.0);
     }
 }
 

@@ -11,30 +11,17 @@
 
 use std::collections::HashMap;
 use std::fs;
-use std::path::PathBuf;
-use std::process::Command;
 
 use jello_core::{ReadOptions, Vec3, World};
 
-/// A fresh folder under the system temp dir, removed when dropped.
-struct TempDir(PathBuf);
+mod common;
+
+use common::TempDir;
 
 impl TempDir {
-    fn new(label: &str) -> Self {
-        let path =
-            std::env::temp_dir().join(format!("jello-frames-test-{}-{label}", std::process::id()));
-        let _ = fs::remove_dir_all(&path);
-        fs::create_dir_all(&path).unwrap();
-        TempDir(path)
-    }
-
     /// Runs `jello ARGS` in this folder; it must succeed.
     fn jello(&self, args: &[&str]) {
-        let out = Command::new(env!("CARGO_BIN_EXE_jello"))
-            .args(args)
-            .current_dir(&self.0)
-            .output()
-            .expect("cannot start jello");
+        let out = self.run(args);
         assert!(
             out.status.success(),
             "jello {}\n{}{}",
@@ -51,12 +38,6 @@ impl TempDir {
     fn world(&self, name: &str) -> World {
         World::parse(self.text(name).as_bytes(), name, ReadOptions::default())
             .unwrap_or_else(|e| panic!("{e}"))
-    }
-}
-
-impl Drop for TempDir {
-    fn drop(&mut self) {
-        let _ = fs::remove_dir_all(&self.0);
     }
 }
 

@@ -3,31 +3,14 @@
 //! saved end state, two stacked bodies, and every kind of bad input.
 
 use std::fs;
-use std::path::PathBuf;
-use std::process::{Command, Output};
 
 use jello_core::{SceneFile, Vec3};
 
-/// A fresh folder under the system temp dir, removed when dropped.
-struct TempDir(PathBuf);
+mod common;
+
+use common::TempDir;
 
 impl TempDir {
-    fn new(label: &str) -> Self {
-        let path =
-            std::env::temp_dir().join(format!("jello-scenes-test-{}-{label}", std::process::id()));
-        let _ = fs::remove_dir_all(&path);
-        fs::create_dir_all(&path).unwrap();
-        TempDir(path)
-    }
-
-    fn run(&self, args: &[&str]) -> Output {
-        Command::new(env!("CARGO_BIN_EXE_jello"))
-            .args(args)
-            .current_dir(&self.0)
-            .output()
-            .expect("cannot start jello")
-    }
-
     /// Runs `jello ARGS`; it must succeed. Returns stdout.
     fn jello(&self, args: &[&str]) -> String {
         let out = self.run(args);
@@ -58,19 +41,9 @@ impl TempDir {
         );
     }
 
-    fn path(&self, name: &str) -> PathBuf {
-        self.0.join(name)
-    }
-
     fn scene(&self, name: &str) -> SceneFile {
         let bytes = fs::read(self.path(name)).unwrap();
         SceneFile::parse(&bytes, name).unwrap_or_else(|e| panic!("{e}"))
-    }
-}
-
-impl Drop for TempDir {
-    fn drop(&mut self) {
-        let _ = fs::remove_dir_all(&self.0);
     }
 }
 
