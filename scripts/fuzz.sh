@@ -3,7 +3,7 @@
 #
 #   scripts/fuzz.sh [TARGET...] [SECONDS]
 #
-# Runs each TARGET (default: every target `cargo fuzz list` gives, in turn: parse_obj, parse_stl,
+# Runs each TARGET (default: every target `cargo fuzz list` gives, in turn: parse_obj, parse_scene, parse_stl,
 # parse_world) for SECONDS (default 60). A target's corpus is fuzz/corpus/TARGET, seeded from
 # fuzz/seeds/TARGET when that exists; crashes land in fuzz/artifacts/TARGET.
 # Installs the nightly toolchain and cargo-fuzz when they are missing.
