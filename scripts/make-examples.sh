@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
-# Makes the example worlds in examples/ with `jello create`.
+# Makes the example worlds and scenes in examples/ with `jello create`, the scenes from meshes
+# that `jello shape` makes (no third-party model).
 #   scripts/make-examples.sh           rewrite examples/
 #   scripts/make-examples.sh --check   fail if examples/ differs from what this script makes
 # The first five are the official worlds of the original assignment, made anew: they equal the
@@ -11,10 +12,13 @@ jello=${JELLO:-target/release/jello}
 
 check=false
 out=examples
+meshes=$(mktemp -d)
+cleanup=("$meshes")
+trap 'rm -rf "${cleanup[@]}"' EXIT
 if [ "${1:-}" = "--check" ]; then
   check=true
   out=$(mktemp -d)
-  trap 'rm -rf "$out"' EXIT
+  cleanup+=("$out")
 fi
 mkdir -p "$out"
 
@@ -36,6 +40,28 @@ create "$out/drop.w" --field gravity --res 2 --plane=0.2,0.1,1,1.5 --offset=-0.5
 create "$out/spin.w" --field gravity --res 2 --offset=-0.5,-0.5,-1.9 --spin 0,0,12 --velocity 3,0,6
 create "$out/tornado.w" --field tornado:0.02 --res 16 --offset=-1.5,-1.5,-1.9 --velocity 0,2,0 --scale 0.8
 create "$out/squash.w" --integrator SymplecticEuler --dt 0.0002 --field radial:0.05 --res 2 --scale 1.4 --offset=-0.7,-0.7,-0.7
+
+# Scenes of shapes. One material for all: resolution-independent (density in kg/m³, modulus in
+# Pa, viscosity in Pa·s; see the README), with walls and obstacles stiff enough for its weight.
+for shape in torus blob mould; do
+  "$jello" shape "$shape" "$meshes/$shape.obj" --detail 8 >/dev/null
+done
+jelly=(--density 1000 --modulus 2e5 --viscosity 40)
+scene=(--dt 0.001 --k-collision 2e5 --d-collision 50)
+# A ring dropped tilted on the floor.
+create "$out/torus.toml" "${scene[@]}" --mesh "$meshes/torus.obj" --cells 12 --at 0,0,-1 \
+  --rotate 35,10,0 "${jelly[@]}"
+# A lumpy blob thrown spinning down a ramp.
+create "$out/blob.toml" "${scene[@]}" --plane=0.35,0,1,1.5 --mesh "$meshes/blob.obj" --cells 10 \
+  --at=-0.8,0.3,0 --rotate 20,0,30 --spin 0,0,2 "${jelly[@]}"
+# A fluted jelly mould turned out onto a plate, sliding.
+create "$out/mould.toml" "${scene[@]}" --box=-0.8,-0.8,-2,0.8,0.8,-1.9 --mesh "$meshes/mould.obj" \
+  --cells 12 --at 0,0,-1.4 --velocity 1,0,0 "${jelly[@]}"
+# Three cubes stacked a little askew, dropped on a ball.
+create "$out/stack.toml" "${scene[@]}" --sphere 0,0,-1.5,0.45 \
+  --cube 5 --size 0.5 --at 0.1,0,-0.75 --name bottom "${jelly[@]}" \
+  --cube 5 --size 0.5 --at 0.15,0.05,0 --rotate 0,0,20 --name middle "${jelly[@]}" \
+  --cube 5 --size 0.5 --at 0.1,0.1,0.75 --rotate 0,0,40 --name top "${jelly[@]}"
 
 if $check; then
   if ! diff -r -q "$out" examples; then

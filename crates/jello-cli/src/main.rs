@@ -24,6 +24,8 @@ enum Command {
     Run(commands::run::RunArgs),
     /// Write a new world file, or a scene of bodies (.toml).
     Create(Box<commands::create::CreateArgs>),
+    /// Write a closed mesh the project makes (torus, blob, mould) as OBJ, for `create --mesh`.
+    Shape(commands::shape::ShapeArgs),
     /// Describe a world or scene file: header, bodies, energies, stable time steps.
     Info(commands::info::InfoArgs),
     /// Measure steps/s and spring evaluations/s on the benchmark scene.
@@ -48,6 +50,7 @@ fn main() {
                 .expect("the create subcommand has its matches");
             commands::create::create(*args, sub)
         }
+        Command::Shape(args) => commands::shape::shape(args),
         Command::Info(args) => commands::info::info(args),
         Command::Bench(args) => commands::bench::bench(args),
         Command::View(args) => commands::view::view(args),

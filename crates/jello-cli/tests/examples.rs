@@ -87,3 +87,48 @@ fn every_example_loads_and_runs() {
     }
     assert!(count >= 5, "only {count} examples");
 }
+
+/// The example scenes (`examples/*.toml`): each loads, runs a second without blowing up, and
+/// the shapes' skins are the meshes `jello shape` makes.
+#[test]
+fn every_example_scene_loads_and_runs_a_second() {
+    use jello_core::scene_file::SceneFile;
+    use jello_core::TriMesh;
+
+    let mut seen = Vec::new();
+    for entry in std::fs::read_dir(root().join("examples")).unwrap() {
+        let path = entry.unwrap().path();
+        if path.extension().is_none_or(|e| e != "toml") {
+            continue;
+        }
+        let name = path.display().to_string();
+        let bytes = std::fs::read(&path).unwrap();
+        let scene = SceneFile::parse(&bytes, &name)
+            .and_then(|f| f.to_scene(&name))
+            .unwrap_or_else(|e| panic!("{e}"));
+        let stem = path.file_stem().unwrap().to_string_lossy().into_owned();
+        if let Some(mesh) = TriMesh::shape(&stem, 8) {
+            let skin = scene
+                .model
+                .body(0)
+                .skin
+                .as_ref()
+                .expect("a mesh body has a skin");
+            assert_eq!(skin.len(), mesh.vertices.len(), "{name}");
+            assert_eq!(skin.triangles, mesh.triangles, "{name}");
+        }
+        let steps = (1.0 / scene.model.dt).round() as u64;
+        let mut sim = Simulation::new(scene.model, scene.state);
+        sim.advance(steps).unwrap_or_else(|e| panic!("{name}: {e}"));
+        let (deepest, _) = jello_core::contact::overlap(&sim.model, &sim.state.pos);
+        // Penalty contacts give a little: less than a fifth of a ball's radius here.
+        let radius = sim.model.bodies()[0].contact_radius();
+        assert!(
+            deepest < 0.2 * radius,
+            "{name}: bodies overlap by {deepest} m"
+        );
+        seen.push(stem);
+    }
+    seen.sort();
+    assert_eq!(seen, ["blob", "mould", "stack", "torus"]);
+}

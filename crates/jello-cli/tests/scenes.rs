@@ -386,3 +386,20 @@ fn bad_scene_input_is_a_clear_error_and_leaves_no_file() {
         "a scene saves as .toml",
     );
 }
+
+/// `jello shape` writes a mesh `jello create --mesh` takes, whose skin is that mesh; it keeps an
+/// existing file unless told, and an unknown shape is a usage error.
+#[test]
+fn a_shape_becomes_a_scene_with_its_mesh_as_the_skin() {
+    let dir = TempDir::new("shape");
+    let said = dir.jello(&["shape", "torus", "ring.obj", "--detail", "4"]);
+    assert!(said.contains("torus made by"), "{said}");
+    let ring = fs::read_to_string(dir.path("ring.obj")).unwrap();
+    assert_eq!(obj_vertices(&ring).len(), 16 * 8);
+    dir.fails(&["shape", "torus", "ring.obj"], 1, "already exists");
+    dir.fails(&["shape", "teapot", "t.obj"], 2, "torus");
+    assert!(!dir.path("t.obj").exists());
+    dir.jello(&["create", "ring.toml", "--mesh", "ring.obj", "--cells", "8"]);
+    let info = dir.jello(&["info", "ring.toml"]);
+    assert!(info.contains("skin 128 vertices, 256 triangles"), "{info}");
+}

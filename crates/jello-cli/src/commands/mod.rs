@@ -5,6 +5,7 @@ pub mod create;
 pub mod info;
 pub mod run;
 pub mod scene;
+pub mod shape;
 pub mod view;
 
 use jello_core::Integrator;

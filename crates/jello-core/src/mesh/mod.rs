@@ -29,8 +29,11 @@
 
 mod check;
 mod obj;
+mod shapes;
 mod stl;
 mod text;
+
+pub use shapes::SHAPES;
 
 use std::fmt;
 

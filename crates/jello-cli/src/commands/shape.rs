@@ -1,0 +1,56 @@
+//! `jello shape NAME OUT.obj`: writes one of the closed meshes the project makes itself (a torus,
+//! a lumpy blob, a fluted jelly mould) as OBJ, to voxelise with `jello create --mesh`. The example
+//! scenes are made from these, so that no third-party model is needed.
+
+use std::path::PathBuf;
+
+use clap::Args;
+use jello_core::mesh::SHAPES;
+use jello_core::TriMesh;
+
+use crate::error::CliError;
+use crate::fsio::{check_writable_target, write_atomic};
+
+/// Arguments of `jello shape`.
+#[derive(Args, Debug)]
+pub struct ShapeArgs {
+    /// The shape: torus (a ring, genus 1), blob (a lumpy ball) or mould (a fluted jelly mould on
+    /// a flat base); each about 1 m across, centred on the z axis.
+    #[arg(value_parser = clap::builder::PossibleValuesParser::new(SHAPES))]
+    pub name: String,
+    /// The OBJ file to write.
+    #[arg(value_name = "OUT.obj")]
+    pub out: PathBuf,
+    /// Smoothness: 4·DETAIL segments around the z axis and 2·DETAIL rings (or tube segments).
+    #[arg(long, default_value_t = 12, value_parser = clap::value_parser!(u32).range(3..=200))]
+    pub detail: u32,
+    /// Overwrite OUT if it exists.
+    #[arg(long)]
+    pub force: bool,
+}
+
+/// Writes the shape.
+pub fn shape(args: ShapeArgs) -> Result<(), CliError> {
+    let out = &args.out;
+    check_writable_target(out)?;
+    if out.exists() && !args.force {
+        return Err(CliError::input(format!(
+            "{}: already exists (use --force to overwrite)",
+            out.display()
+        )));
+    }
+    let mesh = TriMesh::shape(&args.name, args.detail as usize)
+        .expect("clap only lets known shape names through");
+    let comment = format!(
+        "{} made by `jello shape {} --detail {}`: {} vertices, {} triangles, volume {:.6} m³",
+        args.name,
+        args.name,
+        args.detail,
+        mesh.vertices.len(),
+        mesh.triangles.len(),
+        mesh.volume()
+    );
+    write_atomic(out, mesh.to_obj(&comment).as_bytes())?;
+    println!("{}: {comment}", out.display());
+    Ok(())
+}
