@@ -7,15 +7,15 @@ import { Viewer, type RenderMode } from './render';
 import { JelloSim, Runner, parseWorld, sceneData, type Parameters } from './sim';
 import { Banners, Readout, acceptDroppedFiles } from './ui';
 
-/** Largest world file accepted (bytes), as in the command line: a classic file with a 30³ field
- *  is under 1 MiB. */
+/** Largest world or scene file accepted (bytes), as in the command line: a classic file with a
+ *  30³ field is under 1 MiB, a scene with a 100 000-triangle mesh a few MiB. */
 const MAX_WORLD_BYTES = 64 << 20;
 
 /** What `jello view` tells the page (config.json). */
 export interface ServerConfig {
   /** URL of the world given on the command line, and its file name. */
   world?: { url: string; name: string };
-  /** File names of the example worlds, served under `examples/`. */
+  /** File names of the example worlds and scenes, served under `examples/`. */
   examples: string[];
 }
 
@@ -51,7 +51,7 @@ export class App implements PanelHost {
 
     this.fileInput = document.createElement('input');
     this.fileInput.type = 'file';
-    this.fileInput.accept = '.w,text/plain';
+    this.fileInput.accept = '.w,.toml,text/plain';
     this.fileInput.id = 'world-file';
     this.fileInput.hidden = true;
     this.fileInput.addEventListener('change', () => {
@@ -153,11 +153,15 @@ export class App implements PanelHost {
     this.fileInput.click();
   }
 
+  /** Downloads the current state: a scene as a scene file (.toml), anything else as a world
+   *  file (.w). */
   save(): void {
     try {
-      const text = this.sim.toWorldText();
-      const base = this.sim.name.replace(/\.w$/i, '').replace(/[^\w.-]+/g, '_') || 'jello';
-      download(new Blob([text], { type: 'text/plain' }), `${base}-t${this.sim.time.toFixed(3)}.w`);
+      const scene = this.sim.isScene;
+      const text = scene ? this.sim.toSceneText() : this.sim.toWorldText();
+      const base = this.sim.name.replace(/\.(w|toml)$/i, '').replace(/[^\w.-]+/g, '_') || 'jello';
+      const extension = scene ? 'toml' : 'w';
+      download(new Blob([text], { type: 'text/plain' }), `${base}-t${this.sim.time.toFixed(3)}.${extension}`);
     } catch (e) {
       this.banners.show('error', `Cannot save: ${errorMessage(e)}`);
     }
@@ -244,7 +248,6 @@ export class App implements PanelHost {
 
   private replaceSim(sim: JelloSim): void {
     this.interactionHandler.cancel();
-    this.runner.forceHook = undefined;
     this.runner.replace(sim);
     this.banners.clear('error');
     this.afterBlowUpCleared();
@@ -256,10 +259,16 @@ export class App implements PanelHost {
     this.viewer.setScene(sceneData(this.sim));
     if (!this.viewer.hasField()) this.viewer.showField = false;
     this.viewer.applyVisibility();
-    this.viewer.updatePositions(this.sim.positions());
+    this.draw();
     document.title = `Jello — ${this.sim.name}`;
     const world = document.getElementById('world-name');
     if (world) world.textContent = this.sim.name;
+  }
+
+  /** Hands the current positions to the picture. */
+  private draw(): void {
+    this.viewer.updatePositions(this.sim.positions(), this.sim.surfacePositions());
+    this.interactionHandler.frame();
   }
 
   private afterBlowUpCleared(): void {
@@ -280,7 +289,7 @@ export class App implements PanelHost {
     let steps = 0;
     if (this.sequence) {
       // Recording frames: draw, keep the frame, then advance exactly one frame of simulated time.
-      if (this.dirty) this.viewer.updatePositions(this.sim.positions());
+      if (this.dirty) this.draw();
       this.dirty = false;
       if (this.sequenceNeedsFrame) {
         this.sequence.add(this.viewer.snapshot()); // renders, then encodes
@@ -298,7 +307,7 @@ export class App implements PanelHost {
     } else {
       steps = this.runner.advance(wall);
       if (steps > 0) this.dirty = true;
-      if (this.dirty) this.viewer.updatePositions(this.sim.positions());
+      if (this.dirty) this.draw();
       this.dirty = false;
       this.viewer.render();
     }

@@ -72,8 +72,8 @@ export class Panel {
         .name('examples')
         .onChange((name: string) => host.loadExample(name));
     }
-    worlds.add(host, 'openFilePicker').name('load .w file… (or drop one)');
-    worlds.add(host, 'save').name('save state as .w');
+    worlds.add(host, 'openFilePicker').name('load .w or .toml file… (or drop one)');
+    worlds.add(host, 'save').name('save state (.w; a scene as .toml)');
     const cube = { n: 12, build: () => host.loadCube(cube.n) };
     worlds.add(cube, 'n', 2, 40, 1).name('lattice n (n³ cube)');
     worlds.add(cube, 'build').name('build n³ cube under gravity');
@@ -103,7 +103,7 @@ export class Panel {
     view.add(host, 'resetCamera').name('reset camera (e)');
 
     const drag = this.gui.addFolder('Interaction');
-    drag.add(host.interaction, 'pullStiffness', 1, 300, 1).name('pull stiffness (N/m)');
+    drag.add(host.interaction, 'pullStiffness', 1, 300, 1).name('pull (N/m per kg)');
     drag.add(host.interaction, 'falloffRadius', 0, 1, 0.01).name('falloff radius (m)');
     drag.add(host.interaction, 'pushStrength', 1, 100, 1).name('push (m/s² per m)');
 

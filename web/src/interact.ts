@@ -1,26 +1,30 @@
-// Mouse interaction (the assignment's extra credit): drag in empty space to push the whole cube,
-// drag a surface point to pull it, the pull spread over neighbours within a falloff radius. Both
-// become per-point forces handed to the core as Control forces; the core does the physics.
+// Mouse interaction (the assignment's extra credit), on any body: drag a point of a body to pull
+// it, the pull spread over its neighbours within a falloff radius; right-drag (or shift-drag) to
+// push a body, or every body when the drag starts in empty space. Pulls become target springs
+// and pushes an acceleration that the core evaluates inside every stage of every step; the page
+// only moves the targets.
 import * as THREE from 'three';
 import type { Viewer } from './render';
-import { forceRefreshInterval, type Runner } from './sim';
+import type { Runner } from './sim';
 
 export interface InteractionSettings {
-  /** Stiffness of the pull toward the pointer (N/m), shared by the grabbed points. */
+  /** Stiffness of the pull toward the pointer per kilogram of the body pulled (N/m per kg), so
+   *  that a heavy body follows as readily as a light one; shared by the grabbed points. */
   pullStiffness: number;
   /** Rest-shape distance (m) over which a pull spreads; 0 pulls the one point. */
   falloffRadius: number;
-  /** Acceleration (m/s²) of the whole cube per metre of push drag. */
+  /** Acceleration (m/s²) of the pushed body per metre of push drag. */
   pushStrength: number;
 }
 
 interface Grab {
   kind: 'grab';
-  /** Points pulled, their weights (summing to 1), and their offsets from the grabbed point at
+  /** Points pulled, their pull stiffness and damping, and their offsets from the grabbed point at
    *  grab time: the neighbourhood is pulled toward the pointer as a rigid patch. */
-  points: number[];
+  points: Uint32Array;
   picked: number;
-  weights: number[];
+  stiffness: Float64Array;
+  damping: Float64Array;
   offsets: THREE.Vector3[];
   anchor: THREE.Vector3;
   target: THREE.Vector3;
@@ -28,6 +32,8 @@ interface Grab {
 
 interface Push {
   kind: 'push';
+  /** The body pushed, or -1 for all. */
+  body: number;
   startX: number;
   startY: number;
   /** Drag in world units, in the plane facing the camera. */
@@ -37,8 +43,8 @@ interface Push {
 export class Interaction {
   readonly settings: InteractionSettings = { pullStiffness: 40, falloffRadius: 0.2, pushStrength: 25 };
   private active: Grab | Push | undefined;
-  private forces = new Float64Array(0);
-  /** Drawn while dragging: a line from the grabbed point (or the cube's centre) to the pointer. */
+  /** Drawn while dragging: a line from the grabbed point (or the pushed body's centre) to the
+   *  pointer. */
   readonly indicator: THREE.Line;
 
   constructor(
@@ -84,16 +90,19 @@ export class Interaction {
   private onDown(e: PointerEvent): void {
     const wantsPush = e.button === 2 || (e.button === 0 && (e.shiftKey || e.ctrlKey));
     if (e.button !== 0 && e.button !== 2) return;
-    const picked = e.button === 0 ? this.viewer.pickPoint(this.ndc(e)) : undefined;
-    if (picked === undefined && !wantsPush) return; // left drag in empty space: orbit
+    const vertex = this.viewer.pickVertex(this.ndc(e));
+    if (vertex === undefined && !wantsPush) return; // left drag in empty space: orbit
     e.stopImmediatePropagation();
     this.viewer.controls.enabled = false;
     this.viewer.canvas.setPointerCapture(e.pointerId);
-    if (picked !== undefined) this.startGrab(picked);
-    else this.active = { kind: 'push', startX: e.clientX, startY: e.clientY, drag: new THREE.Vector3() };
-    const runner = this.runner();
-    this.forces = new Float64Array(3 * runner.sim.pointCount);
-    runner.forceHook = () => this.applyForces();
+    const sim = this.runner().sim;
+    const point = vertex === undefined ? undefined : sim.surfaceVertexPoint(vertex);
+    if (wantsPush) {
+      const body = point === undefined ? -1 : sim.pointBodies()[point];
+      this.active = { kind: 'push', body, startX: e.clientX, startY: e.clientY, drag: new THREE.Vector3() };
+    } else if (point !== undefined) {
+      this.startGrab(point);
+    }
     this.onMove(e);
   }
 
@@ -101,24 +110,39 @@ export class Interaction {
     const sim = this.runner().sim;
     const pos = this.positions();
     const rest = sim.restPositions();
+    const bodies = sim.pointBodies();
+    const active = sim.activePoints();
+    const body = bodies[picked];
     const anchor = this.point(pos, picked);
     const restAnchor = this.point(rest, picked);
     const r = this.settings.falloffRadius;
     const points: number[] = [];
     const raw: number[] = [];
+    let bodyPoints = 0;
     for (let i = 0; i < sim.pointCount; i++) {
+      if (bodies[i] !== body || !active[i]) continue;
+      bodyPoints++;
       const d = this.point(rest, i).distanceTo(restAnchor);
       if (i === picked || d < r) {
         points.push(i);
         raw.push(i === picked ? 1 : (1 - d / r) ** 2); // smooth falloff to 0 at the radius
       }
     }
+    // The weights sum to 1, so the pull is one spring of stiffness k = pullStiffness · M (M the
+    // body's mass) and damping c = √(k·M), half of critical for the body pulled as one, shared
+    // out by weight. Each point's share of damping is capped at m/dt (m its mass), which keeps
+    // the explicit integrators stable; the cap binds on the heavily weighted grabbed point.
     const total = raw.reduce((a, b) => a + b, 0);
+    const mass = sim.bodyMass(body);
+    const k = this.settings.pullStiffness * mass;
+    const c = Math.sqrt(k * mass);
+    const cMax = mass / bodyPoints / sim.dt;
     this.active = {
       kind: 'grab',
-      points,
+      points: Uint32Array.from(points),
       picked,
-      weights: raw.map((w) => w / total),
+      stiffness: Float64Array.from(raw, (w) => (k * w) / total),
+      damping: Float64Array.from(raw, (w) => Math.min((c * w) / total, cMax)),
       offsets: points.map((i) => this.point(pos, i).sub(anchor)),
       anchor,
       target: anchor.clone(),
@@ -129,8 +153,9 @@ export class Interaction {
     const a = this.active;
     if (!a) return;
     this.updateTarget(a, e);
-    // Forces take effect at once, also for single steps while paused.
-    this.applyForces();
+    // Takes effect at once, also for single steps while paused.
+    this.applyToCore();
+    this.frame();
   }
 
   private updateTarget(a: Grab | Push, e: PointerEvent): void {
@@ -138,7 +163,7 @@ export class Interaction {
       const p = this.viewer.pointerOnViewPlane(this.ndc(e), a.anchor);
       if (p) a.target.copy(p);
     } else {
-      // Pixels to metres at the cube's distance, along the camera's right and up.
+      // Pixels to metres at the target's distance, along the camera's right and up.
       const cam = this.viewer.camera;
       const distance = cam.position.distanceTo(this.viewer.controls.target);
       const perPixel = (2 * distance * Math.tan(THREE.MathUtils.degToRad(cam.fov) / 2)) / this.viewer.canvas.clientHeight;
@@ -153,62 +178,68 @@ export class Interaction {
 
   private onUp(e: PointerEvent): void {
     if (!this.active) return;
+    if (this.viewer.canvas.hasPointerCapture(e.pointerId)) this.viewer.canvas.releasePointerCapture(e.pointerId);
+    this.release();
+  }
+
+  /** Ends a drag: the pulls and the push are removed from the core. */
+  private release(): void {
     this.active = undefined;
     this.indicator.visible = false;
     this.viewer.controls.enabled = true;
-    if (this.viewer.canvas.hasPointerCapture(e.pointerId)) this.viewer.canvas.releasePointerCapture(e.pointerId);
-    const runner = this.runner();
-    runner.forceHook = undefined;
-    runner.sim.setForces(new Float64Array(0));
+    const sim = this.runner().sim;
+    sim.setPulls(new Uint32Array(0), new Float64Array(0), new Float64Array(0), new Float64Array(0));
+    sim.setPush(-1, 0, 0, 0);
   }
 
-  /** Ends a drag without a pointer event (a new world was loaded). */
+  /** Ends a drag without a pointer event (a new world was loaded: the old one holds the
+   *  pulls, and is gone). */
   cancel(): void {
     this.active = undefined;
     this.indicator.visible = false;
     this.viewer.controls.enabled = true;
   }
 
-  /** Computes the drag's forces from the current state and hands them to the core. */
-  private applyForces(): void {
+  /** Hands the drag's targets (a grab) or acceleration (a push) to the core. */
+  private applyToCore(): void {
     const a = this.active;
     if (!a) return;
     const sim = this.runner().sim;
-    const f = this.forces;
-    f.fill(0);
-    const pos = this.positions();
     if (a.kind === 'push') {
-      // The same acceleration for every point: a push of the whole cube.
-      const force = a.drag.clone().multiplyScalar(this.settings.pushStrength * sim.mass);
-      for (let i = 0; i < sim.pointCount; i++) f.set([force.x, force.y, force.z], 3 * i);
-      const centre = new THREE.Vector3();
-      for (let i = 0; i < sim.pointCount; i++) centre.add(this.point(pos, i));
-      centre.divideScalar(sim.pointCount);
-      this.showIndicator(centre, centre.clone().add(a.drag));
+      const acceleration = a.drag.clone().multiplyScalar(this.settings.pushStrength);
+      sim.setPush(a.body, acceleration.x, acceleration.y, acceleration.z);
     } else {
-      // A damped spring from each grabbed point to its place in the patch around the pointer.
-      // The weights sum to 1, so the pull is one spring of stiffness k and damping c = √(k·M)
-      // (M the whole cube's mass) shared out by weight: half of critical damping (2√(k·M)) for
-      // the cube pulled as one. Each point's share is capped so that a force held for one refresh
-      // interval cannot reverse its velocity (explicit damping's limit); the cap binds on the
-      // heavily weighted grabbed point, so the damping is less than that: a quarter to a third
-      // of critical for the classic cube at the default k = 40 N/m and dt = 0.0005 s.
-      const vel = sim.velocities();
-      const k = this.settings.pullStiffness;
-      const c = Math.sqrt(k * sim.mass * sim.pointCount);
-      const cMax = sim.mass / forceRefreshInterval(sim.dt);
-      a.points.forEach((i, n) => {
-        const w = a.weights[n];
-        const ci = Math.min(w * c, cMax);
-        const goal = a.target.clone().add(a.offsets[n]);
-        const p = this.point(pos, i);
-        for (let axis = 0; axis < 3; axis++) {
-          f[3 * i + axis] = w * k * (goal.getComponent(axis) - p.getComponent(axis)) - ci * vel[3 * i + axis];
-        }
+      const targets = new Float64Array(3 * a.points.length);
+      a.offsets.forEach((offset, n) => {
+        const goal = a.target.clone().add(offset);
+        targets.set([goal.x, goal.y, goal.z], 3 * n);
       });
-      this.showIndicator(this.point(pos, a.picked), a.target);
+      sim.setPulls(a.points, targets, a.stiffness, a.damping);
     }
-    sim.setForces(f);
+  }
+
+  /** Moves the indicator with the bodies; the app calls it every frame. */
+  frame(): void {
+    const a = this.active;
+    if (!a) return;
+    const pos = this.positions();
+    if (a.kind === 'grab') {
+      this.showIndicator(this.point(pos, a.picked), a.target);
+      return;
+    }
+    const sim = this.runner().sim;
+    const bodies = sim.pointBodies();
+    const active = sim.activePoints();
+    const centre = new THREE.Vector3();
+    let n = 0;
+    for (let i = 0; i < sim.pointCount; i++) {
+      if (active[i] && (a.body < 0 || bodies[i] === a.body)) {
+        centre.add(this.point(pos, i));
+        n++;
+      }
+    }
+    centre.divideScalar(Math.max(n, 1));
+    this.showIndicator(centre, centre.clone().add(a.drag));
   }
 
   private showIndicator(from: THREE.Vector3, to: THREE.Vector3): void {

@@ -26,7 +26,7 @@ async function firstWorld(config: ServerConfig): Promise<{ sim: JelloSim; error?
     try {
       const r = await fetch(c.url);
       if (!r.ok) throw new Error(`${r.status} ${r.statusText}`);
-      return { sim: JelloSim.fromWorld(await r.text(), c.name), error };
+      return { sim: JelloSim.load(await r.text(), c.name), error };
     } catch (e) {
       error = `Could not load ${c.name}: ${errorMessage(e)}`;
     }

@@ -1,13 +1,21 @@
-// The three.js picture: the jello (lit surface or wireframe), the bounding box, the inclined plane
-// clipped to the box, force-field arrows, lights and the orbiting camera. It only draws what the
+// The three.js picture: the bodies (lit skins or cage surfaces, or the cages' wireframe), pinned
+// points, the bounding box, the inclined plane and plane obstacles clipped to the box, sphere and
+// box obstacles, force-field arrows, lights and the orbiting camera. It only draws what the
 // simulation glue hands it; no physics here.
 import * as THREE from 'three';
 import { OrbitControls } from 'three/examples/jsm/controls/OrbitControls.js';
 
-/** What the renderer needs from a loaded world; read once per world. */
+/** What the renderer needs from a loaded world or scene; read once per file. */
 export interface SceneData {
+  /** Lattice points of every body (the wireframe and pins are drawn over them). */
   pointCount: number;
+  /** Vertices of the lit surface: skins, and cage surfaces of bodies without one. */
+  surfaceVertexCount: number;
+  /** Lit surface triangles, three surface-vertex indices each. */
   triangles: Uint32Array;
+  /** Per surface vertex: its body (for its colour). */
+  surfaceBodies: Uint32Array;
+  /** Points on the cages' surfaces (the wireframe's dots). */
   surfacePoints: Uint32Array;
   /** Spring end pairs with both ends on the surface, per kind: structural, shear, bend. */
   springs: [Uint32Array, Uint32Array, Uint32Array];
@@ -18,12 +26,19 @@ export interface SceneData {
   /** `[x, y, z, fx, fy, fz, …]` at the field nodes, `i` outermost; empty without a field. */
   field: Float32Array;
   fieldRes: number;
+  /** Obstacles, seven numbers each: kind (0 plane, 1 sphere, 2 box) and six values. */
+  obstacles: Float64Array;
+  /** Pinned points. */
+  pins: Uint32Array;
 }
 
 export type RenderMode = 'lit' | 'wireframe';
 export const SPRING_KINDS = ['structural', 'shear', 'bend'] as const;
 
 const SPRING_COLOURS = [0x4fc3f7, 0xffb74d, 0xce93d8];
+/** Body colours in turn; the first is the classic jello's red. */
+const BODY_COLOURS = [0xe0405a, 0x43a047, 0xffb300, 0x1e88e5, 0x8e24aa, 0x00acc1, 0xf4511e];
+const OBSTACLE_COLOUR = 0x78909c;
 const BACKGROUND = 0x16181d;
 
 /** The camera the original program starts with, and `e` returns to (z is up). */
@@ -36,9 +51,13 @@ export class Viewer {
   private readonly scene = new THREE.Scene();
   private readonly world = new THREE.Group(); // everything rebuilt per loaded world
 
+  /** Lattice points (wireframe, pins). */
   private positions = new THREE.BufferAttribute(new Float32Array(0), 3);
+  /** Surface vertices (the lit mesh). */
+  private surfacePositions = new THREE.BufferAttribute(new Float32Array(0), 3);
   private surface!: THREE.Mesh<THREE.BufferGeometry, THREE.MeshPhongMaterial>;
   private wirePoints!: THREE.Points;
+  private pinPoints!: THREE.Points;
   private wireSprings: THREE.LineSegments[] = [];
   private fieldArrows: THREE.LineSegments | undefined;
 
@@ -91,19 +110,28 @@ export class Viewer {
     }
     this.positions = new THREE.BufferAttribute(new Float32Array(3 * data.pointCount), 3);
     this.positions.setUsage(THREE.DynamicDrawUsage);
+    this.surfacePositions = new THREE.BufferAttribute(new Float32Array(3 * data.surfaceVertexCount), 3);
+    this.surfacePositions.setUsage(THREE.DynamicDrawUsage);
 
-    // Lit surface: all points as vertices, only the surface triangles indexed.
+    // Lit surface: smooth normals over shared vertices, a colour per body.
     const surfaceGeometry = new THREE.BufferGeometry();
-    surfaceGeometry.setAttribute('position', this.positions);
+    surfaceGeometry.setAttribute('position', this.surfacePositions);
     surfaceGeometry.setIndex(new THREE.BufferAttribute(data.triangles, 1));
     surfaceGeometry.setAttribute(
       'normal',
-      new THREE.BufferAttribute(new Float32Array(3 * data.pointCount), 3),
+      new THREE.BufferAttribute(new Float32Array(3 * data.surfaceVertexCount), 3),
     );
+    const colours = new Float32Array(3 * data.surfaceVertexCount);
+    const colour = new THREE.Color();
+    data.surfaceBodies.forEach((b, v) => {
+      colour.setHex(BODY_COLOURS[b % BODY_COLOURS.length]);
+      colours.set([colour.r, colour.g, colour.b], 3 * v);
+    });
+    surfaceGeometry.setAttribute('color', new THREE.BufferAttribute(colours, 3));
     this.surface = new THREE.Mesh(
       surfaceGeometry,
       new THREE.MeshPhongMaterial({
-        color: 0xe0405a,
+        vertexColors: true,
         specular: 0x8a8a8a,
         shininess: 70,
         side: THREE.DoubleSide,
@@ -132,22 +160,40 @@ export class Viewer {
       return lines;
     });
 
+    // Pinned points, in both modes.
+    const pinGeometry = new THREE.BufferGeometry();
+    pinGeometry.setAttribute('position', this.positions);
+    pinGeometry.setIndex(new THREE.BufferAttribute(data.pins, 1));
+    this.pinPoints = new THREE.Points(
+      pinGeometry,
+      new THREE.PointsMaterial({ color: 0xffee58, size: 8, sizeAttenuation: false, depthTest: false }),
+    );
+    this.pinPoints.renderOrder = 5;
+    this.world.add(this.pinPoints);
+
     this.world.add(boxLines(data.box));
     if (data.plane) {
       const plane = planeInBox(data.plane, data.box);
       if (plane) this.world.add(plane);
     }
-    // The jello moves every frame: skip culling rather than recompute bounds each time.
-    for (const o of [this.surface, this.wirePoints, ...this.wireSprings]) o.frustumCulled = false;
+    for (let o = 0; o + 7 <= data.obstacles.length; o += 7) {
+      const shape = obstacle(data.obstacles.subarray(o, o + 7), data.box);
+      if (shape) this.world.add(shape);
+    }
+    // The bodies move every frame: skip culling rather than recompute bounds each time.
+    for (const o of [this.surface, this.wirePoints, this.pinPoints, ...this.wireSprings]) o.frustumCulled = false;
     this.fieldArrows = data.fieldRes > 0 ? fieldArrows(data.field, data.fieldRes, data.box) : undefined;
     if (this.fieldArrows) this.world.add(this.fieldArrows);
     this.applyVisibility();
   }
 
-  /** New positions (`Float32Array` of 3 per point); normals follow. */
-  updatePositions(positions: Float32Array): void {
-    (this.positions.array as Float32Array).set(positions);
+  /** New positions: of the lattice points and of the surface vertices (`Float32Array`s of 3
+   *  per point or vertex); normals follow. */
+  updatePositions(points: Float32Array, surface: Float32Array): void {
+    (this.positions.array as Float32Array).set(points);
     this.positions.needsUpdate = true;
+    (this.surfacePositions.array as Float32Array).set(surface);
+    this.surfacePositions.needsUpdate = true;
     this.surface.geometry.computeVertexNormals();
   }
 
@@ -203,15 +249,15 @@ export class Viewer {
     this.controls.update();
   }
 
-  /** The surface point under the pointer (normalised device coordinates), or undefined. */
-  pickPoint(ndc: THREE.Vector2): number | undefined {
+  /** The surface vertex under the pointer (normalised device coordinates), or undefined. */
+  pickVertex(ndc: THREE.Vector2): number | undefined {
     const ray = new THREE.Raycaster();
     ray.setFromCamera(ndc, this.camera);
     this.surface.geometry.computeBoundingSphere(); // the raycast's early-out uses it
     const hit = ray.intersectObject(this.surface, false)[0];
     if (!hit?.face) return undefined;
     // The hit triangle's corner nearest the hit.
-    const p = this.positions;
+    const p = this.surfacePositions;
     const corners = [hit.face.a, hit.face.b, hit.face.c];
     let best = corners[0];
     let bestDistance = Infinity;
@@ -268,6 +314,30 @@ function boxLines(box: Float64Array): THREE.Group {
   grid.position.set((x0 + x1) / 2, (y0 + y1) / 2, z0 + 1e-3);
   group.add(grid);
   return group;
+}
+
+/** An obstacle (kind and six values, as `SceneData.obstacles`): a sphere or box drawn solid and
+ *  translucent, a plane clipped to the box. */
+function obstacle(o: Float64Array, box: Float64Array): THREE.Object3D | undefined {
+  const material = () =>
+    new THREE.MeshPhongMaterial({ color: OBSTACLE_COLOUR, transparent: true, opacity: 0.55, shininess: 20 });
+  switch (o[0]) {
+    case 0:
+      return planeInBox(o.subarray(1, 5), box);
+    case 1: {
+      const sphere = new THREE.Mesh(new THREE.SphereGeometry(o[4], 48, 24), material());
+      sphere.position.set(o[1], o[2], o[3]);
+      return sphere;
+    }
+    case 2: {
+      const [x0, y0, z0, x1, y1, z1] = o.subarray(1, 7);
+      const solid = new THREE.Mesh(new THREE.BoxGeometry(x1 - x0, y1 - y0, z1 - z0), material());
+      solid.position.set((x0 + x1) / 2, (y0 + y1) / 2, (z0 + z1) / 2);
+      return solid;
+    }
+    default:
+      return undefined;
+  }
 }
 
 /** The inclined plane clipped to the box: the polygon where the plane cuts the box, filled and

@@ -18,19 +18,6 @@ const MAX_FRAME_GAP = 0.25;
 const STEP_BUDGET_MS = 40;
 /** Most steps per call into the core, so the time budget is checked often. */
 const MAX_CHUNK = 32;
-/** Simulated time between refreshes of drag forces (s): the pull acts like a spring, so it is
- *  re-evaluated often enough to stay stable whatever the frame rate. */
-const FORCE_REFRESH = 0.001;
-
-/** Steps between refreshes of drag forces for time step `dt`. */
-function forceRefreshSteps(dt: number): number {
-  return Math.max(1, Math.round(FORCE_REFRESH / dt));
-}
-
-/** Simulated time (s) a drag force is held before it is computed again. */
-export function forceRefreshInterval(dt: number): number {
-  return forceRefreshSteps(dt) * dt;
-}
 
 export interface Parameters {
   integrator: string;
@@ -44,8 +31,6 @@ export class Runner {
   paused = false;
   /** Simulated seconds per wall-clock second. */
   speed = 1;
-  /** Called between chunks of steps while a drag is active, to refresh Control forces. */
-  forceHook: (() => void) | undefined;
   /** Simulated seconds owed to the wall clock. */
   private owed = 0;
 
@@ -78,12 +63,10 @@ export class Runner {
     const dt = this.sim.dt;
     this.owed += Math.min(wallSeconds, MAX_FRAME_GAP) * this.speed;
     let due = Math.floor(this.owed / dt);
-    const chunk = this.forceHook ? forceRefreshSteps(dt) : MAX_CHUNK;
     const start = performance.now();
     let taken = 0;
     while (due > 0) {
-      this.forceHook?.();
-      const n = Math.min(chunk, due);
+      const n = Math.min(MAX_CHUNK, due);
       const done = this.sim.step(n);
       taken += done;
       due -= done;
@@ -107,34 +90,35 @@ export class Runner {
   /** Exactly `seconds` of simulated time (rounded to whole steps), for frame capture. */
   advanceExactly(seconds: number): number {
     const n = Math.max(1, Math.round(seconds / this.sim.dt));
-    let taken = 0;
-    const chunk = this.forceHook ? forceRefreshSteps(this.sim.dt) : n;
-    while (taken < n) {
-      this.forceHook?.();
-      const want = Math.min(chunk, n - taken);
-      const done = this.sim.step(want);
-      taken += done;
-      if (done < want) break;
-    }
-    return taken;
+    return this.sim.step(n);
   }
 }
 
-/** What the renderer needs of the current world. */
+/** What the renderer needs of the current world or scene. */
 export function sceneData(sim: JelloSim): SceneData {
   return {
     pointCount: sim.pointCount,
+    surfaceVertexCount: sim.surfaceVertexCount,
     triangles: sim.surfaceTriangles(),
+    surfaceBodies: sim.surfaceBodies(),
     surfacePoints: sim.surfacePoints(),
     springs: [sim.surfaceSprings(0), sim.surfaceSprings(1), sim.surfaceSprings(2)],
     box: sim.boundingBox(),
     plane: sim.plane(),
     field: sim.fieldSamples(),
     fieldRes: sim.fieldRes,
+    obstacles: sim.obstacles(),
+    pins: sim.pins(),
   };
 }
 
-/** Parses world-file text; throws an Error whose message names the file and line. */
+/** True for a scene file's name (`.toml`); anything else is read as a world file. */
+export function isSceneName(name: string): boolean {
+  return /\.toml$/i.test(name);
+}
+
+/** Parses a world file, or a scene file when the name ends in `.toml`; throws an Error whose
+ *  message names the file and line (and column, for a scene). */
 export function parseWorld(text: string, name: string): JelloSim {
-  return JelloSim.fromWorld(text, name);
+  return JelloSim.load(text, name);
 }

@@ -97,6 +97,11 @@ fn serves_the_viewer_config_world_and_examples() {
     let config = String::from_utf8(body).unwrap();
     assert!(config.contains(r#""world": {"url": "world.w", "name": "rotate.w"}"#));
     assert!(config.contains(r#""jello.w""#) && config.contains(r#""spin.w""#));
+    assert!(config.contains(r#""stack.toml""#) && config.contains(r#""torus.toml""#));
+    let (status, head, body) = server.get("/examples/stack.toml");
+    assert_eq!(status, 200);
+    assert!(head.contains("Content-Type: text/plain"), "{head}");
+    assert_eq!(body, fs::read(example("stack.toml")).unwrap());
 
     let (status, _, body) = server.get("/world.w");
     assert_eq!(status, 200);
@@ -151,13 +156,20 @@ fn a_bad_world_or_missing_build_is_a_clear_error() {
     fs::create_dir_all(&dir).unwrap();
     fs::write(dir.join("index.html"), "x").unwrap();
     fs::write(dir.join("bad.w"), "RK4\n0.0005 1\nnope\n").unwrap();
-    let out = Command::new(env!("CARGO_BIN_EXE_jello"))
-        .args(["view", "--port", "0", "--dist"])
-        .arg(&dir)
-        .arg(dir.join("bad.w"))
-        .output()
-        .unwrap();
+    fs::write(dir.join("bad.toml"), "[simulation]\ndt = \"fast\"\n").unwrap();
+    let view = |file: &str| {
+        Command::new(env!("CARGO_BIN_EXE_jello"))
+            .args(["view", "--port", "0", "--dist"])
+            .arg(&dir)
+            .arg(dir.join(file))
+            .output()
+            .unwrap()
+    };
+    let (world, scene) = (view("bad.w"), view("bad.toml"));
     fs::remove_dir_all(&dir).unwrap();
-    assert_eq!(out.status.code(), Some(1));
-    assert!(String::from_utf8_lossy(&out.stderr).contains("bad.w:3:"));
+    assert_eq!(world.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&world.stderr).contains("bad.w:3:"));
+    assert_eq!(scene.status.code(), Some(1));
+    let said = String::from_utf8_lossy(&scene.stderr);
+    assert!(said.contains("bad.toml:2:6:"), "{said}");
 }

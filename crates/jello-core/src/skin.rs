@@ -120,6 +120,14 @@ impl Skin {
         }
     }
 
+    /// The lattice point (flat index) that carries vertex `v` most: the corner of its cell with
+    /// the largest trilinear weight. What a pull on the skin pulls.
+    pub fn nearest_corner(&self, v: usize) -> usize {
+        let [_, ny, nz] = self.counts;
+        let [a, b, c] = self.local[v].map(|t| usize::from(t > 0.5));
+        self.corner[v] as usize + (a * ny + b) * nz + c
+    }
+
     /// Smooth vertex normals of the skin at vertex positions `positions`, written to `out`
     /// (see [`crate::mesh::vertex_normals`]).
     pub fn normals(&self, positions: &[Vec3], out: &mut [Vec3]) {

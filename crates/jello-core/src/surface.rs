@@ -89,6 +89,51 @@ impl Surface {
         &self.triangles
     }
 
+    /// Per body, in order, the range of vertices that draw it.
+    pub fn body_vertices(&self, model: &Model) -> Vec<std::ops::Range<usize>> {
+        let mut start = 0;
+        self.parts
+            .iter()
+            .map(|part| {
+                let len = match part {
+                    Part::Skin { body } => model.body(*body).skin.as_ref().map_or(0, |s| s.len()),
+                    Part::Cage { points } => points.len(),
+                };
+                start += len;
+                start - len..start
+            })
+            .collect()
+    }
+
+    /// The model's point (flat index) that carries vertex `v` most: for a skin, the corner of
+    /// the vertex's cell with the largest weight; for a cage, the vertex's own point. What
+    /// pulling the drawn surface at `v` pulls. Panics when `v` is out of range.
+    pub fn vertex_point(&self, model: &Model, v: usize) -> usize {
+        let mut start = 0;
+        for part in &self.parts {
+            match part {
+                Part::Skin { body } => {
+                    let body = model.body(*body);
+                    let skin = body.skin.as_ref().expect("a skin part has a skin");
+                    if v < start + skin.len() {
+                        return body.points().start + skin.nearest_corner(v - start);
+                    }
+                    start += skin.len();
+                }
+                Part::Cage { points } => {
+                    if v < start + points.len() {
+                        return points[v - start];
+                    }
+                    start += points.len();
+                }
+            }
+        }
+        panic!(
+            "vertex {v} is past the surface's {} vertices",
+            self.vertices
+        )
+    }
+
     /// The vertices' positions in `state`, written to `out` (resized to the vertex count).
     pub fn positions(&self, model: &Model, state: &State, out: &mut Vec<Vec3>) {
         out.clear();

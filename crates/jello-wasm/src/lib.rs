@@ -14,15 +14,17 @@
 
 #![warn(missing_docs)]
 
+use jello_core::scene_file::SceneFile;
 use jello_core::stability;
+use jello_core::surface::{CageVertices, Surface};
 use jello_core::{
-    Aabb, BlowUp, BlowUpCause, ForceField, Integrator, Lattice, Model, ModelBuilder, ReadOptions,
-    Simulation, SpringKind, State, Vec3, World,
+    Aabb, BlowUp, BlowUpCause, ForceField, Integrator, Lattice, Model, ModelBuilder, Obstacle,
+    Pull, ReadOptions, Simulation, State, Vec3, World,
 };
 use wasm_bindgen::prelude::*;
 
-/// A simulation the page drives: the model and state being stepped, the world it was loaded
-/// from (for reset), and what the renderer needs that never changes while stepping.
+/// A simulation the page drives: the model and state being stepped, what it was loaded from
+/// (for reset and save), and what the renderer needs that never changes while stepping.
 #[wasm_bindgen]
 pub struct JelloSim {
     sim: Simulation,
@@ -30,15 +32,26 @@ pub struct JelloSim {
     initial: (Model, State),
     /// Label of the source (a file name), for messages.
     name: String,
+    /// The scene file it was loaded from (saving writes it back with the current state); `None`
+    /// for a world file or a built cube.
+    scene: Option<SceneFile>,
+    /// Body names (a scene's, or "jello").
+    body_names: Vec<String>,
     /// The blow-up that stopped stepping, until a reset or a parameter change.
     blow_up: Option<BlowUp>,
-    /// Surface triangles, 3 point indices each (fixed by the lattice).
-    triangles: Vec<u32>,
-    /// Surface points (flat indices).
-    surface: Vec<u32>,
-    /// Spring end pairs `[a0, b0, a1, b1, …]` per kind, only springs whose ends are both on the
-    /// surface (what the wireframe draws).
-    surface_springs: [Vec<u32>; 3],
+    /// What is drawn lit: every body's skin, or its cage surface when it has none.
+    surface: Surface,
+    /// Surface triangles, 3 surface-vertex indices each.
+    surface_triangles: Vec<u32>,
+    /// Per surface vertex: its body.
+    surface_bodies: Vec<u32>,
+    /// Scratch for surface positions.
+    surface_scratch: Vec<Vec3>,
+    /// Points on the cages' surfaces (flat indices): what the wireframe draws.
+    cage_points: Vec<u32>,
+    /// Spring end pairs `[a0, b0, a1, b1, …]` per kind, only springs whose ends are both on a
+    /// cage surface (what the wireframe draws).
+    cage_springs: [Vec<u32>; 3],
 }
 
 /// Turns a core error into a JavaScript `Error` with the same message.
@@ -46,17 +59,33 @@ fn js_err(e: impl std::fmt::Display) -> JsError {
     JsError::new(&e.to_string())
 }
 
+/// True when `name` ends in `.toml` (any case): a scene file.
+fn is_scene_name(name: &str) -> bool {
+    name.rsplit_once('.')
+        .is_some_and(|(_, e)| e.eq_ignore_ascii_case("toml"))
+}
+
 #[wasm_bindgen]
 impl JelloSim {
+    /// A simulation of the file `text` named `name`: a scene when the name ends in `.toml`, else
+    /// a world file. Throws with the reader's message (file, line and, for scenes, column) when
+    /// the file is not valid.
+    pub fn load(text: &str, name: &str) -> Result<JelloSim, JsError> {
+        JelloSim::try_load(text, name).map_err(js_err)
+    }
+
     /// A simulation of the world file `text`; `name` labels error messages (`name:line: …`).
     /// Throws with the reader's message when the file is not a valid world.
     #[wasm_bindgen(js_name = fromWorld)]
     pub fn from_world(text: &str, name: &str) -> Result<JelloSim, JsError> {
-        let world = World::parse(text.as_bytes(), name, ReadOptions::default()).map_err(js_err)?;
-        let (model, state) = world
-            .to_simulation()
-            .map_err(|e| js_err(format!("{name}: {e}")))?;
-        Ok(JelloSim::new(model, state, name))
+        JelloSim::try_world(text, name).map_err(js_err)
+    }
+
+    /// A simulation of the scene file (TOML) `text`; `name` labels error messages
+    /// (`name:line:column: …`). Throws when the file is not a valid scene.
+    #[wasm_bindgen(js_name = fromScene)]
+    pub fn from_scene(text: &str, name: &str) -> Result<JelloSim, JsError> {
+        JelloSim::try_scene(text, name).map_err(js_err)
     }
 
     /// A benchmark scene: an `n × n × n` lattice of side 1 m and total mass 1 kg with the classic
@@ -85,7 +114,14 @@ impl JelloSim {
         for p in &mut state.pos {
             *p += Vec3::new(-0.5, -0.5, 0.0);
         }
-        Ok(JelloSim::new(model, state, &format!("cube {n}³")))
+        let name = format!("cube {n}³");
+        Ok(JelloSim::new(
+            model,
+            state,
+            &name,
+            None,
+            vec!["jello".into()],
+        ))
     }
 
     /// Takes up to `n` steps; returns how many were taken. Fewer than `n` means the simulation
@@ -104,26 +140,75 @@ impl JelloSim {
         n
     }
 
-    /// Back to the world as loaded: model (parameters) and state; clears forces and any blow-up.
+    /// Back to the file as loaded: model (parameters) and state; clears pulls, pushes and any
+    /// blow-up.
     pub fn reset(&mut self) {
         let (model, state) = self.initial.clone();
         self.sim = Simulation::new(model, state);
         self.blow_up = None;
     }
 
-    /// Label of the loaded world (its file name).
+    /// Label of the loaded file (its name).
     #[wasm_bindgen(getter)]
     pub fn name(&self) -> String {
         self.name.clone()
     }
 
-    /// Number of mass points.
+    /// True when loaded from a scene file (saving writes a scene).
+    #[wasm_bindgen(getter, js_name = isScene)]
+    pub fn is_scene(&self) -> bool {
+        self.scene.is_some()
+    }
+
+    /// Number of mass points, over all bodies.
     #[wasm_bindgen(getter, js_name = pointCount)]
     pub fn point_count(&self) -> usize {
         self.sim.model.point_count()
     }
 
-    /// Points per axis `[nx, ny, nz]`.
+    /// Number of bodies.
+    #[wasm_bindgen(getter, js_name = bodyCount)]
+    pub fn body_count(&self) -> usize {
+        self.sim.model.bodies().len()
+    }
+
+    /// The bodies' names, in order.
+    #[wasm_bindgen(js_name = bodyNames)]
+    pub fn body_names(&self) -> Vec<String> {
+        self.body_names.clone()
+    }
+
+    /// Mass of body `b` (kg): its active points times their mass. Throws for a body that does
+    /// not exist.
+    #[wasm_bindgen(js_name = bodyMass)]
+    pub fn body_mass(&self, b: usize) -> Result<f64, JsError> {
+        self.checked_body(b)
+            .map(|body| body.total_mass())
+            .map_err(js_err)
+    }
+
+    /// Per point (flat index): its body.
+    #[wasm_bindgen(js_name = pointBodies)]
+    pub fn point_bodies(&self) -> Vec<u32> {
+        let mut out = Vec::with_capacity(self.point_count());
+        for (b, body) in self.sim.model.bodies().iter().enumerate() {
+            out.extend(std::iter::repeat_n(b as u32, body.len()));
+        }
+        out
+    }
+
+    /// Per point: 1 when it is part of its body, 0 for the unused corners of a shape's lattice
+    /// (they never move and are not drawn).
+    #[wasm_bindgen(js_name = activePoints)]
+    pub fn active_points(&self) -> Vec<u8> {
+        let mut out = Vec::with_capacity(self.point_count());
+        for body in self.sim.model.bodies() {
+            out.extend((0..body.len()).map(|p| u8::from(body.is_active(p))));
+        }
+        out
+    }
+
+    /// Points per axis `[nx, ny, nz]` of the first body.
     #[wasm_bindgen(getter)]
     pub fn counts(&self) -> Vec<u32> {
         self.sim
@@ -135,7 +220,8 @@ impl JelloSim {
             .to_vec()
     }
 
-    /// Positions `[x0, y0, z0, x1, …]` (m), a copy as a `Float32Array` (what the GPU takes).
+    /// Positions `[x0, y0, z0, x1, …]` (m) of every point, a copy as a `Float32Array` (what the
+    /// GPU takes).
     pub fn positions(&self) -> Vec<f32> {
         let mut out = Vec::with_capacity(3 * self.sim.state.pos.len());
         for p in &self.sim.state.pos {
@@ -144,7 +230,7 @@ impl JelloSim {
         out
     }
 
-    /// Velocities `[vx0, vy0, vz0, …]` (m/s) as a `Float64Array` copy (for damping a drag).
+    /// Velocities `[vx0, vy0, vz0, …]` (m/s) as a `Float64Array` copy.
     pub fn velocities(&self) -> Vec<f64> {
         self.sim
             .state
@@ -154,32 +240,68 @@ impl JelloSim {
             .collect()
     }
 
-    /// Rest positions of the lattice `[x0, y0, z0, …]` (m), for the falloff of a grab.
+    /// Rest positions `[x0, y0, z0, …]` (m) of every point, each body in its own frame (so only
+    /// distances within a body mean anything): for the falloff of a grab.
     #[wasm_bindgen(js_name = restPositions)]
     pub fn rest_positions(&self) -> Vec<f32> {
-        let rest = self.sim.model.body(0).rest_positions();
-        rest.iter()
-            .flat_map(|p| [p.x as f32, p.y as f32, p.z as f32])
-            .collect()
+        let mut out = Vec::with_capacity(3 * self.point_count());
+        for body in self.sim.model.bodies() {
+            for p in body.rest_positions() {
+                out.extend([p.x, p.y, p.z].map(|c| c as f32));
+            }
+        }
+        out
     }
 
-    /// Surface triangles as point indices, three per triangle, wound outwards.
+    /// Number of vertices of the drawn surface (skins, and cage surfaces of bodies without one).
+    #[wasm_bindgen(getter, js_name = surfaceVertexCount)]
+    pub fn surface_vertex_count(&self) -> usize {
+        self.surface.vertex_count()
+    }
+
+    /// The drawn surface's triangles, three vertex indices each, wound outwards.
     #[wasm_bindgen(js_name = surfaceTriangles)]
     pub fn surface_triangles(&self) -> Vec<u32> {
-        self.triangles.clone()
+        self.surface_triangles.clone()
     }
 
-    /// Indices of the surface points.
+    /// Per surface vertex: its body (for colouring).
+    #[wasm_bindgen(js_name = surfaceBodies)]
+    pub fn surface_bodies(&self) -> Vec<u32> {
+        self.surface_bodies.clone()
+    }
+
+    /// The surface vertices' positions now `[x0, y0, z0, …]` (m): skin vertices follow their
+    /// cells by trilinear weights.
+    #[wasm_bindgen(js_name = surfacePositions)]
+    pub fn surface_positions(&mut self) -> Vec<f32> {
+        self.surface
+            .positions(&self.sim.model, &self.sim.state, &mut self.surface_scratch);
+        let mut out = Vec::with_capacity(3 * self.surface_scratch.len());
+        for p in &self.surface_scratch {
+            out.extend_from_slice(&[p.x as f32, p.y as f32, p.z as f32]);
+        }
+        out
+    }
+
+    /// The point (flat index) that carries surface vertex `v` most: what pulling the surface
+    /// there pulls. Throws for a vertex that does not exist.
+    #[wasm_bindgen(js_name = surfaceVertexPoint)]
+    pub fn surface_vertex_point(&self, v: usize) -> Result<u32, JsError> {
+        self.try_vertex_point(v).map_err(js_err)
+    }
+
+    /// Indices of the points on the cages' surfaces.
     #[wasm_bindgen(js_name = surfacePoints)]
     pub fn surface_points(&self) -> Vec<u32> {
-        self.surface.clone()
+        self.cage_points.clone()
     }
 
     /// End pairs `[a0, b0, a1, b1, …]` of the springs of `kind` (0 structural, 1 shear, 2 bend)
-    /// whose two ends are surface points. Throws for another kind.
+    /// whose two ends are on a cage's surface. Throws for another kind.
     #[wasm_bindgen(js_name = surfaceSprings)]
     pub fn surface_springs(&self, kind: u32) -> Result<Vec<u32>, JsError> {
-        self.surface_springs
+        self.cage_springs
             .get(kind as usize)
             .cloned()
             .ok_or_else(|| js_err(format!("spring kind {kind} is not 0, 1 or 2")))
@@ -195,6 +317,37 @@ impl JelloSim {
     /// The inclined plane `[a, b, c, d]` of `a x + b y + c z + d = 0`, or `undefined` when absent.
     pub fn plane(&self) -> Option<Vec<f64>> {
         self.sim.model.plane.map(|p| p.coeffs.to_vec())
+    }
+
+    /// The obstacles, seven numbers each: a kind and six values. Kind 0, a plane:
+    /// `a, b, c, d, 0, 0`; 1, a sphere: `x, y, z, radius, 0, 0`; 2, a box: `min, max`.
+    pub fn obstacles(&self) -> Vec<f64> {
+        let mut out = Vec::with_capacity(7 * self.sim.model.obstacles.len());
+        for o in &self.sim.model.obstacles {
+            match o {
+                Obstacle::Plane(p) => {
+                    out.push(0.0);
+                    out.extend(p.coeffs);
+                    out.extend([0.0, 0.0]);
+                }
+                Obstacle::Sphere(s) => {
+                    out.push(1.0);
+                    out.extend(s.centre.to_array());
+                    out.extend([s.radius, 0.0, 0.0]);
+                }
+                Obstacle::Box(b) => {
+                    out.push(2.0);
+                    out.extend(b.min.to_array());
+                    out.extend(b.max.to_array());
+                }
+            }
+        }
+        out
+    }
+
+    /// The pinned points (flat indices).
+    pub fn pins(&self) -> Vec<u32> {
+        self.sim.model.pins.clone()
     }
 
     /// Force field resolution (nodes per axis); 0 when there is no field.
@@ -239,19 +392,19 @@ impl JelloSim {
         self.sim.model.dt
     }
 
-    /// Structural spring stiffness (N/m); every kind has it in a world file.
+    /// Structural spring stiffness of the first body (N/m).
     #[wasm_bindgen(getter)]
     pub fn stiffness(&self) -> f64 {
-        self.sim.model.body(0).material.stiffness[SpringKind::Structural as usize]
+        self.sim.model.body(0).material.stiffness[0]
     }
 
-    /// Structural spring damping (N·s/m).
+    /// Structural spring damping of the first body (N·s/m).
     #[wasm_bindgen(getter)]
     pub fn damping(&self) -> f64 {
-        self.sim.model.body(0).material.damping[SpringKind::Structural as usize]
+        self.sim.model.body(0).material.damping[0]
     }
 
-    /// Mass of each point (kg).
+    /// Mass of each point of the first body (kg).
     #[wasm_bindgen(getter)]
     pub fn mass(&self) -> f64 {
         self.sim.model.body(0).material.mass
@@ -276,10 +429,13 @@ impl JelloSim {
         stability::stable_dt(&self.sim.model, self.sim.model.integrator)
     }
 
-    /// Sets integrator, time step, stiffness and damping (every spring kind) and point mass by
-    /// building a new model that keeps everything else; the state (positions, velocities, time)
-    /// carries on. Clears a blow-up, so stepping resumes from the last good state. Throws, and
-    /// changes nothing, when a value is out of range or the integrator is unknown.
+    /// Sets integrator and time step, and the springs' stiffness and damping (every kind) and
+    /// the point mass, by building a new model that keeps everything else; the state (positions,
+    /// velocities, time) carries on. Stiffness, damping and mass are shown as the first body's;
+    /// one that differs from that is given to every body, one that does not leaves the bodies'
+    /// own values alone (a scene's bodies may differ, and its kinds too). Clears a blow-up, so
+    /// stepping resumes from the last good state. Throws, and changes nothing, when a value is
+    /// out of range or the integrator is unknown.
     #[wasm_bindgen(js_name = setParameters)]
     pub fn set_parameters(
         &mut self,
@@ -290,14 +446,27 @@ impl JelloSim {
         mass: f64,
     ) -> Result<(), JsError> {
         let integrator = integrator.parse::<Integrator>().map_err(js_err)?;
+        let (k0, d0, m0) = (self.stiffness(), self.damping(), self.mass());
+        let mut bodies = self.sim.model.bodies().to_vec();
+        for body in &mut bodies {
+            let m = &mut body.material;
+            if stiffness != k0 {
+                m.stiffness = [stiffness; 3];
+            }
+            if damping != d0 {
+                m.damping = [damping; 3];
+            }
+            if mass != m0 {
+                m.mass = mass;
+            }
+        }
         let model = self
             .sim
             .model
             .to_builder()
+            .bodies(bodies)
             .integrator(integrator)
             .dt(dt)
-            .elastic(stiffness, damping)
-            .mass(mass)
             .build()
             .map_err(js_err)?;
         let control = std::mem::take(&mut self.sim.control);
@@ -308,39 +477,46 @@ impl JelloSim {
         Ok(())
     }
 
-    /// Sets an outside force on every point (N), `[fx0, fy0, fz0, …]`, held until changed; an
-    /// empty array removes them. Throws when the length is not 3 × the point count or a force is
-    /// not finite.
-    #[wasm_bindgen(js_name = setForces)]
-    pub fn set_forces(&mut self, forces: &[f64]) -> Result<(), JsError> {
-        if forces.is_empty() {
-            self.sim.control.forces.clear();
-            return Ok(());
-        }
-        let n = self.point_count();
-        if forces.len() != 3 * n {
-            return Err(js_err(format!(
-                "expected {} force components (3 per point), got {}",
-                3 * n,
-                forces.len()
-            )));
-        }
-        if forces.iter().any(|f| !f.is_finite()) {
-            return Err(js_err("forces must be finite"));
-        }
-        self.sim.control.forces.clear();
-        self.sim
-            .control
-            .forces
-            .extend(forces.chunks_exact(3).map(|c| Vec3::new(c[0], c[1], c[2])));
-        Ok(())
+    /// Pulls points toward targets: point `points[i]` by a spring of stiffness `stiffness[i]`
+    /// (N/m) toward `targets[3i..3i+3]` (m), damped by `damping[i]` (N·s/m) against its
+    /// velocity. The core evaluates them at every stage of every step (the page only moves the
+    /// targets); they replace the previous pulls and hold until changed. Empty arrays remove
+    /// them. Throws, and changes nothing, when the lengths disagree, a point does not exist or a
+    /// value is not finite (or negative).
+    #[wasm_bindgen(js_name = setPulls)]
+    pub fn set_pulls(
+        &mut self,
+        points: &[u32],
+        targets: &[f64],
+        stiffness: &[f64],
+        damping: &[f64],
+    ) -> Result<(), JsError> {
+        self.try_set_pulls(points, targets, stiffness, damping)
+            .map_err(js_err)
     }
 
-    /// The current state as world-file text. Throws for what the format cannot hold (a lattice
-    /// other than the classic 8³ cube).
+    /// Pushes body `body` (every body when negative) with the acceleration `(ax, ay, az)`
+    /// (m/s²): a force of mass times that on each of its points, held until changed; zero
+    /// removes it. Throws for a body that does not exist or a value that is not finite.
+    #[wasm_bindgen(js_name = setPush)]
+    pub fn set_push(&mut self, body: i32, ax: f64, ay: f64, az: f64) -> Result<(), JsError> {
+        self.try_set_push(body, Vec3::new(ax, ay, az))
+            .map_err(js_err)
+    }
+
+    /// The current state as world-file text. Throws for what the format cannot hold (a scene,
+    /// or a lattice other than the classic 8³ cube).
     #[wasm_bindgen(js_name = toWorldText)]
     pub fn to_world_text(&self) -> Result<String, JsError> {
         Ok(self.sim.to_world().map_err(js_err)?.to_text())
+    }
+
+    /// The current state as scene text (TOML): the loaded scene with every point's position and
+    /// velocity, and the time step, integrator and materials now in use. Throws when not loaded
+    /// from a scene.
+    #[wasm_bindgen(js_name = toSceneText)]
+    pub fn to_scene_text(&self) -> Result<String, JsError> {
+        self.try_scene_text().map_err(js_err)
     }
 
     /// True after a blow-up, until a reset or a parameter change.
@@ -365,34 +541,184 @@ impl JelloSim {
 }
 
 impl JelloSim {
-    fn new(model: Model, state: State, name: &str) -> JelloSim {
-        let lattice = model.body(0).lattice();
-        let triangles = lattice.surface_triangles().concat();
-        let surface: Vec<u32> = lattice
-            .surface_points()
-            .into_iter()
-            .map(|p| p as u32)
-            .collect();
-        let mut on_surface = vec![false; model.point_count()];
-        for &p in &surface {
-            on_surface[p as usize] = true;
+    fn new(
+        model: Model,
+        state: State,
+        name: &str,
+        scene: Option<SceneFile>,
+        body_names: Vec<String>,
+    ) -> JelloSim {
+        let surface = Surface::new(&model, CageVertices::Used);
+        let surface_triangles = surface.triangles().concat();
+        let mut surface_bodies = vec![0u32; surface.vertex_count()];
+        for (b, range) in surface.body_vertices(&model).into_iter().enumerate() {
+            surface_bodies[range].fill(b as u32);
         }
-        let mut surface_springs: [Vec<u32>; 3] = Default::default();
+        let mut on_surface = vec![false; model.point_count()];
+        for body in model.bodies() {
+            for t in body.surface_triangles() {
+                for p in t {
+                    on_surface[body.points().start + p as usize] = true;
+                }
+            }
+        }
+        let cage_points: Vec<u32> = (0..model.point_count() as u32)
+            .filter(|&p| on_surface[p as usize])
+            .collect();
+        let mut cage_springs: [Vec<u32>; 3] = Default::default();
         let s = &model.springs();
         for ((&a, &b), &kind) in s.a.iter().zip(&s.b).zip(&s.kind) {
             if on_surface[a as usize] && on_surface[b as usize] {
-                surface_springs[kind as usize].extend([a, b]);
+                cage_springs[kind as usize].extend([a, b]);
             }
         }
         JelloSim {
             sim: Simulation::new(model.clone(), state.clone()),
             initial: (model, state),
             name: name.to_string(),
+            scene,
+            body_names,
             blow_up: None,
-            triangles,
             surface,
-            surface_springs,
+            surface_triangles,
+            surface_bodies,
+            surface_scratch: Vec::new(),
+            cage_points,
+            cage_springs,
         }
+    }
+
+    /// See [`JelloSim::load`]; errors as text (so that native tests can see them).
+    fn try_load(text: &str, name: &str) -> Result<JelloSim, String> {
+        if is_scene_name(name) {
+            JelloSim::try_scene(text, name)
+        } else {
+            JelloSim::try_world(text, name)
+        }
+    }
+
+    fn try_world(text: &str, name: &str) -> Result<JelloSim, String> {
+        let world = World::parse(text.as_bytes(), name, ReadOptions::default())
+            .map_err(|e| e.to_string())?;
+        let (model, state) = world.to_simulation().map_err(|e| format!("{name}: {e}"))?;
+        Ok(JelloSim::new(
+            model,
+            state,
+            name,
+            None,
+            vec!["jello".into()],
+        ))
+    }
+
+    fn try_scene(text: &str, name: &str) -> Result<JelloSim, String> {
+        let file = SceneFile::parse(text.as_bytes(), name).map_err(|e| e.to_string())?;
+        let scene = file.to_scene(name).map_err(|e| e.to_string())?;
+        Ok(JelloSim::new(
+            scene.model,
+            scene.state,
+            name,
+            Some(file),
+            scene.names,
+        ))
+    }
+
+    fn try_vertex_point(&self, v: usize) -> Result<u32, String> {
+        if v >= self.surface.vertex_count() {
+            return Err(format!(
+                "surface vertex {v} does not exist (there are {})",
+                self.surface.vertex_count()
+            ));
+        }
+        Ok(self.surface.vertex_point(&self.sim.model, v) as u32)
+    }
+
+    fn try_set_pulls(
+        &mut self,
+        points: &[u32],
+        targets: &[f64],
+        stiffness: &[f64],
+        damping: &[f64],
+    ) -> Result<(), String> {
+        let n = points.len();
+        if targets.len() != 3 * n || stiffness.len() != n || damping.len() != n {
+            return Err(format!(
+                "pulls: {n} points need {} target components, {n} stiffnesses and {n} dampings; got {}, {} and {}",
+                3 * n,
+                targets.len(),
+                stiffness.len(),
+                damping.len()
+            ));
+        }
+        let mut control = self.sim.control.clone();
+        control.pulls = (0..n)
+            .map(|i| Pull {
+                point: points[i],
+                target: Vec3::new(targets[3 * i], targets[3 * i + 1], targets[3 * i + 2]),
+                stiffness: stiffness[i],
+                damping: damping[i],
+            })
+            .collect();
+        control.check(&self.sim.model).map_err(|e| e.to_string())?;
+        self.sim.control = control;
+        Ok(())
+    }
+
+    fn try_set_push(&mut self, body: i32, a: Vec3) -> Result<(), String> {
+        if !a.is_finite() {
+            return Err("push: the acceleration must be finite".into());
+        }
+        if body >= 0 {
+            self.checked_body(body as usize)?;
+        }
+        let forces = &mut self.sim.control.forces;
+        forces.clear();
+        if a == Vec3::ZERO {
+            return Ok(());
+        }
+        forces.resize(self.sim.model.point_count(), Vec3::ZERO);
+        for (b, model_body) in self.sim.model.bodies().iter().enumerate() {
+            if body < 0 || b == body as usize {
+                forces[model_body.points()].fill(a * model_body.material.mass);
+            }
+        }
+        Ok(())
+    }
+
+    fn try_scene_text(&self) -> Result<String, String> {
+        let Some(file) = &self.scene else {
+            return Err(format!(
+                "{} is not a scene: save it as a world file",
+                self.name
+            ));
+        };
+        let model = &self.sim.model;
+        let mut file = file.with_state(model, &self.sim.state);
+        file.simulation.dt = model.dt;
+        file.simulation.integrator = model.integrator.name().to_string();
+        for (spec, (body, initial)) in file
+            .bodies
+            .iter_mut()
+            .zip(model.bodies().iter().zip(self.initial.0.bodies()))
+        {
+            if body.material != initial.material {
+                spec.stiffness = Some(body.material.stiffness);
+                spec.damping = Some(body.material.damping);
+                spec.mass = Some(body.material.mass);
+                spec.total_mass = None;
+                spec.density = None;
+                spec.modulus = None;
+                spec.viscosity = None;
+            }
+        }
+        Ok(file.to_toml())
+    }
+
+    fn checked_body(&self, b: usize) -> Result<&jello_core::Body, String> {
+        self.sim
+            .model
+            .bodies()
+            .get(b)
+            .ok_or_else(|| format!("body {b} does not exist (there are {})", self.body_count()))
     }
 }
 
@@ -424,22 +750,111 @@ mod tests {
     const JELLO: &str = include_str!("../../../examples/jello.w");
 
     fn sim() -> JelloSim {
-        let world = World::parse(JELLO.as_bytes(), "jello.w", ReadOptions::default()).unwrap();
-        let (model, state) = world.to_simulation().unwrap();
-        JelloSim::new(model, state, "jello.w")
+        JelloSim::try_load(JELLO, "jello.w").unwrap()
     }
+
+    const STACK: &str = include_str!("../../../examples/stack.toml");
+    const TORUS: &str = include_str!("../../../examples/torus.toml");
 
     #[test]
     fn wireframe_springs_join_surface_points_only() {
         let s = sim();
-        let surface: std::collections::HashSet<u32> = s.surface.iter().copied().collect();
+        let surface: std::collections::HashSet<u32> = s.cage_points.iter().copied().collect();
         assert_eq!(surface.len(), 8 * 8 * 8 - 6 * 6 * 6);
         for kind in 0..3 {
-            let pairs = &s.surface_springs[kind];
+            let pairs = &s.cage_springs[kind];
             assert!(!pairs.is_empty());
             assert!(pairs.iter().all(|p| surface.contains(p)));
         }
-        assert_eq!(s.triangles.len(), 6 * 7 * 7 * 2 * 3);
+        // The classic cube's drawn surface is its lattice surface, over the surface points.
+        assert_eq!(s.surface_triangles.len(), 6 * 7 * 7 * 2 * 3);
+        assert_eq!(s.surface.vertex_count(), surface.len());
+        for v in 0..s.surface.vertex_count() {
+            assert!(surface.contains(&s.try_vertex_point(v).unwrap()));
+        }
+    }
+
+    #[test]
+    fn a_scene_loads_with_its_bodies_obstacles_and_skins() {
+        let mut s = JelloSim::try_load(STACK, "stack.toml").unwrap();
+        assert!(s.is_scene());
+        assert_eq!(s.body_count(), 3);
+        assert_eq!(s.body_names(), ["bottom", "middle", "top"]);
+        assert_eq!(s.obstacles(), [1.0, 0.0, 0.0, -1.5, 0.45, 0.0, 0.0]);
+        let bodies = s.point_bodies();
+        assert_eq!(bodies.len(), 375);
+        assert_eq!(bodies.iter().filter(|&&b| b == 2).count(), 125);
+        // Each body's surface vertices pull points of that body.
+        let vertex_bodies = s.surface_bodies();
+        for (v, &b) in vertex_bodies.iter().enumerate() {
+            let p = s.try_vertex_point(v).unwrap();
+            assert_eq!(bodies[p as usize], b);
+        }
+        assert!(s.try_vertex_point(vertex_bodies.len()).is_err());
+        assert_eq!(s.step(10), 10);
+
+        let torus = JelloSim::try_load(TORUS, "torus.toml").unwrap();
+        let mesh = jello_core::TriMesh::shape("torus", 8).unwrap();
+        assert_eq!(torus.surface_vertex_count(), mesh.vertices.len());
+        assert_eq!(torus.surface_triangles().len(), 3 * mesh.triangles.len());
+        let rest = torus.surface.vertex_count();
+        let mut t = torus;
+        assert_eq!(t.surface_positions().len(), 3 * rest);
+        // A scene error names the file, line and column.
+        let bad = JelloSim::try_scene("[simulation]\ncolour = 1\n", "bad.toml");
+        assert!(bad.is_err());
+    }
+
+    #[test]
+    fn pulls_and_pushes_are_checked_and_reach_the_core() {
+        let mut s = JelloSim::try_load(STACK, "stack.toml").unwrap();
+        assert!(s.try_set_pulls(&[0], &[0.0, 0.0], &[1.0], &[0.0]).is_err());
+        assert!(s.try_set_pulls(&[9999], &[0.0; 3], &[1.0], &[0.0]).is_err());
+        assert!(s
+            .try_set_pulls(&[0], &[f64::NAN, 0.0, 0.0], &[1.0], &[0.0])
+            .is_err());
+        assert!(s.sim.control.pulls.is_empty());
+        s.try_set_pulls(
+            &[3, 4],
+            &[0.0, 0.0, 1.0, 0.0, 0.0, 1.0],
+            &[10.0, 5.0],
+            &[1.0, 0.5],
+        )
+        .unwrap();
+        assert_eq!(s.sim.control.pulls.len(), 2);
+        assert_eq!(s.sim.control.pulls[1].target, Vec3::new(0.0, 0.0, 1.0));
+        s.try_set_pulls(&[], &[], &[], &[]).unwrap();
+        assert!(s.sim.control.pulls.is_empty());
+
+        assert!(s.try_set_push(3, Vec3::new(1.0, 0.0, 0.0)).is_err());
+        assert!(s
+            .try_set_push(0, Vec3::new(f64::INFINITY, 0.0, 0.0))
+            .is_err());
+        s.try_set_push(1, Vec3::new(2.0, 0.0, 0.0)).unwrap();
+        let f = &s.sim.control.forces;
+        let m = s.sim.model.body(1).material.mass;
+        assert_eq!(f[0], Vec3::ZERO);
+        assert_eq!(f[130], Vec3::new(2.0 * m, 0.0, 0.0));
+        assert_eq!(f[300], Vec3::ZERO);
+        s.try_set_push(-1, Vec3::new(0.0, 0.0, 0.0)).unwrap();
+        assert!(s.sim.control.forces.is_empty());
+    }
+
+    #[test]
+    fn a_scene_saves_as_a_scene_that_reads_back() {
+        let mut s = JelloSim::try_load(STACK, "stack.toml").unwrap();
+        assert!(s.sim.to_world().is_err());
+        s.step(50);
+        s.set_parameters("RK4", 0.0005, s.stiffness(), s.damping(), s.mass())
+            .unwrap();
+        let text = s.try_scene_text().unwrap();
+        let again = JelloSim::try_load(&text, "saved.toml").unwrap();
+        assert_eq!(again.sim.state.pos, s.sim.state.pos);
+        assert_eq!(again.sim.state.vel, s.sim.state.vel);
+        assert_eq!(again.dt(), 0.0005);
+        // The materials were not touched: the file keeps its modulus and density.
+        assert!(text.contains("modulus"));
+        assert!(sim().try_scene_text().is_err());
     }
 
     #[test]

@@ -9,8 +9,8 @@
 //! | path | what |
 //! | --- | --- |
 //! | `/config.json` | `{"world": {"url", "name"} or null, "examples": [names]}` for the page |
-//! | `/world.w` | the world given on the command line (read and checked at start) |
-//! | `/examples/NAME` | an example world from the source tree's `examples/` |
+//! | `/world.w` | the world or scene given on the command line (read and checked at start; the page reads it by the name in `config.json`) |
+//! | `/examples/NAME` | an example world or scene from the source tree's `examples/` |
 //! | anything else | a file of the built viewer, `/` meaning `index.html` |
 
 use std::fs;
@@ -24,10 +24,9 @@ use std::thread;
 use std::time::Duration;
 
 use clap::Args;
-use jello_core::ReadOptions;
 
 use crate::error::CliError;
-use crate::fsio::read_world;
+use crate::fsio::load;
 
 /// Port used when `--port` is not given.
 pub const DEFAULT_PORT: u16 = 7878;
@@ -41,7 +40,7 @@ const READ_TIMEOUT: Duration = Duration::from_secs(10);
 /// Arguments of `jello view`.
 #[derive(Args, Debug)]
 pub struct ViewArgs {
-    /// World file (.w) to start with [default: the classic examples/jello.w].
+    /// World (.w) or scene (.toml) file to start with [default: the classic examples/jello.w].
     pub world: Option<PathBuf>,
     /// Port on 127.0.0.1 to serve on; 0 picks a free one.
     #[arg(long, short, default_value_t = DEFAULT_PORT)]
@@ -89,7 +88,7 @@ pub fn view(args: ViewArgs) -> Result<(), CliError> {
     let world = match &args.world {
         Some(path) => {
             // Check it now, so a bad file is reported here with its line, not in the browser.
-            read_world(path, ReadOptions::default())?;
+            load(path, None, None)?;
             let bytes = fs::read(path)
                 .map_err(|e| CliError::input(format!("{}: cannot read: {e}", path.display())))?;
             let name = path
@@ -146,7 +145,7 @@ pub fn view(args: ViewArgs) -> Result<(), CliError> {
     Ok(())
 }
 
-/// The `*.w` files of `dir`, sorted by name; none when the folder is missing.
+/// The `*.w` and `*.toml` files of `dir`, sorted by name; none when the folder is missing.
 fn list_examples(dir: &Path) -> Vec<(String, PathBuf)> {
     let mut found: Vec<(String, PathBuf)> = fs::read_dir(dir)
         .into_iter()
@@ -154,7 +153,8 @@ fn list_examples(dir: &Path) -> Vec<(String, PathBuf)> {
         .flatten()
         .filter_map(|entry| {
             let name = entry.file_name().into_string().ok()?;
-            (name.ends_with(".w") && entry.path().is_file()).then(|| (name, entry.path()))
+            let known = name.ends_with(".w") || name.ends_with(".toml");
+            (known && entry.path().is_file()).then(|| (name, entry.path()))
         })
         .collect();
     found.sort();
@@ -284,7 +284,7 @@ fn content_type(ext: &str) -> &'static str {
         "png" => "image/png",
         "svg" => "image/svg+xml",
         "ico" => "image/x-icon",
-        "w" | "txt" => "text/plain; charset=utf-8",
+        "w" | "txt" | "toml" => "text/plain; charset=utf-8",
         _ => "application/octet-stream",
     }
 }

@@ -1,0 +1,234 @@
+// Scenes in the viewer, as a user meets them: `jello view` started on a scene file, the example
+// scenes in the list, a scene loaded by the picker and by drag and drop, skins lit and cages in
+// wireframe, obstacles drawn, pulling and pushing one body of several, saving the state as a scene
+// that loads again, and a bad scene's error. Run by scripts/web-test.sh after a build.
+import assert from 'node:assert/strict';
+import { readFileSync } from 'node:fs';
+import { join } from 'node:path';
+import { after, before, describe, test } from 'node:test';
+import { launch, openViewer } from './browser.mjs';
+import { difference, hideOverlays, shot } from './pixels.mjs';
+import { ROOT, startViewer } from './server.mjs';
+
+const pause = (ms) => new Promise((r) => setTimeout(r, ms));
+
+let server;
+let browser;
+
+before(async () => {
+  server = await startViewer([join(ROOT, 'examples', 'stack.toml')]);
+  browser = await launch();
+});
+
+after(async () => {
+  await browser?.close();
+  await server?.stop();
+});
+
+async function open() {
+  const { page, errors } = await openViewer(browser.context, server.url);
+  const showOverlays = await hideOverlays(page);
+  await pause(300);
+  return {
+    page,
+    errors,
+    showOverlays,
+    async done() {
+      await page.close();
+      assert.deepEqual(errors, [], 'the page reported errors');
+    },
+  };
+}
+
+const loaded = (page, name) =>
+  page.waitForFunction((name) => document.getElementById('world-name')?.textContent === name, name);
+
+/** Centre of body `b`'s active points now. */
+const centre = (page, b) =>
+  page.evaluate((b) => {
+    const sim = window.jello.sim;
+    const p = sim.positions();
+    const bodies = sim.pointBodies();
+    const active = sim.activePoints();
+    const c = [0, 0, 0];
+    let n = 0;
+    for (let i = 0; i < bodies.length; i++) {
+      if (bodies[i] !== b || !active[i]) continue;
+      for (let a = 0; a < 3; a++) c[a] += p[3 * i + a];
+      n++;
+    }
+    return c.map((x) => x / n);
+  }, b);
+
+/** Where point `i` is on the canvas (CSS pixels). */
+const onCanvas = (page, i) =>
+  page.evaluate((i) => {
+    const app = window.jello;
+    const p = app.sim.positions();
+    const v = app.viewer.camera.position.clone().set(p[3 * i], p[3 * i + 1], p[3 * i + 2]).project(app.viewer.camera);
+    return { x: ((v.x + 1) / 2) * app.viewer.canvas.clientWidth, y: ((1 - v.y) / 2) * app.viewer.canvas.clientHeight };
+  }, i);
+
+describe('scenes in the viewer', () => {
+  test('jello view starts on a scene: three bodies and the sphere drawn, falling', async () => {
+    const { page, done } = await open();
+    assert.equal(await page.textContent('#world-name'), 'stack.toml');
+    const sim = await page.evaluate(() => ({
+      bodies: window.jello.sim.bodyNames(),
+      scene: window.jello.sim.isScene,
+      obstacles: Array.from(window.jello.sim.obstacles()),
+    }));
+    assert.deepEqual(sim.bodies, ['bottom', 'middle', 'top']);
+    assert.ok(sim.scene);
+    assert.equal(sim.obstacles[0], 1, 'a sphere');
+    const a = await shot(page);
+    await pause(600);
+    assert.ok((await difference(page, a, await shot(page))) > 500, 'the bodies fall');
+    await done();
+  });
+
+  test('the example scenes are listed and load, with their skins', async () => {
+    const { page, done, showOverlays } = await open();
+    await showOverlays();
+    const names = await page.evaluate(() => window.jello.examples);
+    for (const n of ['torus.toml', 'blob.toml', 'mould.toml', 'stack.toml', 'jello.w']) {
+      assert.ok(names.includes(n), `${n} is listed: ${names}`);
+    }
+    await page.locator('#panel select:has(option:text-is("torus.toml"))').selectOption({ label: 'torus.toml' });
+    await loaded(page, 'torus.toml');
+    const counts = await page.evaluate(() => ({
+      vertices: window.jello.sim.surfaceVertexCount,
+      triangles: window.jello.sim.surfaceTriangles().length / 3,
+    }));
+    // `jello shape torus --detail 8`: 32 × 16 vertices.
+    assert.deepEqual(counts, { vertices: 512, triangles: 1024 });
+    await done();
+  });
+
+  test('a scene loads by the picker and by drag and drop; the wireframe shows the cage', async () => {
+    const { page, done } = await open();
+    await page.setInputFiles('#world-file', join(ROOT, 'examples', 'mould.toml'));
+    await loaded(page, 'mould.toml');
+    await page.keyboard.press('p');
+    const lit = await shot(page);
+    await page.keyboard.press('v');
+    await pause(100);
+    assert.ok((await difference(page, lit, await shot(page))) > 500, 'the cage differs from the skin');
+    await page.keyboard.press('v');
+
+    const text = readFileSync(join(ROOT, 'examples', 'blob.toml'), 'utf8');
+    const drop = await page.evaluateHandle((text) => {
+      const transfer = new DataTransfer();
+      transfer.items.add(new File([text], 'blob.toml', { type: 'text/plain' }));
+      return transfer;
+    }, text);
+    await page.dispatchEvent('body', 'drop', { dataTransfer: drop });
+    await loaded(page, 'blob.toml');
+    assert.equal(await page.locator('.banner-error').count(), 0);
+    await done();
+  });
+
+  test('dragging a point of one body pulls that body, not the others', async () => {
+    const { page, done } = await open();
+    await page.keyboard.press('p');
+    // The top cube's point nearest the camera, on the skin the ray picks.
+    const grab = await page.evaluate(() => {
+      const app = window.jello;
+      const sim = app.sim;
+      const p = sim.positions();
+      const bodies = sim.pointBodies();
+      const cam = app.viewer.camera.position;
+      let best = -1;
+      let bestDistance = Infinity;
+      for (let i = 0; i < bodies.length; i++) {
+        if (bodies[i] !== 2) continue;
+        const d = Math.hypot(p[3 * i] - cam.x, p[3 * i + 1] - cam.y, p[3 * i + 2] - cam.z);
+        if (d < bestDistance) [best, bestDistance] = [i, d];
+      }
+      return best;
+    });
+    const at = await onCanvas(page, grab);
+    const before = [await centre(page, 1), await centre(page, 2)];
+    await page.mouse.move(at.x, at.y);
+    await page.mouse.down();
+    assert.ok(await page.evaluate(() => window.jello.interactionHandler.dragging), 'the press grabbed a point');
+    await page.mouse.move(at.x, at.y - 150, { steps: 5 });
+    await page.keyboard.press('p');
+    await pause(1000);
+    await page.keyboard.press('p');
+    const after = [await centre(page, 1), await centre(page, 2)];
+    await page.mouse.up();
+    const rise = after[1][2] - before[1][2];
+    const middle = after[0][2] - before[0][2];
+    assert.ok(rise > 0.05, `the top cube rose (${rise.toFixed(3)} m)`);
+    assert.ok(middle < rise / 2, `the middle cube did not follow (${middle.toFixed(3)} m)`);
+    const pulls = await page.evaluate(() => window.jello.interactionHandler.dragging);
+    assert.equal(pulls, false);
+    await done();
+  });
+
+  test('right-dragging a body pushes it alone', async () => {
+    const { page, done } = await open();
+    await page.keyboard.press('p');
+    const right = await page.evaluate(() => {
+      const m = window.jello.viewer.camera.matrixWorld.elements;
+      return [m[0], m[1], m[2]];
+    });
+    const at = await page.evaluate(() => {
+      // The middle cube's centre point (2, 2, 2) of its 5×5×5 lattice, on the canvas.
+      const app = window.jello;
+      const p = app.sim.positions();
+      const i = 125 + (2 * 5 + 2) * 5 + 2;
+      const v = app.viewer.camera.position.clone().set(p[3 * i], p[3 * i + 1], p[3 * i + 2]).project(app.viewer.camera);
+      return { x: ((v.x + 1) / 2) * app.viewer.canvas.clientWidth, y: ((1 - v.y) / 2) * app.viewer.canvas.clientHeight };
+    });
+    const before = [await centre(page, 1), await centre(page, 2)];
+    await page.mouse.move(at.x, at.y);
+    await page.mouse.down({ button: 'right' });
+    await page.mouse.move(at.x + 120, at.y, { steps: 4 });
+    await page.keyboard.press('p');
+    await pause(500);
+    await page.keyboard.press('p');
+    await page.mouse.up({ button: 'right' });
+    const after = [await centre(page, 1), await centre(page, 2)];
+    const along = (b) => [0, 1, 2].reduce((s, a) => s + (after[b][a] - before[b][a]) * right[a], 0);
+    assert.ok(along(0) > 0.05, `the middle cube moved right (${along(0).toFixed(3)} m)`);
+    assert.ok(Math.abs(along(1)) < along(0) / 2, `the top cube moved less (${along(1).toFixed(3)} m)`);
+    await done();
+  });
+
+  test('save writes the scene with its state, which loads again', async () => {
+    const { page, done } = await open();
+    await pause(300);
+    await page.keyboard.press('p');
+    const download = page.waitForEvent('download');
+    await page.evaluate(() => window.jello.save());
+    const file = await download;
+    assert.match(file.suggestedFilename(), /^stack-t\d+\.\d{3}\.toml$/);
+    const text = readFileSync(await file.path(), 'utf8');
+    assert.match(text, /\[body\.state\]/);
+    const same = await page.evaluate((text) => {
+      const before = window.jello.sim.positions();
+      const ok = window.jello.loadText(text, 'saved.toml');
+      const after = window.jello.sim.positions();
+      return ok && before.every((x, i) => x === after[i]);
+    }, text);
+    assert.ok(same, 'the saved scene loads with the same positions');
+    await done();
+  });
+
+  test('a bad scene shows its file, line and column, and the running scene goes on', async () => {
+    const { page, done } = await open();
+    await page.setInputFiles('#world-file', {
+      name: 'broken.toml',
+      mimeType: 'text/plain',
+      buffer: Buffer.from('[simulation]\ndt = 0.001\ncolour = "red"\n'),
+    });
+    const banner = page.locator('.banner-error');
+    await banner.waitFor({ state: 'attached' });
+    const text = await banner.textContent();
+    assert.match(text, /broken\.toml:3:1: .*colour/, `the error names the file, line and column: ${text}`);
+    assert.equal(await page.textContent('#world-name'), 'stack.toml');
+    await done();
+  });
+});
