@@ -3,11 +3,17 @@
 //      and the real-time factor (simulated seconds per wall second) from the page's readout;
 //   2. raw stepping speed of the wasm core on that world, nothing drawn;
 //   3. n×n×n cubes (JelloSim.cube(n), the panel's "build n³ cube"): real-time factor in the
-//      running viewer, to find the largest n that keeps up with the wall clock.
+//      running viewer, to find the largest n that keeps up with the wall clock;
+//   4. the example scenes, and a 20 000-point scene (`jello shape blob` voxelised at 39 cells by
+//      `jello create`), lit, in the running viewer, and the large one's core alone.
 // Usage: node bench/measure.mjs [SECONDS_PER_RUN]   (after scripts/web.sh and cargo build --release)
 import { launch, openViewer } from '../tests/browser.mjs';
 import { ROOT, startViewer } from '../tests/server.mjs';
+import { execFileSync } from 'node:child_process';
+import { mkdtempSync, readFileSync } from 'node:fs';
+import { tmpdir } from 'node:os';
 import { join } from 'node:path';
+import { JELLO } from '../tests/server.mjs';
 
 const seconds = Number(process.argv[2] ?? 8);
 const server = await startViewer([join(ROOT, 'examples', 'jello.w')]);
@@ -65,6 +71,36 @@ try {
     const r = await run();
     console.log(`cube ${String(n).padStart(2)}³ = ${String(n ** 3).padStart(4)} points: ${fmt(r)}`);
   }
+
+  for (const name of ['torus.toml', 'blob.toml', 'mould.toml', 'stack.toml']) {
+    await page.evaluate((name) => window.jello.loadUrl(`examples/${name}`, name), name);
+    const r = await run();
+    const points = await page.evaluate(() => window.jello.sim.activePoints().reduce((s, a) => s + a, 0));
+    console.log(`${name.padEnd(11)} ${String(points).padStart(5)} points: ${fmt(r)}`);
+  }
+
+  // The large scene: made here, loaded as a dropped file would be.
+  const dir = mkdtempSync(join(tmpdir(), 'jello-measure-'));
+  execFileSync(JELLO, ['shape', 'blob', join(dir, 'blob.obj'), '--detail', '8']);
+  const jelly = ['--density', '1000', '--modulus', '2e5', '--viscosity', '40'];
+  execFileSync(JELLO, ['create', join(dir, 'big.toml'), '--dt', '0.0007', '--k-collision', '2e5', '--d-collision', '50',
+    '--mesh', join(dir, 'blob.obj'), '--cells', '39', '--at', '0,0,-1', ...jelly]);
+  const big = readFileSync(join(dir, 'big.toml'), 'utf8');
+  await page.evaluate((text) => window.jello.loadText(text, 'big.toml'), big);
+  const points = await page.evaluate(() => window.jello.sim.activePoints().reduce((s, a) => s + a, 0));
+  console.log(`blob at 39 cells, ${points} points, lit:      ${fmt(await run())}`);
+  await page.keyboard.press('v');
+  console.log(`blob at 39 cells, ${points} points, wireframe: ${fmt(await run())}`);
+  await page.keyboard.press('v');
+  const bigRaw = await page.evaluate(async (seconds) => {
+    const app = window.jello;
+    app.paused = true;
+    const t0 = performance.now();
+    let steps = 0;
+    while (performance.now() - t0 < seconds * 1000) steps += app.sim.step(5);
+    return steps / ((performance.now() - t0) / 1000);
+  }, Math.min(seconds, 5));
+  console.log(`blob at 39 cells, core only: ${bigRaw.toFixed(1)} steps/s = ${(bigRaw * 0.0007).toFixed(3)}× real time`);
   if (errors.length) console.log('page errors:', errors);
 } finally {
   await browser.close();

@@ -170,11 +170,11 @@ fn a_binary_stl_becomes_a_body_that_a_sphere_holds_out() {
         "run",
         "lumpy.toml",
         "--time",
-        "3",
+        "6",
         "--frames",
         "frames",
         "--every",
-        "5000",
+        "10000",
         "--format",
         "obj",
         "--save",
@@ -209,6 +209,22 @@ fn a_binary_stl_becomes_a_body_that_a_sphere_holds_out() {
         deepest < 0.5 * body.min_spacing(),
         "sank {deepest} m into the sphere"
     );
+    // And rests on it, held by friction (the scene's default μ = 0.5): on top, and still.
+    let active: Vec<usize> = (0..body.len()).filter(|&p| body.is_active(p)).collect();
+    let centre = active
+        .iter()
+        .map(|&p| Vec3::from_array(state.positions[p]))
+        .fold(Vec3::ZERO, |s, p| s + p)
+        / active.len() as f64;
+    assert!(
+        centre.z > 0.2 && centre.x.hypot(centre.y) < 0.1,
+        "rests on top of the sphere: {centre:?}"
+    );
+    let fastest = active
+        .iter()
+        .map(|&p| Vec3::from_array(state.velocities[p]).length())
+        .fold(0.0, f64::max);
+    assert!(fastest < 0.05, "still moving at {fastest} m/s");
     let summary = t.jello(&["run", "lumpy.toml", "--time", "1", "-q"]);
     let penetration: f64 = summary
         .split("max penetration ")

@@ -4,11 +4,11 @@
 //! **Method.** Every active point of a body is a ball of radius [`Body::contact_radius`] (half the
 //! body's smallest lattice spacing). Two balls of different bodies that overlap are pushed apart
 //! along the line between their centres by a penalty spring with the model's collision stiffness,
-//! and damped with its collision damping: `kCollision·depth·n − dCollision (vA − vB)`, with
-//! `depth = rA + rB − |pA − pB|` and `n` the unit vector from B to A. The damping acts on the whole
-//! relative velocity, not only along `n` as at the walls: it also resists sliding (a viscous
-//! friction), without which a stack of frictionless balls would never settle. The force on B is
-//! exactly the opposite, so contacts conserve linear momentum.
+//! and damped with its collision damping: `(kCollision·depth − dCollision (vA − vB)·n)·n`, with
+//! `depth = rA + rB − |pA − pB|` and `n` the unit vector from B to A; across `n` acts Coulomb
+//! friction with the model's coefficient (see [`crate::friction`]; its cap uses the
+//! pair's reduced mass). The force on B is exactly the opposite, so contacts conserve linear
+//! momentum.
 //!
 //! **Limits.** Bodies keep a gap of about one radius between their cages at rest (the cage
 //! encloses the skin, so skins rest a little apart); a point moving more than a radius per step
@@ -36,12 +36,14 @@ pub struct Contacts {
     entries: Vec<u32>,
     /// Per sorted entry: its grid cell.
     entry_cells: Vec<[i32; 3]>,
-    /// Per sorted entry: its body's ball radius (m).
-    entry_radius: Vec<f64>,
+    /// Per sorted entry: its body.
+    entry_body: Vec<u32>,
     /// Per point: its grid cell (for the sort).
     point_cells: Vec<[i32; 3]>,
     /// Per body: the ball radius (m).
     radius: Vec<f64>,
+    /// Per body: the mass of a point (kg), for the friction's cap.
+    mass: Vec<f64>,
     /// Side of a grid cell (m).
     cell: f64,
 }
@@ -63,9 +65,10 @@ impl Contacts {
             starts: vec![0; buckets + 1],
             entries: vec![0; active],
             entry_cells: vec![[0; 3]; active],
-            entry_radius: vec![0.0; active],
+            entry_body: vec![0; active],
             point_cells: vec![[0; 3]; n],
             radius,
+            mass: bodies.iter().map(|b| b.material.mass).collect(),
             cell,
         }
     }
@@ -91,9 +94,10 @@ impl Contacts {
             starts,
             entries,
             entry_cells,
-            entry_radius,
+            entry_body,
             point_cells,
             radius,
+            mass,
             cell,
         } = self;
         forces.fill_zero();
@@ -123,7 +127,7 @@ impl Contacts {
                 let c = point_cells[q];
                 let slot = &mut starts[hash(c) & mask];
                 let e = *slot as usize;
-                (entries[e], entry_cells[e], entry_radius[e]) = (q as u32, c, radius[b]);
+                (entries[e], entry_cells[e], entry_body[e]) = (q as u32, c, b as u32);
                 *slot += 1;
             }
         }
@@ -133,7 +137,7 @@ impl Contacts {
         }
         starts[0] = 0;
         // Each active point sums the forces from the other bodies' balls around it.
-        let (kc, dc) = (model.k_collision, model.d_collision);
+        let (kc, dc, mu) = (model.k_collision, model.d_collision, model.friction);
         let (vx, vy, vz) = (v.x(), v.y(), v.z());
         let [fx, fy, fz] = forces.parts_mut();
         for (b, body) in bodies.iter().enumerate() {
@@ -157,8 +161,8 @@ impl Contacts {
                     let near_entries = entries[range.clone()]
                         .iter()
                         .zip(&entry_cells[range.clone()])
-                        .zip(&entry_radius[range]);
-                    for ((&e, &ec), &rb) in near_entries {
+                        .zip(&entry_body[range]);
+                    for ((&e, &ec), &eb) in near_entries {
                         // Another cell hashed to the same bucket, or the same body: skip.
                         let e = e as usize;
                         if ec != near || others.contains(&e) {
@@ -168,8 +172,11 @@ impl Contacts {
                             Vec3::new(px[e], py[e], pz[e]),
                             Vec3::new(vx[e], vy[e], vz[e]),
                         );
-                        let reach = radius[b] + rb;
-                        f += pair_force(pa - pb, va - vb, reach, kc, dc);
+                        let eb = eb as usize;
+                        let reach = radius[b] + radius[eb];
+                        // The friction's cap: the pair's reduced mass over the step.
+                        let c_max = mass[b] * mass[eb] / ((mass[b] + mass[eb]) * model.dt);
+                        f += pair_force(pa - pb, va - vb, reach, [kc, dc, mu, c_max]);
                     }
                 }
                 (fx[a], fy[a], fz[a]) = (f.x, f.y, f.z);
@@ -194,14 +201,22 @@ fn hash(c: [i32; 3]) -> usize {
 
 /// The penalty force on ball A from ball B at separation `d = pA − pB` and relative velocity
 /// `w = vA − vB`, when they overlap (`|d| < reach`): exactly minus the force on B from A.
+/// `[kc, dc, mu, c_max]`: collision stiffness and damping, and the friction coefficient with its
+/// cap (see [`crate::friction`]).
 #[inline]
-pub fn pair_force(d: Vec3, w: Vec3, reach: f64, kc: f64, dc: f64) -> Vec3 {
+pub fn pair_force(d: Vec3, w: Vec3, reach: f64, [kc, dc, mu, c_max]: [f64; 4]) -> Vec3 {
     let l2 = d.length_squared();
     if !(l2 < reach * reach && l2 > 0.0) {
         return Vec3::ZERO;
     }
     let l = l2.sqrt();
-    d * (kc * (reach - l) / l) - w * dc
+    let n = d / l;
+    let normal = kc * (reach - l);
+    let mut f = n * (normal - dc * w.dot(n));
+    if mu > 0.0 {
+        f += crate::friction::sliding(n, w, mu * normal, c_max);
+    }
+    f
 }
 
 /// Depth (m) of the deepest overlap between balls of different bodies, and the penalty energy

@@ -19,6 +19,7 @@ use std::ops::Range;
 
 use crate::body::Body;
 use crate::contact::Contacts;
+use crate::friction::{self, Anchors};
 use crate::lattice::STENCIL;
 use crate::model::Model;
 use crate::obstacle::{penalty, wall_force, Obstacle};
@@ -49,6 +50,9 @@ pub struct ForceScratch {
     bodies: Vec<BodyScratch>,
     /// The contact pass between bodies.
     contacts: Contacts,
+    /// Where points touching obstacles are tied (see [`crate::friction`]): moved between steps
+    /// by [`ForceScratch::update_anchors`], read by every force evaluation of a step.
+    anchors: Anchors,
 }
 
 /// The buffers of one body's spring pass.
@@ -119,7 +123,17 @@ impl ForceScratch {
         ForceScratch {
             bodies: model.bodies().iter().map(BodyScratch::new).collect(),
             contacts: Contacts::new(model),
+            anchors: Anchors::new(model),
         }
+    }
+
+    /// After a step that left the points at `pos`: ties, moves and lets go the obstacles'
+    /// friction anchors (see [`Anchors::update`]).
+    pub fn update_anchors(&mut self, model: &Model, pos: &[Vec3]) {
+        if !self.anchors.fits(model) {
+            self.anchors = Anchors::new(model);
+        }
+        self.anchors.update(model, pos);
     }
 
     fn fits(&self, model: &Model) -> bool {
@@ -130,6 +144,7 @@ impl ForceScratch {
                 .zip(model.bodies())
                 .all(|(s, b)| s.fits(b))
             && self.contacts.fits(model)
+            && self.anchors.fits(model)
     }
 }
 
@@ -252,6 +267,9 @@ pub struct PointInputs<'a> {
     pub active: Option<&'a [bool]>,
     /// Contact force from other bodies on each point (N), x, y and z, or `None` for none.
     pub contact: Option<[&'a [f64]; 3]>,
+    /// The obstacles' friction anchors (of every point; see [`crate::friction`]), or `None`
+    /// when there are none (friction off, or a force evaluation outside a step).
+    pub anchors: Option<&'a Anchors>,
 }
 
 /// One force evaluation at positions `p` and velocities `v`, fused with what the caller does
@@ -301,7 +319,12 @@ where
     if !scratch.fits(model) {
         *scratch = ForceScratch::new(model);
     }
-    let ForceScratch { bodies, contacts } = scratch;
+    let ForceScratch {
+        bodies,
+        contacts,
+        anchors,
+    } = scratch;
+    let anchors = (!anchors.is_empty()).then_some(&*anchors);
     // Contacts between bodies first: every chunk's update reads them.
     let several = model.bodies().len() > 1;
     if several {
@@ -333,6 +356,7 @@ where
             v,
             control,
             contact,
+            anchors,
             update,
         };
         // As many ranges as the buffers allow (the pool may have grown since they were sized;
@@ -355,6 +379,7 @@ struct Pass<'a, U> {
     v: &'a Soa,
     control: &'a Control,
     contact: Option<&'a Soa>,
+    anchors: Option<&'a Anchors>,
     update: &'a U,
 }
 
@@ -503,6 +528,7 @@ impl<U> Pass<'_, U> {
                 mass: self.body.material.mass,
                 active: (!active.is_empty()).then(|| &active[local + t..local + t + n]),
                 contact: self.contact.map(|c| c.range(r.clone())),
+                anchors: self.anchors,
             };
             // The row buffer is free once the chunk's springs are done.
             let [ax, ay, az] = row.parts_mut();
@@ -872,6 +898,8 @@ fn finish_forces(
 ) {
     let [ax, ay, az] = acc;
     let (kc, dc, mass) = (model.k_collision, model.d_collision, point.mass);
+    let law = [kc, dc, model.friction];
+    let c_max = mass / model.dt;
     if let Some(contact) = point.contact {
         for (a, c) in [&mut *ax, &mut *ay, &mut *az].into_iter().zip(contact) {
             for (a, c) in a.iter_mut().zip(c) {
@@ -880,22 +908,22 @@ fn finish_forces(
         }
     }
     // Obstacles, one loop each over the block (branch-free, so each vectorises).
-    for obstacle in &model.obstacles {
+    for (o, obstacle) in model.obstacles.iter().enumerate() {
+        let anchors = point.anchors.map(|a| &a.of(o)[block.clone()]);
+        let force = [&mut *ax, &mut *ay, &mut *az];
         match *obstacle {
             Obstacle::Plane(pl) => {
                 let (norm, inward) = (pl.normal_length(), pl.inward_normal());
-                add_contacts(point, [&mut *ax, &mut *ay, &mut *az], kc, dc, |p| {
+                add_contacts(point, force, anchors, law, c_max, |p| {
                     pl.depth_with(p, norm, inward)
                 })
             }
             Obstacle::Sphere(sphere) => {
-                add_contacts(point, [&mut *ax, &mut *ay, &mut *az], kc, dc, |p| {
-                    sphere.depth(p)
-                })
+                add_contacts(point, force, anchors, law, c_max, |p| sphere.depth(p))
             }
-            Obstacle::Box(b) => add_contacts(point, [&mut *ax, &mut *ay, &mut *az], kc, dc, |p| {
-                b.solid_depth(p)
-            }),
+            Obstacle::Box(b) => {
+                add_contacts(point, force, anchors, law, c_max, |p| b.solid_depth(p))
+            }
         }
     }
     // Pulls on the block's points, in the order given.
@@ -920,13 +948,15 @@ fn finish_forces(
 }
 
 /// `force += penalty` over a block for one obstacle given by `depth_normal(p)` (depth ≤ 0 for
-/// none).
+/// none), with the block's friction `anchors` (none: no anchors); `law` and `c_max` as
+/// [`penalty`] takes them.
 #[inline(always)]
 fn add_contacts(
     point: PointInputs<'_>,
     force: [&mut [f64]; 3],
-    kc: f64,
-    dc: f64,
+    anchors: Option<&[Vec3]>,
+    law: [f64; 3],
+    c_max: f64,
     depth_normal: impl Fn(Vec3) -> (f64, Vec3),
 ) {
     let [fx, fy, fz] = force;
@@ -935,8 +965,18 @@ fn add_contacts(
     let [px, py, pz] = point.pos.map(|c| &c[..len]);
     let [vx, vy, vz] = point.vel.map(|c| &c[..len]);
     for t in 0..len {
-        let (depth, n) = depth_normal(Vec3::new(px[t], py[t], pz[t]));
-        let f = penalty(depth, n, Vec3::new(vx[t], vy[t], vz[t]), kc, dc);
+        let p = Vec3::new(px[t], py[t], pz[t]);
+        let (depth, n) = depth_normal(p);
+        let anchor = anchors.map_or(friction::NONE, |a| a[t]);
+        let f = penalty(
+            depth,
+            n,
+            p,
+            Vec3::new(vx[t], vy[t], vz[t]),
+            anchor,
+            law,
+            c_max,
+        );
         (fx[t], fy[t], fz[t]) = (fx[t] + f.x, fy[t] + f.y, fz[t] + f.z);
     }
 }

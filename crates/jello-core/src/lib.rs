@@ -35,6 +35,7 @@ pub mod contact;
 pub mod diagnostics;
 pub mod field;
 pub mod forces;
+pub mod friction;
 pub mod gltf;
 pub mod integrator;
 pub mod lattice;

@@ -61,6 +61,10 @@ pub struct Model {
     pub k_collision: f64,
     /// Damping of the collision penalty springs (N·s/m).
     pub d_collision: f64,
+    /// Coulomb friction coefficient of obstacles and of contacts between bodies (at least 0;
+    /// 0 in world files). The walls and the inclined plane of SPEC.md have none. See
+    /// [`crate::friction`].
+    pub friction: f64,
     /// The bounding box; points outside it are pushed back by penalty springs.
     pub bounds: Aabb,
     /// The inclined plane, when present.
@@ -141,6 +145,7 @@ impl Model {
             bodies: self.bodies.clone(),
             k_collision: self.k_collision,
             d_collision: self.d_collision,
+            friction: self.friction,
             bounds: self.bounds,
             plane: self.plane,
             obstacles: self.obstacles.clone(),
@@ -161,6 +166,7 @@ pub struct ModelBuilder {
     bodies: Vec<Body>,
     k_collision: f64,
     d_collision: f64,
+    friction: f64,
     bounds: Aabb,
     plane: Option<Plane>,
     obstacles: Vec<Obstacle>,
@@ -179,6 +185,7 @@ impl Default for ModelBuilder {
             bodies: vec![Body::lattice_box(Lattice::classic(), Material::classic())],
             k_collision: defaults::K_COLLISION,
             d_collision: defaults::D_COLLISION,
+            friction: 0.0,
             bounds: Aabb::classic(),
             plane: None,
             obstacles: Vec::new(),
@@ -257,6 +264,13 @@ impl ModelBuilder {
     pub fn collision(mut self, k: f64, d: f64) -> Self {
         self.k_collision = k;
         self.d_collision = d;
+        self
+    }
+
+    /// Coulomb friction coefficient of obstacles and body contacts (default 0): see
+    /// [`Model::friction`].
+    pub fn friction(mut self, mu: f64) -> Self {
+        self.friction = mu;
         self
     }
 
@@ -358,6 +372,7 @@ impl ModelBuilder {
         }
         positive("collision stiffness", self.k_collision)?;
         non_negative("collision damping", self.d_collision)?;
+        non_negative("friction", self.friction)?;
         positive("escape margin", self.escape_margin)?;
         if self.steps_per_frame == 0 {
             return Err(ModelError::new("steps per frame must be at least 1"));
@@ -387,6 +402,7 @@ impl ModelBuilder {
             bodies: self.bodies,
             k_collision: self.k_collision,
             d_collision: self.d_collision,
+            friction: self.friction,
             bounds: self.bounds,
             plane: self.plane,
             obstacles: self.obstacles,

@@ -29,10 +29,22 @@ impl Contact {
         n * (k * self.depth) - n * (d * v.dot(n))
     }
 
-    /// The penalty force of an obstacle (sphere, solid box, plane obstacle) on a point moving at
-    /// `v`: the same spring, and damping of the whole velocity (see the obstacle kernel).
-    pub fn obstacle_force(&self, v: Vec3, k: f64, d: f64) -> Vec3 {
-        self.normal * (k * self.depth) - v * d
+    /// The penalty force of an obstacle (sphere, solid box, plane obstacle) on a point at `p` of
+    /// mass `m` moving at `v` in steps of `dt`, tied to `anchor` (NaN: not yet):
+    /// [`Contact::force`] plus friction with coefficient `mu` (see [`crate::friction`]). The force
+    /// kernel's obstacle force.
+    pub fn obstacle_force(
+        &self,
+        p: Vec3,
+        v: Vec3,
+        anchor: Vec3,
+        [k, d, mu]: [f64; 3],
+        m: f64,
+        dt: f64,
+    ) -> Vec3 {
+        let f =
+            crate::friction::obstacle(p, v, self.depth, self.normal, anchor, [k, d, mu], m / dt);
+        self.force(v, k, d) + f
     }
 }
 
@@ -330,13 +342,27 @@ pub(crate) fn wall_force(c: f64, v: f64, lo: f64, hi: f64, kc: f64, dc: f64) -> 
 }
 
 /// The penalty force of an obstacle's contact given in branch-free form (`depth ≤ 0` means
-/// none): `kCollision·depth·n − dCollision·v`. Unlike the walls and the inclined plane of SPEC.md,
-/// whose damping acts along the normal only, an obstacle damps the whole velocity of a point
-/// touching it, so that it also resists sliding (a viscous friction): without it a body could
-/// never come to rest on a sphere unless perfectly centred.
+/// none): `(kCollision·depth − dCollision·(v·n))·n`, the walls' spring and damping along the
+/// normal, plus Coulomb friction across it.
+///
+/// With a friction coefficient `mu > 0` (`[kc, dc, mu]`), the friction of a point at `p` tied to
+/// `anchor` is added (see [`crate::friction::obstacle`]); `c_max` is the point's mass over the time
+/// step.
 #[inline(always)]
-pub(crate) fn penalty(depth: f64, n: Vec3, v: Vec3, kc: f64, dc: f64) -> Vec3 {
-    let push = n * (kc * depth) - v * dc;
+pub(crate) fn penalty(
+    depth: f64,
+    n: Vec3,
+    p: Vec3,
+    v: Vec3,
+    anchor: Vec3,
+    law: [f64; 3],
+    c_max: f64,
+) -> Vec3 {
+    let [kc, dc, mu] = law;
+    let mut push = n * (kc * depth - dc * v.dot(n));
+    if mu > 0.0 {
+        push += crate::friction::obstacle(p, v, depth, n, anchor, law, c_max);
+    }
     if depth > 0.0 {
         push
     } else {

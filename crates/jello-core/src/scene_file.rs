@@ -12,6 +12,7 @@
 //! [collision]                 # the penalty springs of walls, obstacles and contacts
 //! stiffness = 400.0           # N/m
 //! damping = 0.25              # N·s/m
+//! friction = 0.5              # Coulomb coefficient of obstacles and contacts (not the walls)
 //!
 //! [box]                       # the walls
 //! min = [-2.0, -2.0, -2.0]
@@ -153,13 +154,20 @@ pub struct Collision {
     pub stiffness: f64,
     /// N·s/m.
     pub damping: f64,
+    /// Coulomb friction coefficient of obstacles and of contacts between bodies (see
+    /// [`crate::friction`]); the walls have none, as in SPEC.md.
+    pub friction: f64,
 }
+
+/// Friction coefficient of a scene that does not give one: about rubbery jelly on a plate.
+pub const DEFAULT_FRICTION: f64 = 0.5;
 
 impl Default for Collision {
     fn default() -> Self {
         Collision {
             stiffness: defaults::K_COLLISION,
             damping: defaults::D_COLLISION,
+            friction: DEFAULT_FRICTION,
         }
     }
 }
@@ -451,6 +459,7 @@ impl SceneFile {
             .steps_per_frame(self.simulation.steps_per_frame)
             .gravity(v3(self.simulation.gravity))
             .collision(self.collision.stiffness, self.collision.damping)
+            .friction(self.collision.friction)
             .bounds(bounds)
             .obstacles(obstacles)
             .field(field)

@@ -179,6 +179,8 @@ pub fn step(
     std::mem::swap(&mut state.vel, &mut s.next_vel);
     state.time += dt;
     state.steps += 1;
+    // Obstacle friction ties, drags and lets go its anchors between steps.
+    s.force.update_anchors(model, &state.pos);
     Ok(())
 }
 

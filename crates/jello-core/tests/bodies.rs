@@ -220,8 +220,8 @@ fn the_contact_force_is_equal_and_opposite() {
     let mut rng = Rng(3);
     for _ in 0..1000 {
         let (d, w) = (rng.vec3() * 0.1, rng.vec3());
-        let f = pair_force(d, w, 0.12, 400.0, 0.25);
-        assert_eq!(f, -pair_force(-d, -w, 0.12, 400.0, 0.25));
+        let f = pair_force(d, w, 0.12, [400.0, 0.25, 0.5, 0.01]);
+        assert_eq!(f, -pair_force(-d, -w, 0.12, [400.0, 0.25, 0.5, 0.01]));
     }
 }
 
@@ -284,6 +284,7 @@ fn stacked_bodies_stay_stacked() {
         .bodies(vec![lower, upper])
         .bounds(floor)
         .collision(2000.0, 2.0)
+        .friction(0.5)
         .gravity(Vec3::new(0.0, -9.81, 0.0))
         .dt(0.0002)
         .build()
@@ -315,12 +316,15 @@ fn stacked_bodies_stay_stacked() {
     assert!(deepest < 0.5 * reach, "overlap {deepest} of {reach}");
 }
 
-/// A body dropped on a sphere comes to rest on it: draped over the sphere, not moving, and not
-/// sunk in deeper than half a cell.
-#[test]
-fn a_body_dropped_on_a_sphere_rests_on_it() {
+/// A slab 0.6 m wide and 0.3 m thick dropped from `drop` above a sphere of radius 0.3 m, its
+/// centre `offset` to the side of the sphere's top, with friction `mu`; after 4 s: the model,
+/// the state.
+fn drop_on_sphere(offset: f64, drop: f64, mu: f64, modulus: f64) -> (jello_core::Model, State) {
     let room = Aabb::new(Vec3::new(-2.0, -1.0, -2.0), Vec3::new(2.0, 3.0, 2.0)).unwrap();
-    let slab = cuboid(Vec3::new(-0.3, 0.6, -0.3), Vec3::new(0.3, 0.9, 0.3));
+    let slab = cuboid(
+        Vec3::new(offset - 0.3, drop + 0.3, -0.3),
+        Vec3::new(offset + 0.3, drop + 0.6, 0.3),
+    );
     let body = Body::from_mesh(
         &slab.vertices,
         &slab.triangles,
@@ -329,13 +333,14 @@ fn a_body_dropped_on_a_sphere_rests_on_it() {
         Material::classic(),
     )
     .unwrap()
-    .with_modulus(8000.0, 200.0, 400.0);
+    .with_modulus(modulus, 200.0, 400.0);
     let sphere = Sphere::new(Vec3::new(0.0, 0.0, 0.0), 0.3).unwrap();
     let model = ModelBuilder::new()
         .bodies(vec![body])
         .bounds(room)
         .obstacle(Obstacle::Sphere(sphere))
-        .collision(3000.0, 3.0)
+        .collision(3000.0, 20.0)
+        .friction(mu)
         .gravity(Vec3::new(0.0, -9.81, 0.0))
         .dt(0.0002)
         .integrator(Integrator::SymplecticEuler)
@@ -343,6 +348,14 @@ fn a_body_dropped_on_a_sphere_rests_on_it() {
         .unwrap();
     let mut state = State::at_rest(&model);
     common::run(&model, &mut state, 20000);
+    (model, state)
+}
+
+/// A body dropped on a sphere comes to rest on it: draped over the sphere, not moving, and not
+/// sunk in deeper than half a cell.
+#[test]
+fn a_body_dropped_on_a_sphere_rests_on_it() {
+    let (model, state) = drop_on_sphere(0.0, 0.3, 0.5, 8000.0);
     let body = model.body(0);
     let v = (0..body.len())
         .filter(|&p| body.is_active(p))

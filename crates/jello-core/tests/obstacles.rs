@@ -1,9 +1,9 @@
 //! Obstacles beyond the box and the classic plane: spheres, solid boxes and planes.
 //!
 //! - Exact accelerations at hand-placed points, every expected value written out from the penalty
-//!   spring of an obstacle (`kCollision·depth·n − dCollision·v`: SPEC.md's spring, with damping of
-//!   the whole velocity, a viscous friction) and each shape's geometry, on a 2-point lattice whose
-//!   spring exerts exactly no force (as in `forces_exact.rs`).
+//!   spring of an obstacle (`(kCollision·depth − dCollision·v·n)·n`: SPEC.md's spring and normal
+//!   damping, plus Coulomb friction when the model has a coefficient) and each shape's geometry, on
+//!   a 2-point lattice whose spring exerts exactly no force (as in `forces_exact.rs`).
 //! - The collision energy's negative gradient (central differences) is the static contact force,
 //!   for every shape: the energy and the force describe the same contacts.
 //! - A cube dropped on a sphere comes to rest on top of it; the same bits on 1 and 3 threads.
@@ -43,9 +43,9 @@ fn pair_acc(model: &Model, a: Vec3, v: Vec3) -> [Vec3; 2] {
     acc
 }
 
-/// An obstacle's penalty spring over the mass.
+/// An obstacle's penalty spring over the mass (no friction).
 fn by_hand(depth: f64, n: Vec3, v: Vec3) -> Vec3 {
-    (n * (KC * depth) - v * DC) / MASS
+    n * (KC * depth - DC * v.dot(n)) / MASS
 }
 
 fn assert_close(got: Vec3, want: Vec3, what: &str) {
@@ -54,6 +54,38 @@ fn assert_close(got: Vec3, want: Vec3, what: &str) {
         (got - want).max_abs() <= 1e-12 * scale,
         "{what}: got {got:?}, want {want:?}"
     );
+}
+
+/// With friction μ, a point sliding into an obstacle (no anchor yet, as outside a step) also
+/// feels `μ·kCollision·depth` against its tangential velocity, or the cap `m/dt·|vt|` when that
+/// is less.
+#[test]
+fn friction_opposes_sliding_by_mu_times_the_normal_force() {
+    let sphere = Sphere::new(Vec3::new(0.0, 0.0, 0.0), 0.5).unwrap();
+    let mu = 0.4;
+    let model = pair(vec![Obstacle::Sphere(sphere)])
+        .to_builder()
+        .friction(mu)
+        .build()
+        .unwrap();
+    let a = Vec3::new(0.0, 0.0, 0.45); // 5 cm deep, normal +z
+    let n = Vec3::new(0.0, 0.0, 1.0);
+    for (v, capped) in [
+        (Vec3::new(3.0, -4.0, -1.0), false),
+        (Vec3::new(0.003, 0.0, 0.0), true),
+    ] {
+        let [acc, _] = pair_acc(&model, a, v);
+        let vt = Vec3::new(v.x, v.y, 0.0);
+        let limit = mu * KC * 0.05;
+        let size = if capped {
+            MASS / model.dt * vt.length()
+        } else {
+            limit
+        };
+        assert!(capped == (size < limit));
+        let want = by_hand(0.05, n, v) - vt * (size / vt.length()) / MASS;
+        assert_close(acc, want, "sliding friction");
+    }
 }
 
 #[test]

@@ -44,6 +44,10 @@ pub struct CreateArgs {
     /// Damping of the collision penalty springs (N·s/m).
     #[arg(long, value_parser = parse_non_negative, default_value_t = defaults::D_COLLISION)]
     pub d_collision: f64,
+    /// Scene: Coulomb friction coefficient of obstacles and of contacts between bodies (the
+    /// walls have none) [default: 0.5].
+    #[arg(long, value_parser = parse_non_negative)]
+    pub friction: Option<f64>,
     /// Mass of each point (kg) [default: 1/512]; per body.
     #[arg(long, value_parser = parse_positive)]
     pub mass: Vec<f64>,
@@ -368,6 +372,7 @@ pub fn create(args: CreateArgs, matches: &clap::ArgMatches) -> Result<(), CliErr
     let scene_only = [
         ("--mesh", !args.mesh.is_empty()),
         ("--cube", !args.cube.is_empty()),
+        ("--friction", args.friction.is_some()),
         ("--cells", !args.cells.is_empty()),
         ("--size", !args.size.is_empty()),
         ("--at", !args.at.is_empty()),

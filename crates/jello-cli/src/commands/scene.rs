@@ -243,6 +243,9 @@ pub fn create_scene(args: &CreateArgs, matches: &ArgMatches) -> Result<(), CliEr
     scene.collision = Collision {
         stiffness: args.k_collision,
         damping: args.d_collision,
+        friction: args
+            .friction
+            .unwrap_or(jello_core::scene_file::DEFAULT_FRICTION),
     };
     scene.bounds = Some(BoxSpec {
         min: bounds.min.to_array(),

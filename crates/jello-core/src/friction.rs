@@ -1,0 +1,176 @@
+//! Coulomb friction: of obstacles (planes, spheres, solid boxes) on the points touching them,
+//! and of contacts between bodies. The walls and the inclined plane of SPEC.md have none.
+//!
+//! **Obstacles stick.** A point that touches an obstacle is tied to an *anchor*, the place where
+//! it came into contact, by a tangential spring of the collision stiffness and damper of the
+//! collision damping: `Ft = −kCollision·Δt − dCollision·vt`, with `Δt` the point's offset from
+//! its anchor across the contact normal and `vt` its velocity across it. The spring holds any
+//! tangential load up to `μ` times the normal force `kCollision·depth` without sliding (a body
+//! rests on a slope or on a ball); beyond that the force is clamped to the cone `|Ft| ≤
+//! μ·kCollision·depth` and the anchor slides along behind the point, `μ·depth` away (kinetic
+//! friction). Anchors are moved only between steps ([`Anchors::update`]), so every stage of a
+//! step sees the same forces for the same positions and velocities, and the explicit integrators
+//! stay stable at the collision spring's own time step.
+//!
+//! **Bodies slide with a cap.** Contacts between bodies change partners from step to step, so
+//! they carry no anchors: their friction opposes the sliding velocity with `μ` times the normal
+//! force, capped as a damper of the pair's reduced mass over the time step ([`sliding`]). That
+//! cap keeps the explicit integrators stable, and is also its limit: a contact under a load below
+//! `μ·normal` creeps at `(load/m)·dt` instead of sticking, so a body resting on another on a slope
+//! slowly slides.
+//!
+//! A point touching an obstacle for the first time within a step has no anchor yet and feels
+//! [`sliding`] friction until the step ends.
+
+use crate::model::Model;
+use crate::vec3::Vec3;
+
+/// The anchor of a point that touches nothing.
+pub const NONE: Vec3 = Vec3::new(f64::NAN, f64::NAN, f64::NAN);
+
+/// Coulomb friction of a contact without an anchor: at normal `n` (unit) between surfaces sliding
+/// at `v` (relative velocity), pressed together by the normal force `normal` (N): against the
+/// tangential velocity `vt`, of size `normal` while sliding (`normal` already carries `μ`), but
+/// never more than `c_max·|vt|`.
+///
+/// The cap: exact Coulomb friction is a step in velocity, and an explicit integrator steps over
+/// it and chatters. Capping it as a damper of coefficient `c_max = m/dt` (`m` the point's mass,
+/// or the pair's reduced mass) is the most that stops the sliding within one step and stays
+/// stable (`c·dt/m ≤ 1` for every explicit integrator here).
+#[inline(always)]
+pub fn sliding(n: Vec3, v: Vec3, normal: f64, c_max: f64) -> Vec3 {
+    let vt = v - n * v.dot(n);
+    let speed = vt.length();
+    if speed > 0.0 && normal > 0.0 {
+        vt * -(normal.min(c_max * speed) / speed)
+    } else {
+        Vec3::ZERO
+    }
+}
+
+/// The friction of an obstacle on a point at `p` moving at `v`, touching it at `depth` (> 0)
+/// along the unit normal `n`, tied to `anchor` (NaN: none yet): the tangential spring and damper
+/// clamped to the Coulomb cone, or [`sliding`] friction with the cap `c_max` when there is no
+/// anchor. `[kc, dc, mu]`: collision stiffness, damping and friction coefficient.
+#[inline(always)]
+pub fn obstacle(
+    p: Vec3,
+    v: Vec3,
+    depth: f64,
+    n: Vec3,
+    anchor: Vec3,
+    [kc, dc, mu]: [f64; 3],
+    c_max: f64,
+) -> Vec3 {
+    let limit = mu * kc * depth;
+    if anchor.x.is_nan() {
+        return sliding(n, v, limit, c_max);
+    }
+    let offset = p - anchor;
+    let offset_t = offset - n * offset.dot(n);
+    let vt = v - n * v.dot(n);
+    let f = offset_t * -kc - vt * dc;
+    let size = f.length();
+    if size > limit {
+        f * (limit / size)
+    } else {
+        f
+    }
+}
+
+/// Per obstacle and point, where the point is tied while it touches the obstacle (NaN when it
+/// does not): the state of obstacle friction, carried from step to step by the step's scratch.
+/// Empty when the model has no friction or no obstacles.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Anchors {
+    /// `obstacles × points`, obstacle-major.
+    at: Vec<Vec3>,
+    points: usize,
+}
+
+impl Anchors {
+    /// No anchors yet, for `model`.
+    pub fn new(model: &Model) -> Self {
+        if model.friction == 0.0 || model.obstacles.is_empty() {
+            return Anchors::default();
+        }
+        let points = model.point_count();
+        Anchors {
+            at: vec![NONE; model.obstacles.len() * points],
+            points,
+        }
+    }
+
+    /// True when these anchors are for `model`'s points and obstacles.
+    pub fn fits(&self, model: &Model) -> bool {
+        *self == Anchors::default() && (model.friction == 0.0 || model.obstacles.is_empty())
+            || self.points == model.point_count()
+                && self.at.len() == model.obstacles.len() * self.points
+    }
+
+    /// True when obstacle friction is on (there are anchors to keep).
+    pub fn is_empty(&self) -> bool {
+        self.at.is_empty()
+    }
+
+    /// The anchors of obstacle `o`, one per point.
+    pub fn of(&self, o: usize) -> &[Vec3] {
+        &self.at[o * self.points..(o + 1) * self.points]
+    }
+
+    /// After a step, with the points at `pos`: a point that left an obstacle lets go; one that
+    /// touches it and has no anchor is tied where it is; one whose offset from its anchor across
+    /// the normal is past the Coulomb cone (`μ·depth`) drags the anchor along to the cone's edge.
+    pub fn update(&mut self, model: &Model, pos: &[Vec3]) {
+        if self.at.is_empty() {
+            return;
+        }
+        let mu = model.friction;
+        for (o, obstacle) in model.obstacles.iter().enumerate() {
+            let anchors = &mut self.at[o * self.points..(o + 1) * self.points];
+            for (anchor, &p) in anchors.iter_mut().zip(pos) {
+                let Some(contact) = obstacle.contact(p) else {
+                    *anchor = NONE;
+                    continue;
+                };
+                if anchor.x.is_nan() {
+                    *anchor = p;
+                    continue;
+                }
+                let n = contact.normal;
+                let offset = p - *anchor;
+                let offset_t = offset - n * offset.dot(n);
+                let (length, reach) = (offset_t.length(), mu * contact.depth);
+                if length > reach {
+                    *anchor = p - offset_t * (reach / length);
+                }
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_tied_point_is_held_up_to_the_cone_and_no_further() {
+        let n = Vec3::new(0.0, 0.0, 1.0);
+        let p = Vec3::new(0.01, 0.0, -0.001);
+        let anchor = Vec3::new(0.0, 0.0, -0.0005);
+        let law = [1000.0, 0.0, 0.5];
+        // Inside the cone: the tangential spring alone (the normal offset is ignored).
+        let f = obstacle(p, Vec3::ZERO, 0.1, n, anchor, law, 1.0);
+        assert!((f - Vec3::new(-10.0, 0.0, 0.0)).max_abs() < 1e-12, "{f:?}");
+        // Past it: clamped to μ·k·depth, still against the offset.
+        let f = obstacle(p, Vec3::ZERO, 0.01, n, anchor, law, 1.0);
+        assert!((f - Vec3::new(-5.0, 0.0, 0.0)).max_abs() < 1e-12, "{f:?}");
+        // No anchor: sliding friction against the velocity, capped.
+        let none = NONE;
+        let v = Vec3::new(0.0, 2.0, -3.0);
+        let f = obstacle(p, v, 0.1, n, none, law, 1.0);
+        assert_eq!(f, Vec3::new(0.0, -2.0, 0.0));
+        let f = obstacle(p, v, 0.1, n, none, law, 100.0);
+        assert_eq!(f, Vec3::new(0.0, -50.0, 0.0));
+    }
+}
