@@ -122,9 +122,8 @@ fn obj_vertices(text: &str) -> Vec<Vec3> {
 }
 
 /// A binary STL of a lumpy shape dropped on a sphere: the frames hold the mesh (its vertex and
-/// triangle counts, its vertices at t = 0), and the sphere holds it out (contacts have only
-/// viscous friction, so a body not centred slides off the sphere in the end; the core's
-/// `bodies.rs` checks a centred slab coming to rest on one).
+/// triangle counts, its vertices at t = 0), the sphere holds it out, and friction keeps it on
+/// top until it comes to rest.
 #[test]
 fn a_binary_stl_becomes_a_body_that_a_sphere_holds_out() {
     let t = TempDir::new("stl");
