@@ -418,3 +418,66 @@ fn a_shape_becomes_a_scene_with_its_mesh_as_the_skin() {
     let info = dir.jello(&["info", "ring.toml"]);
     assert!(info.contains("skin 128 vertices, 256 triangles"), "{info}");
 }
+
+/// `--shake` moves a body's pins along a sine: the scene holds it and `jello run` follows it;
+/// without `--pin` it is a usage error.
+#[test]
+fn pins_shake_from_the_command_line() {
+    let dir = TempDir::new("shake");
+    dir.jello(&[
+        "create",
+        "shake.toml",
+        "--cube",
+        "4",
+        "--at",
+        "0,0,0",
+        "--pin",
+        "0,0,0.5,0.3",
+        "--shake",
+        "0.1,0,0,2",
+        "--gravity",
+        "0,0,0",
+    ]);
+    let scene = dir.scene("shake.toml");
+    let shake = scene.bodies[0].pins[0].shake.expect("the pin shakes");
+    assert_eq!((shake.amplitude, shake.frequency), ([0.1, 0.0, 0.0], 2.0));
+    // A quarter period: the top has moved by the amplitude.
+    dir.jello(&[
+        "run",
+        "shake.toml",
+        "--time",
+        "0.125",
+        "--save",
+        "end.toml",
+        "-q",
+    ]);
+    let end = dir.scene("end.toml");
+    let made = end.to_scene("end.toml").unwrap();
+    let p = made.model.pin_motions[0].points[0] as usize;
+    let start = scene.to_scene("shake.toml").unwrap().state.pos[p];
+    let moved = made.state.pos[p] - start;
+    assert!(
+        (moved - Vec3::new(0.1, 0.0, 0.0)).max_abs() < 1e-9,
+        "{moved:?}"
+    );
+    dir.fails(
+        &["create", "s.toml", "--cube", "4", "--shake", "0.1,0,0,2"],
+        2,
+        "no --pin",
+    );
+    dir.fails(
+        &[
+            "create",
+            "s.toml",
+            "--cube",
+            "4",
+            "--pin",
+            "0,0,0,0.3",
+            "--shake",
+            "0.1,0,0,0",
+        ],
+        1,
+        "frequency above 0",
+    );
+    assert!(!dir.path("s.toml").exists());
+}

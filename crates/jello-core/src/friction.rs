@@ -20,7 +20,8 @@
 //! slowly slides.
 //!
 //! A point touching an obstacle for the first time within a step has no anchor yet and feels
-//! [`sliding`] friction until the step ends.
+//! [`sliding`] friction until the step ends. Anchors live in the step's scratch, not in the state:
+//! a run resumed from a saved state ties its touching points afresh where they are.
 
 use crate::model::Model;
 use crate::vec3::Vec3;

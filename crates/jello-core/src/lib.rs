@@ -41,6 +41,7 @@ pub mod integrator;
 pub mod lattice;
 pub mod mesh;
 pub mod model;
+pub mod motion;
 pub mod obstacle;
 pub mod scene_file;
 pub mod scenes;

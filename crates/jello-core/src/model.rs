@@ -6,6 +6,7 @@ use crate::body::{Body, Material};
 use crate::field::ForceField;
 use crate::integrator::Integrator;
 use crate::lattice::{Lattice, SpringKind, Springs};
+use crate::motion::{Motion, PinMotion};
 pub use crate::obstacle::{Aabb, Obstacle, Plane};
 use crate::vec3::Vec3;
 
@@ -76,6 +77,8 @@ pub struct Model {
     /// them): their acceleration is always zero, so a pinned point at rest is held in place (one
     /// moving keeps its velocity). The springs to them still act on their neighbours.
     pub pins: Vec<u32>,
+    /// Pinned points moved along paths (each point also in `pins`; see [`crate::motion`]).
+    pub pin_motions: Vec<PinMotion>,
     /// The external force field, when present.
     pub field: Option<ForceField>,
     /// Uniform acceleration of every active point (m/s²), on top of the field (which is a
@@ -150,6 +153,7 @@ impl Model {
             plane: self.plane,
             obstacles: self.obstacles.clone(),
             pins: self.pins.clone(),
+            pin_motions: self.pin_motions.clone(),
             field: self.field.clone(),
             gravity: self.gravity,
             dt: self.dt,
@@ -171,6 +175,7 @@ pub struct ModelBuilder {
     plane: Option<Plane>,
     obstacles: Vec<Obstacle>,
     pins: Vec<u32>,
+    pin_motions: Vec<PinMotion>,
     field: Option<ForceField>,
     gravity: Vec3,
     dt: f64,
@@ -190,6 +195,7 @@ impl Default for ModelBuilder {
             plane: None,
             obstacles: Vec::new(),
             pins: Vec::new(),
+            pin_motions: Vec::new(),
             field: None,
             gravity: Vec3::ZERO,
             dt: defaults::DT,
@@ -298,6 +304,13 @@ impl ModelBuilder {
         self
     }
 
+    /// Pins `points` and moves them along `motion` (see [`crate::motion`]).
+    pub fn pin_motion(mut self, points: Vec<u32>, motion: Motion) -> Self {
+        self.pins.extend(&points);
+        self.pin_motions.push(PinMotion { points, motion });
+        self
+    }
+
     /// Pins these points (flat lattice indices; default none): see [`Model::pins`].
     pub fn pins(mut self, points: impl IntoIterator<Item = u32>) -> Self {
         self.pins.extend(points);
@@ -386,6 +399,17 @@ impl ModelBuilder {
         let mut pins = self.pins;
         pins.sort_unstable();
         pins.dedup();
+        for (i, m) in self.pin_motions.iter().enumerate() {
+            m.motion
+                .check()
+                .map_err(|e| ModelError::new(format!("pin motion {}: {e}", i + 1)))?;
+            if let Some(&p) = m.points.iter().find(|p| pins.binary_search(p).is_err()) {
+                return Err(ModelError::new(format!(
+                    "pin motion {}: point {p} is not pinned",
+                    i + 1
+                )));
+            }
+        }
         for (i, obstacle) in self.obstacles.iter().enumerate() {
             obstacle
                 .check()
@@ -407,6 +431,7 @@ impl ModelBuilder {
             plane: self.plane,
             obstacles: self.obstacles,
             pins,
+            pin_motions: self.pin_motions,
             field: self.field,
             gravity: self.gravity,
             dt: self.dt,

@@ -34,6 +34,9 @@
 //! stiffness = [200.0, 200.0, 200.0]  # N/m: structural, shear, bend; or modulus (Pa)
 //! damping = [0.25, 0.25, 0.25]       # N·s/m; or viscosity (Pa·s)
 //! pins = [{ at = [0.0, 0.0, 1.0], radius = 0.1 }]   # points within radius held (0: nearest)
+//! # A pin may move (see jello_core::motion): shake = { amplitude = [0.1, 0.0, 0.0], frequency = 2.0 }
+//! # (m, Hz: amplitude · sin(2π f t)), or path = [[0.0, 0.0, 0.0, 0.0], [1.0, 0.0, 0.0, 0.5]]
+//! # ([t, dx, dy, dz] keyframes, s and m from where the points start, straight lines between).
 //! ```
 //!
 //! Every key is checked: an unknown key, a wrong type or a missing value is an error naming the
@@ -49,6 +52,7 @@ use crate::integrator::Integrator;
 use crate::lattice::Lattice;
 use crate::mesh::TriMesh;
 use crate::model::{defaults, Aabb, Model, ModelBuilder, ModelError, Obstacle, Plane};
+use crate::motion::Motion;
 use crate::obstacle::Sphere;
 use crate::state::State;
 use crate::vec3::Vec3;
@@ -133,6 +137,14 @@ pub struct Settings {
     pub steps_per_frame: u32,
     /// Acceleration of every point (m/s²).
     pub gravity: [f64; 3],
+    /// Simulated time of the start state (s): 0 for a new scene, the run's end time in a saved
+    /// one (so moving pins carry on in step with their paths).
+    #[serde(skip_serializing_if = "is_zero")]
+    pub time: f64,
+}
+
+fn is_zero(t: &f64) -> bool {
+    *t == 0.0
 }
 
 impl Default for Settings {
@@ -142,6 +154,7 @@ impl Default for Settings {
             dt: defaults::DT,
             steps_per_frame: defaults::STEPS_PER_FRAME,
             gravity: [0.0; 3],
+            time: 0.0,
         }
     }
 }
@@ -297,14 +310,49 @@ pub struct MeshSpec {
 }
 
 /// `{ at, radius }`: the active points within `radius` of `at` at rest are held (radius 0: the
-/// nearest one).
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+/// nearest one); with `shake` or `path`, moved (see [`crate::motion`]).
+#[derive(Clone, Debug, PartialEq, Default, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct PinSpec {
     /// Centre of the region (m), in the placed rest shape.
     pub at: [f64; 3],
     /// Radius of the region (m).
     pub radius: f64,
+    /// Shaking: `amplitude · sin(2π · frequency · t)` from where the points start.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub shake: Option<ShakeSpec>,
+    /// A path: keyframes `[t, dx, dy, dz]` (s, m) from where the points start.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub path: Option<Vec<[f64; 4]>>,
+}
+
+/// `shake = { amplitude, frequency }`.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ShakeSpec {
+    /// Largest offset along each axis (m).
+    pub amplitude: [f64; 3],
+    /// Hz.
+    pub frequency: f64,
+}
+
+impl PinSpec {
+    /// The motion the pin asks for, if any; an error when it asks for both a shake and a path.
+    fn motion(&self) -> Result<Option<Motion>, String> {
+        match (&self.shake, &self.path) {
+            (Some(_), Some(_)) => Err("give a shake or a path, not both".into()),
+            (Some(s), None) => Ok(Some(Motion::Shake {
+                amplitude: v3(s.amplitude),
+                frequency: s.frequency,
+            })),
+            (None, Some(keys)) => Ok(Some(Motion::Path(
+                keys.iter()
+                    .map(|&[t, x, y, z]| (t, Vec3::new(x, y, z)))
+                    .collect(),
+            ))),
+            (None, None) => Ok(None),
+        }
+    }
 }
 
 /// A saved body state.
@@ -466,16 +514,23 @@ impl SceneFile {
             .build()
             .map_err(|e| error(e.to_string()))?;
         let mut state = State::at_rest(&model);
+        if !self.simulation.time.is_finite() {
+            return Err(error("[simulation] time must be finite".into()));
+        }
+        state.time = self.simulation.time;
         let mut pins = Vec::new();
+        let mut motions = Vec::new();
         for (b, spec) in self.bodies.iter().enumerate() {
             let body = model.body(b);
             let range = body.points();
             spec.initial_state(&model, b, &mut state)
                 .map_err(|e| at_body(b, e))?;
+            // Pins are found in the placed rest shape (so a saved state finds the same points).
+            let rest = body.rest_positions();
             for (n, pin) in spec.pins.iter().enumerate() {
                 let at = v3(pin.at);
                 let active = range.clone().filter(|&p| body.is_active(p - range.start));
-                let distance = |p: &usize| (state.pos[*p] - at).length();
+                let distance = |p: &usize| (rest[*p - range.start] - at).length();
                 let held: Vec<u32> = if pin.radius > 0.0 {
                     active
                         .filter(|p| distance(p) <= pin.radius)
@@ -509,15 +564,30 @@ impl SceneFile {
                         ),
                     ));
                 }
+                let motion = pin
+                    .motion()
+                    .map_err(|e| at_body(b, format!("pin {}: {e}", n + 1)))?;
+                if let Some(motion) = motion {
+                    motion
+                        .check()
+                        .map_err(|e| at_body(b, format!("pin {}: {e}", n + 1)))?;
+                    // A scene starts its moving pins at their path's velocity (a saved state
+                    // keeps its own).
+                    if spec.state.is_none() {
+                        let v = motion.velocity(state.time);
+                        held.iter().for_each(|&p| state.vel[p as usize] = v);
+                    }
+                    motions.push((held.clone(), motion));
+                }
                 pins.extend(held);
             }
         }
         if !pins.is_empty() {
-            model = model
-                .to_builder()
-                .pins(pins)
-                .build()
-                .map_err(|e| error(e.to_string()))?;
+            let mut builder = model.to_builder().pins(pins);
+            for (points, motion) in motions {
+                builder = builder.pin_motion(points, motion);
+            }
+            model = builder.build().map_err(|e| error(e.to_string()))?;
         }
         // A saved state (a run's end) may rest against anything; a scene's start must be clear.
         if self.bodies.iter().all(|b| b.state.is_none()) {
@@ -533,6 +603,7 @@ impl SceneFile {
     /// This scene with every body's state replaced by `state` (for saving a run's end).
     pub fn with_state(&self, model: &Model, state: &State) -> SceneFile {
         let mut scene = self.clone();
+        scene.simulation.time = state.time;
         for (spec, body) in scene.bodies.iter_mut().zip(model.bodies()) {
             let r = body.points();
             spec.state = Some(StateSpec {

@@ -153,6 +153,7 @@ pub fn step(
     }
     let dt = model.dt;
     let sound = integrate(model, state, control, scratch);
+    let start_time = state.time;
 
     // Step boundary: accept the new state only if it is sound.
     let s = scratch;
@@ -179,6 +180,17 @@ pub fn step(
     std::mem::swap(&mut state.vel, &mut s.next_vel);
     state.time += dt;
     state.steps += 1;
+    // Moving pins go exactly where their paths say (from their positions at the step's start,
+    // now in the scratch's buffer).
+    for m in &model.pin_motions {
+        m.apply(
+            start_time,
+            state.time,
+            &s.next_pos,
+            &mut state.pos,
+            &mut state.vel,
+        );
+    }
     // Obstacle friction ties, drags and lets go its anchors between steps.
     s.force.update_anchors(model, &state.pos);
     Ok(())

@@ -5,11 +5,14 @@
 //! - A pull is `k (target − p) − d v`, evaluated at every stage: a pair of points pulled as one
 //!   follows the damped oscillator's closed form, and RK4's error falls 16× when dt halves (a
 //!   pull held constant through a step would make it first order).
+//! - Pins moved along a path (a shake, keyframes) are where the path says after every step, to
+//!   rounding, whatever the integrator, and carry the body with them.
 //! - The same bits on 1 and 3 threads; bad pins and pulls are errors.
 
 mod common;
 
 use jello_core::diagnostics::centre_of_mass;
+use jello_core::motion::Motion;
 use jello_core::{
     scenes, step, Aabb, Control, ForceField, Integrator, Lattice, ModelBuilder, Pull, Scratch,
     State, Vec3,
@@ -83,6 +86,102 @@ fn a_moving_pin_keeps_its_velocity() {
             state.pos[0]
         );
     }
+}
+
+/// Shaken pins follow `A sin(2π f t)` exactly at every step's end, on every integrator, and
+/// shake the body: its far side swings too.
+#[test]
+fn shaken_pins_follow_their_sine_and_shake_the_body() {
+    let lattice = Lattice::new([5, 5, 5], Vec3::new(1.0, 1.0, 1.0));
+    let mut top = Vec::new();
+    for i in 0..5 {
+        for j in 0..5 {
+            top.push(lattice.index(i, j, 4) as u32);
+        }
+    }
+    let bottom = lattice.index(2, 2, 0);
+    let amplitude = Vec3::new(0.1, 0.0, 0.0);
+    let shake = Motion::Shake {
+        amplitude,
+        frequency: 2.0,
+    };
+    for integrator in Integrator::ALL {
+        let model = ModelBuilder::new()
+            .lattice(lattice.clone())
+            .mass(0.01)
+            .elastic(100.0, 0.2)
+            .pin_motion(top.clone(), shake.clone())
+            .integrator(integrator)
+            .dt(0.0005)
+            .build()
+            .unwrap();
+        let mut state = State::at_rest(&model);
+        let start = state.clone();
+        for &p in &top {
+            state.vel[p as usize] = shake.velocity(0.0);
+        }
+        let mut scratch = Scratch::new(&model);
+        let mut far_reach = 0.0f64;
+        for _ in 0..1000 {
+            step(&model, &mut state, &Control::none(), &mut scratch).unwrap();
+            let t = state.time;
+            for &p in &top {
+                let p = p as usize;
+                let want = start.pos[p] + amplitude * (std::f64::consts::TAU * 2.0 * t).sin();
+                assert!(
+                    (state.pos[p] - want).max_abs() < 1e-12,
+                    "{integrator} at t = {t}: {:?} vs {want:?}",
+                    state.pos[p]
+                );
+                assert!((state.vel[p] - shake.velocity(t)).max_abs() < 1e-12);
+            }
+            far_reach = far_reach.max((state.pos[bottom].x - start.pos[bottom].x).abs());
+        }
+        assert!(
+            far_reach > 0.02,
+            "{integrator}: the bottom swung {far_reach} m"
+        );
+    }
+}
+
+/// A pin carried along keyframes is at each keyframe's offset when the step lands on its time,
+/// and holds the last one after.
+#[test]
+fn a_pin_carried_along_keyframes_lands_on_them() {
+    let path = Motion::Path(vec![
+        (0.0, Vec3::ZERO),
+        (0.25, Vec3::new(0.0, 0.0, 0.5)),
+        (0.5, Vec3::new(0.3, 0.0, 0.5)),
+    ]);
+    let model = ModelBuilder::new()
+        .pin_motion(vec![0], path.clone())
+        .dt(0.0005)
+        .build()
+        .unwrap();
+    let mut state = State::at_rest(&model);
+    let p0 = state.pos[0];
+    state.vel[0] = path.velocity(0.0);
+    let mut scratch = Scratch::new(&model);
+    for (steps, want) in [
+        (500, path.offset(0.25)),
+        (500, path.offset(0.5)),
+        (400, path.offset(9.0)),
+    ] {
+        for _ in 0..steps {
+            step(&model, &mut state, &Control::none(), &mut scratch).unwrap();
+        }
+        assert!(
+            (state.pos[0] - (p0 + want)).max_abs() < 1e-12,
+            "{:?}",
+            state.pos[0]
+        );
+    }
+    assert_eq!(state.vel[0], Vec3::ZERO);
+    // A motion on a point that is not pinned, or a bad path, is an error.
+    let bad = ModelBuilder::new()
+        .pin_motion(vec![0], Motion::Path(vec![]))
+        .build();
+    assert!(bad.unwrap_err().to_string().contains("pin motion 1"));
 }
 
 /// Two points 1 m apart, both pulled toward targets 1 m apart (the spring between them stays at

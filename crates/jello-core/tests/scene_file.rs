@@ -4,7 +4,7 @@
 #[path = "common/meshes.rs"]
 mod meshes;
 
-use jello_core::scene_file::{BodySpec, CubeSpec, MeshSpec, ObstacleSpec, PinSpec};
+use jello_core::scene_file::{BodySpec, CubeSpec, MeshSpec, ObstacleSpec, PinSpec, ShakeSpec};
 use jello_core::surface::{CageVertices, Surface};
 use jello_core::{SceneFile, Vec3};
 use meshes::torus;
@@ -48,6 +48,7 @@ fn a_scene_writes_and_reads_back_the_same() {
     ring.pins = vec![PinSpec {
         at: [0.0, 0.0, 1.7],
         radius: 0.0,
+        ..PinSpec::default()
     }];
     let mut scene = SceneFile::new(vec![ring, cube_spec(4, 0.5, [0.0, 0.0, -1.0])]);
     scene.simulation.gravity = [0.0, 0.0, -9.81];
@@ -66,6 +67,66 @@ fn a_scene_writes_and_reads_back_the_same() {
     let again = parse(&saved).unwrap().to_scene("s.toml").unwrap();
     assert_eq!(again.state.pos, made.state.pos);
     assert_eq!(again.state.vel, made.state.vel);
+}
+
+/// A shaken pin and a pin on a path read and write back; the scene starts them at their path's
+/// velocity, and a run's end saved into the scene carries its time, so the pins resume in step.
+#[test]
+fn moving_pins_read_back_and_resume_in_step() {
+    let mut cube = cube_spec(4, 0.6, [0.0, 0.0, 0.0]);
+    cube.pins = vec![
+        PinSpec {
+            at: [0.3, 0.3, 0.3],
+            radius: 0.05,
+            shake: Some(ShakeSpec {
+                amplitude: [0.0, 0.1, 0.0],
+                frequency: 3.0,
+            }),
+            path: None,
+        },
+        PinSpec {
+            at: [-0.3, -0.3, -0.3],
+            radius: 0.0,
+            shake: None,
+            path: Some(vec![[0.0, 0.0, 0.0, 0.0], [1.0, 0.0, 0.0, 0.4]]),
+        },
+    ];
+    let scene = SceneFile::new(vec![cube]);
+    let text = scene.to_toml();
+    assert!(text.contains("shake") && text.contains("path"), "{text}");
+    assert_eq!(parse(&text).unwrap(), scene);
+    let made = scene.to_scene("s.toml").unwrap();
+    assert_eq!(made.model.pin_motions.len(), 2);
+    let shaken = made.model.pin_motions[0].points[0] as usize;
+    let w = std::f64::consts::TAU * 3.0;
+    assert_eq!(made.state.vel[shaken], Vec3::new(0.0, 0.1 * w, 0.0));
+
+    let mut sim = jello_core::Simulation::new(made.model.clone(), made.state.clone());
+    sim.advance(700).unwrap();
+    let saved = parse(&scene.with_state(&sim.model, &sim.state).to_toml()).unwrap();
+    assert_eq!(saved.simulation.time, sim.state.time);
+    let resumed = saved.to_scene("s.toml").unwrap();
+    assert_eq!(resumed.state.time, sim.state.time);
+    let mut again = jello_core::Simulation::new(resumed.model, resumed.state);
+    sim.advance(300).unwrap();
+    again.advance(300).unwrap();
+    assert_eq!(
+        again.state.pos, sim.state.pos,
+        "the resumed run is the same run"
+    );
+
+    // Both a shake and a path on one pin, or a path going back in time: errors on the body.
+    let mut both = scene.clone();
+    both.bodies[0].pins[0].path = Some(vec![[0.0; 4]]);
+    let e = both.to_scene("s.toml").unwrap_err().to_string();
+    assert!(e.contains("pin 1: give a shake or a path, not both"), "{e}");
+    let mut backwards = scene.clone();
+    backwards.bodies[0].pins[1].path = Some(vec![[1.0, 0.0, 0.0, 0.0], [0.5, 0.0, 0.0, 0.0]]);
+    let e = backwards.to_scene("s.toml").unwrap_err().to_string();
+    assert!(
+        e.contains("pin 2: path keyframe times must increase"),
+        "{e}"
+    );
 }
 
 /// The skin of a placed and turned mesh body reproduces the mesh, placed and turned, at rest.

@@ -129,6 +129,10 @@ pub struct CreateArgs {
     /// nearest point; per body, repeatable.
     #[arg(long, value_name = "X,Y,Z[,R]", allow_hyphen_values = true)]
     pub pin: Vec<PinArg>,
+    /// Shake the body's pinned points by AX,AY,AZ metres at F Hz (amplitude · sin(2π F t));
+    /// per body, with --pin.
+    #[arg(long, value_name = "AX,AY,AZ,F", allow_hyphen_values = true)]
+    pub shake: Vec<Numbers<4>>,
     /// Scene: a solid sphere obstacle; repeatable.
     #[arg(long, value_name = "X,Y,Z,R", allow_hyphen_values = true)]
     pub sphere: Vec<Numbers<4>>,
@@ -373,6 +377,7 @@ pub fn create(args: CreateArgs, matches: &clap::ArgMatches) -> Result<(), CliErr
         ("--mesh", !args.mesh.is_empty()),
         ("--cube", !args.cube.is_empty()),
         ("--friction", args.friction.is_some()),
+        ("--shake", !args.shake.is_empty()),
         ("--cells", !args.cells.is_empty()),
         ("--size", !args.size.is_empty()),
         ("--at", !args.at.is_empty()),

@@ -8,7 +8,7 @@
 use clap::ArgMatches;
 use jello_core::scene_file::{
     BodySpec, BoxSpec, Collision, CubeSpec, FieldSpec as SceneField, MeshSpec, ObstacleSpec,
-    PinSpec, SceneFile, Settings,
+    PinSpec, SceneFile, Settings, ShakeSpec,
 };
 use jello_core::{Aabb, ForceField, TriMesh, Vec3};
 
@@ -120,6 +120,7 @@ pub fn create_scene(args: &CreateArgs, matches: &ArgMatches) -> Result<(), CliEr
     let modulus = per_body(matches, "modulus", "--modulus", &at, &args.modulus)?;
     let viscosity = per_body(matches, "viscosity", "--viscosity", &at, &args.viscosity)?;
     let pin_owners = owners(matches, "pin", "--pin", &at)?;
+    let shake = per_body(matches, "shake", "--shake", &at, &args.shake)?;
 
     let mut bodies = Vec::new();
     for (b, (_, shape)) in starts.iter().enumerate() {
@@ -182,8 +183,22 @@ pub fn create_scene(args: &CreateArgs, matches: &ArgMatches) -> Result<(), CliEr
             .map(|(_, p)| PinSpec {
                 at: p.at,
                 radius: p.radius,
+                shake: shake[b].map(|s| {
+                    let [ax, ay, az, frequency] = s.0;
+                    ShakeSpec {
+                        amplitude: [ax, ay, az],
+                        frequency,
+                    }
+                }),
+                path: None,
             })
             .collect();
+        if shake[b].is_some() && spec.pins.is_empty() {
+            return Err(CliError::usage(format!(
+                "--shake moves a body's pinned points: body {} has no --pin",
+                b + 1
+            )));
+        }
         bodies.push(spec);
     }
 
@@ -239,6 +254,7 @@ pub fn create_scene(args: &CreateArgs, matches: &ArgMatches) -> Result<(), CliEr
         dt: args.dt,
         steps_per_frame: args.steps_per_frame,
         gravity,
+        time: 0.0,
     };
     scene.collision = Collision {
         stiffness: args.k_collision,
