@@ -76,7 +76,7 @@ impl Motion {
                 amplitude,
                 frequency,
             } => {
-                if !amplitude.is_finite() || !(frequency.is_finite() && *frequency > 0.0) {
+                if !(amplitude.is_finite() && frequency.is_finite() && *frequency > 0.0) {
                     return Err(ModelError::new(
                         "a shake needs a finite amplitude and a finite frequency above 0",
                     ));
