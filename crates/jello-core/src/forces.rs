@@ -68,6 +68,11 @@ struct BodyScratch {
     rows: Vec<Soa>,
     /// Which pairs of a run are springs, per stencil class (see [`Masks`]), for a full box.
     masks: Masks,
+    /// For a body with holes: per chunk, block of the row buffer's length and stencil entry
+    /// (`(chunk · blocks + block) · 16 + entry`), the span `[lo, hi)` of first ends (chunk
+    /// offsets) whose link bit is set, so that runs skip the empty stretches (outside the shape,
+    /// and its holes). Empty for a full box.
+    spans: Vec<[u32; 2]>,
 }
 
 /// Per stencil class `(dj, dk)` (index `(dj + 1)·4 + dk + 1`, both in −1..=2): for every point
@@ -161,6 +166,7 @@ impl BodyScratch {
             halos: vec![Soa::with_color(HALO_PLANES * ny * nz, 1); chunks],
             rows: vec![Soa::with_color(row_len, 3); chunks],
             masks,
+            spans: link_spans(body.links(), chunks, chunk_len, row_len),
         }
     }
 
@@ -177,7 +183,44 @@ impl BodyScratch {
                 .is_none_or(|h| h.len() == HALO_PLANES * ny * nz)
             && self.rows.first().is_none_or(|r| r.len() == row_len)
             && self.masks.len == ny * nz + row_len
+            && self.spans.len()
+                == if body.links().is_empty() {
+                    0
+                } else {
+                    nx.div_ceil(CHUNK_PLANES) * chunk_len.div_ceil(row_len) * 16
+                }
     }
+}
+
+/// The spans of set link bits (see [`BodyScratch::spans`]) of a body with `links` (none for a
+/// full box), in chunks of `chunk_len` points and blocks of `block`.
+fn link_spans(links: &[u16], chunks: usize, chunk_len: usize, block: usize) -> Vec<[u32; 2]> {
+    if links.is_empty() {
+        return Vec::new();
+    }
+    let blocks = chunk_len.div_ceil(block);
+    let mut spans = vec![[0u32; 2]; chunks * blocks * 16];
+    for c in 0..chunks {
+        for b in 0..blocks {
+            let t0 = b * block;
+            let t1 = (t0 + block).min(chunk_len);
+            let span = &mut spans[(c * blocks + b) * 16..][..16];
+            for t in t0..t1 {
+                let Some(&bits) = links.get(c * chunk_len + t) else {
+                    break;
+                };
+                for (s, span) in span.iter_mut().enumerate() {
+                    if bits >> s & 1 == 1 {
+                        if span[1] == 0 {
+                            span[0] = t as u32;
+                        }
+                        span[1] = t as u32 + 1;
+                    }
+                }
+            }
+        }
+    }
+    spans
 }
 
 /// Contiguous ranges of chunks a body's spring pass is split into for threads: two per thread of
@@ -340,6 +383,7 @@ where
             halos,
             rows,
             masks,
+            spans,
         },
     ) in model.bodies().iter().zip(bodies)
     {
@@ -352,6 +396,7 @@ where
             body,
             grid,
             masks,
+            spans,
             p,
             v,
             control,
@@ -375,6 +420,7 @@ struct Pass<'a, U> {
     body: &'a Body,
     grid: Grid,
     masks: &'a Masks,
+    spans: &'a [[u32; 2]],
     p: &'a Soa,
     v: &'a Soa,
     control: &'a Control,
@@ -459,10 +505,12 @@ impl<U> Pass<'_, U> {
             let [fx, fy, fz] = buffer.range_mut(0..self.chunk_points(c));
             let (halo, row) = (&mut halos[i], &mut rows[i]);
             let (g, masks, p, v) = (&self.grid, self.masks, self.p, self.v);
+            let per_chunk = self.spans.len() / self.grid.nx.div_ceil(CHUNK_PLANES).max(1);
             let at = Placement {
                 first: self.body.points().start,
                 i0: c * CHUNK_PLANES,
                 links: self.body.links(),
+                spans: &self.spans[c * per_chunk..(c + 1) * per_chunk],
             };
             chunk_springs(g, masks, p, v, at, [fx, fy, fz], halo, row);
             if i == 0 && defer_first {
@@ -591,6 +639,8 @@ struct Placement<'a> {
     first: usize,
     i0: usize,
     links: &'a [u16],
+    /// The chunk's spans of set link bits, per block and stencil entry (empty for a full box).
+    spans: &'a [[u32; 2]],
 }
 
 crate::simd::multiversion! {
@@ -678,7 +728,11 @@ fn chunk_springs_impl(
     while t0 < chunk_end {
         let t1 = t0 + block;
         for &(s, t_start, t_end, shift, mask, spring) in runs.iter().flatten() {
-            let (t, e) = (t0.max(t_start), t1.min(t_end));
+            let (mut t, mut e) = (t0.max(t_start), t1.min(t_end));
+            if let Some(&[lo, hi]) = at.spans.get(t0 / block * 16 + s) {
+                // A body with holes: only the stretch where this entry has springs.
+                (t, e) = (t.max(lo as usize), e.min(hi as usize));
+            }
             if t >= e {
                 continue;
             }
