@@ -34,7 +34,27 @@ enum Command {
     View(commands::view::ViewArgs),
 }
 
+/// When the reader of our output goes away (`jello info … | head`), `println!` panics on the
+/// broken pipe, since Rust ignores SIGPIPE. Stop quietly instead, as a Unix tool killed by the
+/// signal would (exit status 141 = 128 + SIGPIPE); every other panic is reported as usual.
+fn quiet_on_broken_pipe() {
+    let default = std::panic::take_hook();
+    std::panic::set_hook(Box::new(move |info| {
+        let message = info
+            .payload()
+            .downcast_ref::<String>()
+            .map(String::as_str)
+            .or_else(|| info.payload().downcast_ref::<&str>().copied())
+            .unwrap_or("");
+        if message.starts_with("failed printing to std") && message.contains("Broken pipe") {
+            std::process::exit(141);
+        }
+        default(info);
+    }));
+}
+
 fn main() {
+    quiet_on_broken_pipe();
     let matches = Cli::command().get_matches();
     let cli = Cli::from_arg_matches(&matches).unwrap_or_else(|e| e.exit());
     // A JELLO_SIMD the core cannot honour is reported before anything runs.

@@ -500,3 +500,22 @@ fn nonstandard_worlds_from_the_wild_fail_cleanly() {
     }
     t.assert_no_temp_files();
 }
+
+/// A reader that goes away (`jello info … | head`) stops `jello` quietly, as SIGPIPE stops a Unix
+/// tool (status 141), not with a panic.
+#[test]
+fn a_closed_pipe_stops_quietly() {
+    let examples = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples");
+    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_jello"))
+        .arg("info")
+        .arg(examples.join("jello.w"))
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    drop(child.stdout.take()); // the reader is gone before anything is written
+    let out = child.wait_with_output().unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(141), "{err}");
+    assert!(!err.contains("panicked"), "{err}");
+}
