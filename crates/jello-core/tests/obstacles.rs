@@ -306,7 +306,8 @@ fn cube_dropped_on_a_sphere_comes_to_rest_on_it() {
     );
 }
 
-/// Obstacles on the threaded path: the same bits on 1 and 3 threads.
+/// Obstacles on the threaded path, with friction (anchors tied and dragged): the same bits on 1
+/// and 3 threads.
 #[test]
 fn threaded_contacts_are_bit_identical() {
     let run = |threads: usize| {
@@ -323,6 +324,7 @@ fn threaded_contacts_are_bit_identical() {
                     ),
                     Obstacle::Plane(Plane::new([0.0, 1.0, 1.0, 0.45]).unwrap()),
                 ])
+                .friction(0.5)
                 .build()
                 .unwrap();
             let mut scratch = Scratch::new(&model);
