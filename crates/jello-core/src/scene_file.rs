@@ -500,6 +500,20 @@ impl SceneFile {
             );
             bodies.push(body);
         }
+        let c = &self.collision;
+        if !(c.stiffness.is_finite() && c.stiffness > 0.0) {
+            return Err(error(format!(
+                "[collision] stiffness must be a finite number above 0 (got {})",
+                c.stiffness
+            )));
+        }
+        for (what, v) in [("damping", c.damping), ("friction", c.friction)] {
+            if !(v.is_finite() && v >= 0.0) {
+                return Err(error(format!(
+                    "[collision] {what} must be a finite number ≥ 0 (got {v})"
+                )));
+            }
+        }
         let mut model = ModelBuilder::new()
             .bodies(bodies)
             .integrator(integrator)

@@ -243,6 +243,18 @@ fn bad_scenes_are_errors_naming_the_line_and_column() {
         0,
         "pin 1 holds no point",
     );
+    assert_error(
+        &format!("[collision]\nfriction = -0.5\n{cube}"),
+        0,
+        0,
+        "[collision] friction must be a finite number ≥ 0",
+    );
+    assert_error(
+        &format!("{cube}pins = [{{ at = [0.5, 0.5, 0.5], radius = 0.0, shake = {{ amplitude = [0.1, 0.0, 0.0], frequency = -2.0 }} }}]\n"),
+        1,
+        0,
+        "pin 1: a shake needs a finite amplitude and a finite frequency above 0",
+    );
     // Not text.
     let e = SceneFile::parse(b"[[body]]\n\xff\xfe", "s.toml").unwrap_err();
     assert_eq!(e.line, 2);
