@@ -54,7 +54,7 @@ create "$out/torus.toml" "${scene[@]}" --mesh "$meshes/torus.obj" --cells 12 --a
 # A lumpy blob thrown spinning down a ramp.
 create "$out/blob.toml" "${scene[@]}" --plane=0.35,0,1,1.5 --mesh "$meshes/blob.obj" --cells 10 \
   --at=-0.8,0.3,0 --rotate 20,0,30 --spin 0,0,2 "${jelly[@]}"
-# A fluted jelly mould turned out onto a plate, sliding.
+# A fluted jelly mould turned out onto a plate and pushed: it wobbles to a stop (friction).
 create "$out/mould.toml" "${scene[@]}" --box=-0.8,-0.8,-2,0.8,0.8,-1.9 --mesh "$meshes/mould.obj" \
   --cells 12 --at 0,0,-1.4 --velocity 1,0,0 "${jelly[@]}"
 # Three cubes stacked a little askew, dropped on a ball.
