@@ -126,6 +126,19 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), CliError> {
     })
 }
 
+/// Checks that `path` may be written as a new output: its folder exists, and it does not exist
+/// yet unless `force` (the `--force` flag) allows overwriting it.
+pub fn check_new_output(path: &Path, force: bool) -> Result<(), CliError> {
+    check_writable_target(path)?;
+    if path.exists() && !force {
+        return Err(CliError::input(format!(
+            "{}: already exists (use --force to overwrite)",
+            path.display()
+        )));
+    }
+    Ok(())
+}
+
 /// Checks before a long run that `path` can later be written: its folder exists.
 pub fn check_writable_target(path: &Path) -> Result<(), CliError> {
     let name = path.display().to_string();

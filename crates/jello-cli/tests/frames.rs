@@ -21,14 +21,7 @@ use common::TempDir;
 impl TempDir {
     /// Runs `jello ARGS` in this folder; it must succeed.
     fn jello(&self, args: &[&str]) {
-        let out = self.run(args);
-        assert!(
-            out.status.success(),
-            "jello {}\n{}{}",
-            args.join(" "),
-            String::from_utf8_lossy(&out.stdout),
-            String::from_utf8_lossy(&out.stderr)
-        );
+        self.succeeds(args);
     }
 
     fn text(&self, name: &str) -> String {

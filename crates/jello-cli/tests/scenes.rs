@@ -13,15 +13,7 @@ use common::TempDir;
 impl TempDir {
     /// Runs `jello ARGS`; it must succeed. Returns stdout.
     fn jello(&self, args: &[&str]) -> String {
-        let out = self.run(args);
-        assert!(
-            out.status.success(),
-            "jello {}\n{}{}",
-            args.join(" "),
-            String::from_utf8_lossy(&out.stdout),
-            String::from_utf8_lossy(&out.stderr)
-        );
-        String::from_utf8_lossy(&out.stdout).into_owned()
+        self.succeeds(args)
     }
 
     /// Runs `jello ARGS`; it must fail with `code` and a message holding `says`.

@@ -12,7 +12,7 @@ use jello_core::{defaults, Aabb, ForceField, Integrator, Lattice, Vec3, World};
 
 use super::{parse_integrator, parse_non_negative, parse_positive};
 use crate::error::CliError;
-use crate::fsio::{check_writable_target, is_scene, write_atomic};
+use crate::fsio::{check_new_output, is_scene, write_atomic};
 
 /// Arguments of `jello create`.
 ///
@@ -363,13 +363,7 @@ fn one<T: Copy>(values: &[T], flag: &str) -> Result<Option<T>, CliError> {
 /// Writes the world or scene the options describe.
 pub fn create(args: CreateArgs, matches: &clap::ArgMatches) -> Result<(), CliError> {
     let out = &args.out;
-    check_writable_target(out)?;
-    if out.exists() && !args.force {
-        return Err(CliError::input(format!(
-            "{}: already exists (use --force to overwrite)",
-            out.display()
-        )));
-    }
+    check_new_output(out, args.force)?;
     if is_scene(out) {
         return super::scene::create_scene(&args, matches);
     }

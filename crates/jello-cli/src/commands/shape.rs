@@ -9,7 +9,7 @@ use jello_core::mesh::SHAPES;
 use jello_core::TriMesh;
 
 use crate::error::CliError;
-use crate::fsio::{check_writable_target, write_atomic};
+use crate::fsio::{check_new_output, write_atomic};
 
 /// Arguments of `jello shape`.
 #[derive(Args, Debug)]
@@ -32,13 +32,7 @@ pub struct ShapeArgs {
 /// Writes the shape.
 pub fn shape(args: ShapeArgs) -> Result<(), CliError> {
     let out = &args.out;
-    check_writable_target(out)?;
-    if out.exists() && !args.force {
-        return Err(CliError::input(format!(
-            "{}: already exists (use --force to overwrite)",
-            out.display()
-        )));
-    }
+    check_new_output(out, args.force)?;
     let mesh = TriMesh::shape(&args.name, args.detail as usize)
         .expect("clap only lets known shape names through");
     let comment = format!(

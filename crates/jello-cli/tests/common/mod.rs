@@ -35,6 +35,19 @@ impl TempDir {
             .output()
             .expect("cannot start jello")
     }
+
+    /// Runs `jello ARGS` in the folder; it must succeed. Returns its standard output.
+    pub fn succeeds(&self, args: &[&str]) -> String {
+        let out = self.run(args);
+        assert!(
+            out.status.success(),
+            "jello {}\n{}{}",
+            args.join(" "),
+            String::from_utf8_lossy(&out.stdout),
+            String::from_utf8_lossy(&out.stderr)
+        );
+        String::from_utf8_lossy(&out.stdout).into_owned()
+    }
 }
 
 impl Drop for TempDir {
