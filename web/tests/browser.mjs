@@ -1,9 +1,11 @@
 // Shared by the Playwright tests and the measurement script: Debian's Chromium, headless, driven
 // by playwright-core (never `playwright install`).
+import assert from 'node:assert/strict';
 import { mkdtempSync, rmSync } from 'node:fs';
 import { tmpdir } from 'node:os';
 import { join } from 'node:path';
 import { chromium } from 'playwright-core';
+import { hideOverlays } from './pixels.mjs';
 
 export const CHROMIUM = process.env.CHROMIUM ?? '/usr/bin/chromium';
 
@@ -50,4 +52,21 @@ export async function openViewer(context, url) {
   await page.goto(url);
   await page.waitForSelector('body[data-ready="true"]', { timeout: 30_000 });
   return { page, errors };
+}
+
+/** For a test: a fresh page on the viewer at `url` with the overlays hidden (`showOverlays()`
+ *  brings them back); `done()` closes it and asserts that it reported no page or console errors. */
+export async function openForTest(context, url) {
+  const { page, errors } = await openViewer(context, url);
+  const showOverlays = await hideOverlays(page);
+  await new Promise((r) => setTimeout(r, 300));
+  return {
+    page,
+    errors,
+    showOverlays,
+    async done() {
+      await page.close();
+      assert.deepEqual(errors, [], 'the page reported errors');
+    },
+  };
 }

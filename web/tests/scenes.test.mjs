@@ -6,8 +6,8 @@ import assert from 'node:assert/strict';
 import { readFileSync } from 'node:fs';
 import { join } from 'node:path';
 import { after, before, describe, test } from 'node:test';
-import { launch, openViewer } from './browser.mjs';
-import { difference, hideOverlays, shot } from './pixels.mjs';
+import { launch, openForTest } from './browser.mjs';
+import { difference, shot } from './pixels.mjs';
 import { ROOT, startViewer } from './server.mjs';
 
 const pause = (ms) => new Promise((r) => setTimeout(r, ms));
@@ -25,20 +25,7 @@ after(async () => {
   await server?.stop();
 });
 
-async function open() {
-  const { page, errors } = await openViewer(browser.context, server.url);
-  const showOverlays = await hideOverlays(page);
-  await pause(300);
-  return {
-    page,
-    errors,
-    showOverlays,
-    async done() {
-      await page.close();
-      assert.deepEqual(errors, [], 'the page reported errors');
-    },
-  };
-}
+const open = () => openForTest(browser.context, server.url);
 
 const loaded = (page, name) =>
   page.waitForFunction((name) => document.getElementById('world-name')?.textContent === name, name);

@@ -7,8 +7,8 @@ import { mkdtempSync, readFileSync } from 'node:fs';
 import { tmpdir } from 'node:os';
 import { join } from 'node:path';
 import { after, before, describe, test } from 'node:test';
-import { launch, openViewer } from './browser.mjs';
-import { analyse, difference, hideOverlays, shot } from './pixels.mjs';
+import { launch, openForTest } from './browser.mjs';
+import { analyse, difference, shot } from './pixels.mjs';
 import { JELLO, ROOT, startViewer } from './server.mjs';
 
 const pause = (ms) => new Promise((r) => setTimeout(r, ms));
@@ -26,21 +26,7 @@ after(async () => {
   await server?.stop();
 });
 
-/** A fresh page on the viewer, overlays hidden; `done()` asserts no page or console errors. */
-async function open() {
-  const { page, errors } = await openViewer(browser.context, server.url);
-  const showOverlays = await hideOverlays(page);
-  await pause(300);
-  return {
-    page,
-    errors,
-    showOverlays,
-    async done() {
-      await page.close();
-      assert.deepEqual(errors, [], 'the page reported errors');
-    },
-  };
-}
+const open = () => openForTest(browser.context, server.url);
 
 const simTime = (page) => page.evaluate(() => window.jello.sim.time);
 
