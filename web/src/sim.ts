@@ -120,11 +120,6 @@ export function sceneData(sim: JelloSim): SceneData {
   };
 }
 
-/** True for a scene file's name (`.toml`); anything else is read as a world file. */
-export function isSceneName(name: string): boolean {
-  return /\.toml$/i.test(name);
-}
-
 /** Parses a world file, or a scene file when the name ends in `.toml`; throws an Error whose
  *  message names the file and line (and column, for a scene). */
 export function parseWorld(text: string, name: string): JelloSim {

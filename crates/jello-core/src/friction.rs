@@ -92,7 +92,7 @@ pub struct Anchors {
 impl Anchors {
     /// No anchors yet, for `model`.
     pub fn new(model: &Model) -> Self {
-        if model.friction == 0.0 || model.obstacles.is_empty() {
+        if !Anchors::wanted(model) {
             return Anchors::default();
         }
         let points = model.point_count();
@@ -102,11 +102,19 @@ impl Anchors {
         }
     }
 
+    /// Whether `model` has obstacle friction (a coefficient and an obstacle).
+    fn wanted(model: &Model) -> bool {
+        model.friction != 0.0 && !model.obstacles.is_empty()
+    }
+
     /// True when these anchors are for `model`'s points and obstacles.
     pub fn fits(&self, model: &Model) -> bool {
-        *self == Anchors::default() && (model.friction == 0.0 || model.obstacles.is_empty())
-            || self.points == model.point_count()
+        if Anchors::wanted(model) {
+            self.points == model.point_count()
                 && self.at.len() == model.obstacles.len() * self.points
+        } else {
+            self.at.is_empty()
+        }
     }
 
     /// True when obstacle friction is on (there are anchors to keep).

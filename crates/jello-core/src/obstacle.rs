@@ -28,24 +28,6 @@ impl Contact {
         let n = self.normal;
         n * (k * self.depth) - n * (d * v.dot(n))
     }
-
-    /// The penalty force of an obstacle (sphere, solid box, plane obstacle) on a point at `p` of
-    /// mass `m` moving at `v` in steps of `dt`, tied to `anchor` (NaN: not yet):
-    /// [`Contact::force`] plus friction with coefficient `mu` (see [`crate::friction`]). The force
-    /// kernel's obstacle force.
-    pub fn obstacle_force(
-        &self,
-        p: Vec3,
-        v: Vec3,
-        anchor: Vec3,
-        [k, d, mu]: [f64; 3],
-        m: f64,
-        dt: f64,
-    ) -> Vec3 {
-        let f =
-            crate::friction::obstacle(p, v, self.depth, self.normal, anchor, [k, d, mu], m / dt);
-        self.force(v, k, d) + f
-    }
 }
 
 /// An axis-aligned box: the box that holds the jello (its walls push points back in), or a solid
