@@ -174,8 +174,13 @@ impl Contacts {
                         );
                         let eb = eb as usize;
                         let reach = radius[b] + radius[eb];
-                        // The friction's cap: the pair's reduced mass over the step.
-                        let c_max = mass[b] * mass[eb] / ((mass[b] + mass[eb]) * model.dt);
+                        // The friction's cap: the pair's reduced mass over the step (none
+                        // needed without friction, so no division per candidate pair then).
+                        let c_max = if mu > 0.0 {
+                            mass[b] * mass[eb] / ((mass[b] + mass[eb]) * model.dt)
+                        } else {
+                            0.0
+                        };
                         f += pair_force(pa - pb, va - vb, reach, [kc, dc, mu, c_max]);
                     }
                 }
