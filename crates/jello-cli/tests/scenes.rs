@@ -473,3 +473,118 @@ fn pins_shake_from_the_command_line() {
     );
     assert!(!dir.path("s.toml").exists());
 }
+
+/// `--region` gives a box of springs factors on stiffness, damping and rest length: the scene
+/// holds them per body, `jello info` reports them, and bad regions are usage errors or clear
+/// input errors that leave no file.
+#[test]
+fn regions_of_springs_from_the_command_line() {
+    let dir = TempDir::new("region");
+    dir.jello(&[
+        "create",
+        "strip.toml",
+        "--cube",
+        "5",
+        "--size",
+        "1",
+        "--at",
+        "0,0,0",
+        "--region",
+        "-0.5,-0.5,0,0.5,0.5,0.5,rest=0.9,stiffness=2",
+        "--region",
+        "-0.5,-0.5,-0.5,0,0.5,0.5,damping=3",
+        "--cube",
+        "3",
+        "--size",
+        "0.4",
+        "--at",
+        "0,0,1.2",
+    ]);
+    let scene = dir.scene("strip.toml");
+    let regions = &scene.bodies[0].region;
+    assert_eq!(regions.len(), 2);
+    assert_eq!(
+        (
+            regions[0].min,
+            regions[0].max,
+            regions[0].rest,
+            regions[0].stiffness
+        ),
+        ([-0.5, -0.5, 0.0], [0.5, 0.5, 0.5], 0.9, 2.0)
+    );
+    assert_eq!((regions[1].damping, regions[1].rest), (3.0, 1.0));
+    assert!(scene.bodies[1].region.is_empty());
+    let info = dir.jello(&["info", "strip.toml"]);
+    // The springs of a box of points are those of its own lattice: the first region holds the
+    // upper three of five planes (5 × 5 × 3 points), the second the three lower planes in x.
+    let springs = |counts| {
+        jello_core::Lattice::new(counts, Vec3::new(1.0, 1.0, 1.0))
+            .spring_count_by_kind()
+            .iter()
+            .sum::<usize>()
+    };
+    let scaled = springs([5, 5, 3]) + springs([3, 5, 5]) - springs([3, 5, 3]);
+    assert!(
+        info.contains(&format!(
+            "{scaled} springs with their own values: stiffness ×1 to ×2, damping ×1 to ×3, \
+             rest length ×0.9 to ×1"
+        )),
+        "{info}"
+    );
+    assert_eq!(info.matches("with their own values").count(), 1, "{info}");
+
+    dir.fails(
+        &["create", "s.toml", "--cube", "4", "--region", "0,0,0,1,1,1"],
+        2,
+        "at least one",
+    );
+    dir.fails(
+        &[
+            "create",
+            "s.toml",
+            "--cube",
+            "4",
+            "--region",
+            "0,0,0,1,1,1,hardness=2",
+        ],
+        2,
+        "unknown factor \"hardness\"",
+    );
+    dir.fails(
+        &[
+            "create",
+            "s.toml",
+            "--cube",
+            "4",
+            "--region",
+            "0,0,0,1,1,1,rest=-1",
+        ],
+        2,
+        "rest length factor must be finite and positive",
+    );
+    dir.fails(
+        &[
+            "create",
+            "s.toml",
+            "--region",
+            "0,0,0,1,1,1,rest=2",
+            "--cube",
+            "4",
+        ],
+        2,
+        "comes before any --mesh or --cube",
+    );
+    dir.fails(
+        &[
+            "create",
+            "s.toml",
+            "--cube",
+            "4",
+            "--region",
+            "5,5,5,6,6,6,rest=2",
+        ],
+        1,
+        "region 1: no spring has both ends in",
+    );
+    assert!(!dir.path("s.toml").exists());
+}

@@ -20,9 +20,10 @@
 
 use std::ops::Range;
 
-use crate::lattice::{Lattice, SpringKind, Springs, STENCIL};
+use crate::lattice::{Lattice, SpringKind, STENCIL};
 use crate::model::ModelError;
 use crate::skin::Skin;
+use crate::springs::{Spring, SpringScale, SpringTable, Springs};
 use crate::vec3::Vec3;
 use crate::voxel::Voxels;
 
@@ -108,6 +109,9 @@ pub struct Body {
     active: Vec<bool>,
     /// Points that take part (all of a box, the corners of kept cells otherwise).
     active_count: usize,
+    /// Per-spring factors on the rest lengths, stiffnesses and dampings, when any differs from
+    /// 1 (see [`crate::springs`]).
+    table: Option<SpringTable>,
     /// What it is made of.
     pub material: Material,
     /// Where lattice point `(0, 0, 0)` rests (m).
@@ -151,6 +155,7 @@ impl Body {
             links: Vec::new(),
             active: Vec::new(),
             active_count,
+            table: None,
             material,
             origin: Vec3::ZERO,
             rotation: IDENTITY,
@@ -337,17 +342,106 @@ impl Body {
             .collect()
     }
 
-    /// Calls `f(a, b, rest_len, kind)` for every spring of the body (lattice indices of the
-    /// body), in stencil order: first points in flat-index order, then stencil entries.
-    pub fn for_each_spring(&self, mut f: impl FnMut(usize, usize, f64, SpringKind)) {
-        if self.links.is_empty() {
-            return self.lattice.for_each_spring(f);
-        }
+    /// Calls `f(a, b, rest_len, kind, entry)` for every spring of the body (lattice indices of
+    /// the body) with its rest length on the rest lattice and its stencil entry, in stencil
+    /// order: first points in flat-index order, then stencil entries.
+    fn for_each_lattice_spring(&self, mut f: impl FnMut(usize, usize, f64, SpringKind, usize)) {
         let links = &self.links;
-        self.lattice.for_each_stencil_spring(|a, b, rest, kind, s| {
-            if links[a] >> s & 1 == 1 {
-                f(a, b, rest, kind);
+        self.lattice
+            .for_each_stencil_spring(|a, b, rest, kind, entry| {
+                if links.is_empty() || links[a] >> entry & 1 == 1 {
+                    f(a, b, rest, kind, entry);
+                }
+            });
+    }
+
+    /// Calls `f` with every spring of the body (lattice indices of the body) and the values the
+    /// force kernel uses for it, in stencil order: first points in flat-index order, then
+    /// stencil entries.
+    pub fn for_each_spring(&self, mut f: impl FnMut(&Spring)) {
+        self.for_each_spring_entry(|spring, _| f(spring));
+    }
+
+    /// [`Body::for_each_spring`], also passing each spring's stencil entry.
+    fn for_each_spring_entry(&self, mut f: impl FnMut(&Spring, usize)) {
+        let m = &self.material;
+        let n = self.len();
+        self.for_each_lattice_spring(|a, b, rest, kind, entry| {
+            let (k, d) = (m.stiffness[kind as usize], m.damping[kind as usize]);
+            let spring = match &self.table {
+                None => Spring {
+                    a,
+                    b,
+                    kind,
+                    rest,
+                    stiffness: k,
+                    damping: d,
+                },
+                Some(table) => {
+                    // The same products the kernel forms.
+                    let s = table.get(n, entry, a);
+                    Spring {
+                        a,
+                        b,
+                        kind,
+                        rest: rest * s.rest,
+                        stiffness: k * s.stiffness,
+                        damping: d * s.damping,
+                    }
+                }
+            };
+            f(&spring, entry);
+        });
+    }
+
+    /// Multiplies the rest length, stiffness and damping of every spring by the factors
+    /// `scale(spring)` returns for it (given the spring's values so far), on top of any factors
+    /// given before. Fails, changing nothing, on a factor that [`SpringScale::check`] refuses.
+    /// When every factor ends at exactly 1 the body is as if never scaled.
+    pub fn scale_springs(
+        &mut self,
+        mut scale: impl FnMut(&Spring) -> SpringScale,
+    ) -> Result<(), ModelError> {
+        let n = self.len();
+        let mut table = match &self.table {
+            Some(t) => t.clone().filled(n),
+            None => SpringTable::ones(n),
+        };
+        let mut error = None;
+        self.for_each_spring_entry(|spring, entry| {
+            if error.is_some() {
+                return;
             }
+            let s = scale(spring);
+            if let Err(e) = s.check() {
+                error = Some(e);
+                return;
+            }
+            let before = table.get(n, entry, spring.a);
+            table.set(n, entry, spring.a, before.then(s));
+        });
+        if let Some(e) = error {
+            return Err(e);
+        }
+        self.table = table.trimmed();
+        Ok(())
+    }
+
+    /// The per-spring factors, when any differs from 1.
+    pub fn spring_table(&self) -> Option<&SpringTable> {
+        self.table.as_ref()
+    }
+
+    /// Calls `f` with every spring, as [`Body::for_each_spring`], and its factors
+    /// ([`SpringScale::ONE`] for a body without a table).
+    pub fn for_each_spring_scale(&self, mut f: impl FnMut(&Spring, SpringScale)) {
+        let n = self.len();
+        self.for_each_spring_entry(|spring, entry| {
+            let scale = self
+                .table
+                .as_ref()
+                .map_or(SpringScale::ONE, |t| t.get(n, entry, spring.a));
+            f(spring, scale)
         });
     }
 
@@ -355,12 +449,7 @@ impl Body {
     /// order; allocates.
     pub fn springs(&self) -> Springs {
         let mut springs = Springs::default();
-        self.for_each_spring(|a, b, rest, kind| {
-            springs.a.push(a as u32);
-            springs.b.push(b as u32);
-            springs.rest_len.push(rest);
-            springs.kind.push(kind);
-        });
+        self.for_each_spring(|s| springs.push(s, 0));
         springs
     }
 

@@ -40,9 +40,9 @@ pub fn energy(model: &Model, state: &State) -> Energy {
                 .map(|(_, v)| v.length_squared())
                 .sum::<f64>();
         // Summed in spring-list order.
-        body.for_each_spring(|a, b, rest, kind| {
-            let stretch = (pos[a] - pos[b]).length() - rest;
-            spring += 0.5 * body.material.stiffness[kind as usize] * stretch * stretch;
+        body.for_each_spring(|s| {
+            let stretch = (pos[s.a] - pos[s.b]).length() - s.rest;
+            spring += 0.5 * s.stiffness * stretch * stretch;
         });
         // ½ kCollision depth² per contact (walls, plane, obstacles), summed point by point.
         collision += pos

@@ -25,6 +25,7 @@ use crate::model::Model;
 use crate::obstacle::{penalty, wall_force, Obstacle};
 use crate::soa::{cache_aligned_zeros, Soa};
 use crate::split::Split;
+use crate::springs::SpringTable;
 use crate::state::{Control, Pull};
 use crate::vec3::Vec3;
 
@@ -33,8 +34,8 @@ use crate::vec3::Vec3;
 pub const CHUNK_PLANES: usize = 4;
 
 /// Springs evaluated per block of a run: the block's forces stay in the L1 cache between being
-/// computed and being added to the points.
-const RUN_BLOCK: usize = 512;
+/// computed and being added to the points. (Also the longest run of per-spring factors.)
+const RUN_BLOCK: usize = crate::springs::MAX_RUN;
 
 /// Planes a spring reaches beyond its first point's plane (bend springs reach 2).
 const HALO_PLANES: usize = 2;
@@ -511,6 +512,7 @@ impl<U> Pass<'_, U> {
                 i0: c * CHUNK_PLANES,
                 links: self.body.links(),
                 spans: &self.spans[c * per_chunk..(c + 1) * per_chunk],
+                table: self.body.spring_table(),
             };
             chunk_springs(g, masks, p, v, at, [fx, fy, fz], halo, row);
             if i == 0 && defer_first {
@@ -641,6 +643,8 @@ struct Placement<'a> {
     links: &'a [u16],
     /// The chunk's spans of set link bits, per block and stencil entry (empty for a full box).
     spans: &'a [[u32; 2]],
+    /// The body's per-spring factors, if it has any.
+    table: Option<&'a SpringTable>,
 }
 
 crate::simd::multiversion! {
@@ -738,13 +742,27 @@ fn chunk_springs_impl(
             }
             let len = e - t;
             let (a, b) = (base + t, base + t + shift);
+            // Four variants, each a branch-free loop: full box or link bits, material values or
+            // per-spring factors on them.
+            let points = nx * plane;
+            let factors = at
+                .table
+                .map(|table| table.run(points, s, i0 * plane + t, len));
+            let uniform = |_| (spring.k, spring.d, spring.rest);
             if at.links.is_empty() {
                 let m = t % plane;
                 let mask = &masks.class(mask)[m..m + len];
-                spring_run(p, v, a, b, len, spring, |t| mask[t], row);
+                match factors {
+                    None => spring_run(p, v, a, b, len, uniform, |t| mask[t], row),
+                    Some(f) => spring_run(p, v, a, b, len, spring.scaled(f), |t| mask[t], row),
+                }
             } else {
                 let links = &at.links[i0 * plane + t..][..len];
-                spring_run(p, v, a, b, len, spring, |t| (links[t] >> s & 1) as f64, row);
+                let link = |t: usize| (links[t] >> s & 1) as f64;
+                match factors {
+                    None => spring_run(p, v, a, b, len, uniform, link, row),
+                    Some(f) => spring_run(p, v, a, b, len, spring.scaled(f), link, row),
+                }
             }
             add_run(
                 [&mut *ox, &mut *oy, &mut *oz],
@@ -786,10 +804,19 @@ struct SpringConst {
     rest: f64,
 }
 
+impl SpringConst {
+    /// Per spring `t` of a run, these values times its factors (rest, stiffness, damping).
+    #[inline(always)]
+    fn scaled(self, [r, k, d]: [&[f64]; 3]) -> impl Fn(usize) -> (f64, f64, f64) + '_ {
+        move |t| (self.k * k[t], self.d * d[t], self.rest * r[t])
+    }
+}
+
 /// Forces on the points `a .. a + len` from the springs joining them to `b .. b + len`:
-/// `f = −k (|L| − R) L̂ − d ((vA − vB)·L̂) L̂` with `L = pA − pB`, computed with one square root
-/// and one division per spring, times `mask(t)` (1 for a spring, 0 for a pair that is none;
-/// multiplying by 1 changes nothing). A zero-length spring has no direction and exerts no force.
+/// `f = −k (|L| − R) L̂ − d ((vA − vB)·L̂) L̂` with `L = pA − pB` and `(k, d, R) = spring(t)`,
+/// computed with one square root and one division per spring, times `mask(t)` (1 for a spring, 0
+/// for a pair that is none; multiplying by 1 changes nothing). A zero-length spring has no
+/// direction and exerts no force.
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
 fn spring_run(
@@ -798,7 +825,7 @@ fn spring_run(
     a: usize,
     b: usize,
     len: usize,
-    c: SpringConst,
+    spring: impl Fn(usize) -> (f64, f64, f64),
     mask: impl Fn(usize) -> f64,
     row: &mut Soa,
 ) {
@@ -814,8 +841,9 @@ fn spring_run(
         let inv = if l2 > 0.0 { 1.0 / l2.sqrt() } else { 0.0 };
         let l = l2 * inv;
         let closing = ((ua[t] - ub[t]) * dx + (va[t] - vb[t]) * dy + (wa[t] - wb[t]) * dz) * inv;
+        let (k, d, rest) = spring(t);
         // Magnitude along L̂, times L̂ = L·inv, times the mask.
-        let s = (-c.k * (l - c.rest) - c.d * closing) * inv * mask(t);
+        let s = (-k * (l - rest) - d * closing) * inv * mask(t);
         (fx[t], fy[t], fz[t]) = (dx * s, dy * s, dz * s);
     }
 }

@@ -146,29 +146,8 @@ impl Lattice {
         )
     }
 
-    /// Every spring of the stencil, in a fixed order (by first point, then stencil entry), as
-    /// flat arrays. Allocates about 17 bytes per spring: the force kernel never needs the list,
-    /// so it is made only when asked for ([`Lattice::for_each_spring`] visits the same springs
-    /// without one).
-    pub fn springs(&self) -> Springs {
-        let count = self.spring_count();
-        let mut springs = Springs {
-            a: Vec::with_capacity(count),
-            b: Vec::with_capacity(count),
-            rest_len: Vec::with_capacity(count),
-            kind: Vec::with_capacity(count),
-        };
-        self.for_each_spring(|a, b, rest, kind| {
-            springs.a.push(a as u32);
-            springs.b.push(b as u32);
-            springs.rest_len.push(rest);
-            springs.kind.push(kind);
-        });
-        springs
-    }
-
-    /// Calls `f(a, b, rest_len, kind)` for every spring of the stencil, in the order of
-    /// [`Lattice::springs`]: first points `a` in flat-index order, and for each the stencil
+    /// Calls `f(a, b, rest_len, kind)` for every spring of the stencil, in a fixed
+    /// order: first points `a` in flat-index order, and for each the stencil
     /// entries in order. Rest lengths (m) come from the rest grid, never from positions.
     pub fn for_each_spring(&self, mut f: impl FnMut(usize, usize, f64, SpringKind)) {
         self.for_each_stencil_spring(|a, b, rest, kind, _| f(a, b, rest, kind));
@@ -308,40 +287,6 @@ fn offset(c: usize, d: isize, n: usize) -> Option<usize> {
     (v < n).then_some(v)
 }
 
-/// Springs as flat arrays, one entry per spring (all of the same length).
-#[derive(Clone, Debug, Default, PartialEq)]
-pub struct Springs {
-    /// First point of each spring (flat index).
-    pub a: Vec<u32>,
-    /// Second point of each spring (flat index).
-    pub b: Vec<u32>,
-    /// Rest length of each spring (m), from the rest grid.
-    pub rest_len: Vec<f64>,
-    /// Kind of each spring.
-    pub kind: Vec<SpringKind>,
-}
-
-impl Springs {
-    /// Number of springs.
-    pub fn len(&self) -> usize {
-        self.a.len()
-    }
-
-    /// True when there are no springs.
-    pub fn is_empty(&self) -> bool {
-        self.a.is_empty()
-    }
-
-    /// Number of springs of each kind, indexed by `SpringKind as usize`.
-    pub fn count_by_kind(&self) -> [usize; 3] {
-        let mut counts = [0; 3];
-        for &k in &self.kind {
-            counts[k as usize] += 1;
-        }
-        counts
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -358,9 +303,9 @@ mod tests {
             [1, 6, 2],
         ] {
             let lattice = Lattice::new(counts, Vec3::new(1.0, 2.0, 3.0));
-            let springs = lattice.springs();
-            assert_eq!(lattice.spring_count_by_kind(), springs.count_by_kind());
-            assert_eq!(lattice.spring_count(), springs.len(), "{counts:?}");
+            let mut listed = [0; 3];
+            lattice.for_each_spring(|_, _, _, kind| listed[kind as usize] += 1);
+            assert_eq!(lattice.spring_count_by_kind(), listed, "{counts:?}");
         }
         assert_eq!(
             Lattice::classic().spring_count_by_kind(),

@@ -5,9 +5,10 @@ use std::fmt;
 use crate::body::{Body, Material};
 use crate::field::ForceField;
 use crate::integrator::Integrator;
-use crate::lattice::{Lattice, SpringKind, Springs};
+use crate::lattice::{Lattice, SpringKind};
 use crate::motion::{Motion, PinMotion};
 pub use crate::obstacle::{Aabb, Obstacle, Plane};
+use crate::springs::Springs;
 use crate::vec3::Vec3;
 
 /// Defaults of the classic jello world (the official `jello.w`), used wherever a value is not
@@ -127,12 +128,7 @@ impl Model {
     pub fn springs(&self) -> Springs {
         let mut springs = Springs::default();
         for body in &self.bodies {
-            let first = body.first as u32;
-            let s = body.springs();
-            springs.a.extend(s.a.iter().map(|a| first + a));
-            springs.b.extend(s.b.iter().map(|b| first + b));
-            springs.rest_len.extend(s.rest_len);
-            springs.kind.extend(s.kind);
+            body.for_each_spring(|s| springs.push(s, body.first));
         }
         springs
     }

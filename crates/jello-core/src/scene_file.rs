@@ -37,6 +37,13 @@
 //! # A pin may move (see jello_core::motion): shake = { amplitude = [0.1, 0.0, 0.0], frequency = 2.0 }
 //! # (m, Hz: amplitude · sin(2π f t)), or path = [[0.0, 0.0, 0.0, 0.0], [1.0, 0.0, 0.0, 0.5]]
 //! # ([t, dx, dy, dz] keyframes, s and m from where the points start, straight lines between).
+//!
+//! [[body.region]]             # factors on the springs with both ends in a box, where the body
+//! min = [0.0, 0.0, 0.5]       # rests as placed (like pins), boundaries included; regions that
+//! max = [1.0, 1.0, 1.0]       # overlap multiply
+//! stiffness = 4.0             # × the material's stiffness (default 1)
+//! damping = 1.0               # × the material's damping (default 1)
+//! rest = 0.9                  # × the rest length (default 1): below 1 the region pulls together
 //! ```
 //!
 //! Every key is checked: an unknown key, a wrong type or a missing value is an error naming the
@@ -54,6 +61,7 @@ use crate::mesh::TriMesh;
 use crate::model::{defaults, Aabb, Model, ModelBuilder, ModelError, Obstacle, Plane};
 use crate::motion::Motion;
 use crate::obstacle::Sphere;
+use crate::springs::SpringScale;
 use crate::state::State;
 use crate::vec3::Vec3;
 
@@ -281,10 +289,52 @@ pub struct BodySpec {
     /// Pinned points.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub pins: Vec<PinSpec>,
+    /// Regions of springs with their own stiffness, damping or rest length, applied in order.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub region: Vec<RegionSpec>,
     /// A saved state: every lattice point's position and velocity (replaces placement and
     /// motion).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub state: Option<StateSpec>,
+}
+
+/// `[[body.region]]`: factors on the springs whose two ends rest in a box (m), in the body's rest
+/// shape as placed (where it starts; as pins are found), boundaries included.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RegionSpec {
+    /// Lower corner (m).
+    pub min: [f64; 3],
+    /// Upper corner (m).
+    pub max: [f64; 3],
+    /// Factor on the stiffness.
+    #[serde(default = "one", skip_serializing_if = "is_one")]
+    pub stiffness: f64,
+    /// Factor on the damping.
+    #[serde(default = "one", skip_serializing_if = "is_one")]
+    pub damping: f64,
+    /// Factor on the rest length.
+    #[serde(default = "one", skip_serializing_if = "is_one")]
+    pub rest: f64,
+}
+
+fn one() -> f64 {
+    1.0
+}
+
+fn is_one(x: &f64) -> bool {
+    *x == 1.0
+}
+
+impl RegionSpec {
+    /// The factors.
+    pub fn scale(&self) -> SpringScale {
+        SpringScale {
+            rest: self.rest,
+            stiffness: self.stiffness,
+            damping: self.damping,
+        }
+    }
 }
 
 /// `cube = { points, size }`.
@@ -766,7 +816,59 @@ impl BodySpec {
         }
         m.check().map_err(|e| e.to_string())?;
         body.material = m;
+        self.apply_regions(&mut body)?;
         Ok(body)
+    }
+
+    /// Scales the springs of each region in turn.
+    fn apply_regions(&self, body: &mut Body) -> Result<(), String> {
+        if self.region.is_empty() {
+            return Ok(());
+        }
+        let rest: Vec<[f64; 3]> = body.rest_positions().iter().map(|p| p.to_array()).collect();
+        // Boundaries are included up to rounding: a point computed as `size · i / (n − 1)` may
+        // miss a boundary written in decimal by an ulp or so.
+        let slack = 1e-9 * body.lattice().size.max_abs();
+        for (r, region) in self.region.iter().enumerate() {
+            let what = |e: String| format!("region {}: {e}", r + 1);
+            let (lo, hi) = (region.min, region.max);
+            if !(v3(lo).is_finite() && v3(hi).is_finite()) || (0..3).any(|a| lo[a] > hi[a]) {
+                return Err(what(format!(
+                    "needs finite corners with min ≤ max (got {:?} to {:?})",
+                    region.min, region.max
+                )));
+            }
+            let scale = region.scale();
+            scale.check().map_err(|e| what(e.to_string()))?;
+            let inside: Vec<bool> = rest
+                .iter()
+                .map(|p| (0..3).all(|a| p[a] >= lo[a] - slack && p[a] <= hi[a] + slack))
+                .collect();
+            let mut caught = 0;
+            body.scale_springs(|s| {
+                if inside[s.a] && inside[s.b] {
+                    caught += 1;
+                    scale
+                } else {
+                    SpringScale::ONE
+                }
+            })
+            .map_err(|e| what(e.to_string()))?;
+            if caught == 0 {
+                let (mut min, mut max) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
+                for p in rest.iter().enumerate().filter(|(q, _)| body.is_active(*q)) {
+                    for a in 0..3 {
+                        (min[a], max[a]) = (min[a].min(p.1[a]), max[a].max(p.1[a]));
+                    }
+                }
+                return Err(what(format!(
+                    "no spring has both ends in {:?} to {:?} (the body rests within {min:?} to \
+                     {max:?} as placed)",
+                    region.min, region.max
+                )));
+            }
+        }
+        Ok(())
     }
 
     /// Writes body `b`'s initial positions and velocities into the state.

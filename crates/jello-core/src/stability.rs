@@ -22,7 +22,8 @@ use crate::model::Model;
 use crate::vec3::Vec3;
 
 /// Largest eigenvalue, over the mass, of the stiffness matrix (`tangent` true) or the damping
-/// matrix (`tangent` false) of the springs at positions `pos`, with per-kind weights `weight`.
+/// matrix (`tangent` false) of the springs at positions `pos`, each weighted by its stiffness or
+/// damping `w`.
 ///
 /// A spring's 3×3 block is `w ûûᵀ` for damping and `w (ûûᵀ + (1 − R/l)(I − ûûᵀ))` for stiffness:
 /// at the rest shape the second term vanishes, but a spring stretched or crushed far from its rest
@@ -30,7 +31,7 @@ use crate::vec3::Vec3;
 /// stiffest lattice mode), capped by the Gershgorin bound `2·max_p Σ |block|`; lattices with more
 /// than [`POWER_ITERATION_MAX_SPRINGS`] springs use the bound alone. The Rayleigh quotient
 /// approaches from below, so it is raised by 2 %.
-fn largest_eigenvalue(body: &Body, pos: &[Vec3], weight: &[f64; 3], tangent: bool) -> f64 {
+fn largest_eigenvalue(body: &Body, pos: &[Vec3], tangent: bool) -> f64 {
     let n = body.len();
     let s = &body.springs();
     let mass = body.material.mass;
@@ -38,11 +39,14 @@ fn largest_eigenvalue(body: &Body, pos: &[Vec3], weight: &[f64; 3], tangent: boo
     let blocks: Vec<(Vec3, f64, f64)> =
         s.a.iter()
             .zip(&s.b)
-            .zip(s.rest_len.iter().zip(&s.kind))
-            .map(|((&a, &b), (&rest, &kind))| {
+            .zip(
+                s.rest_len
+                    .iter()
+                    .zip(if tangent { &s.stiffness } else { &s.damping }),
+            )
+            .map(|((&a, &b), (&rest, &w))| {
                 let d = pos[a as usize] - pos[b as usize];
                 let l = d.length();
-                let w = weight[kind as usize];
                 if l == 0.0 {
                     return (Vec3::ZERO, 0.0, 0.0);
                 }
@@ -167,12 +171,8 @@ impl ModeBounds {
         };
         for body in model.bodies() {
             let (pos, m) = (&pos[body.points()], &body.material);
-            bounds.omega2 = bounds
-                .omega2
-                .max(largest_eigenvalue(body, pos, &m.stiffness, true));
-            bounds.gamma = bounds
-                .gamma
-                .max(largest_eigenvalue(body, pos, &m.damping, false));
+            bounds.omega2 = bounds.omega2.max(largest_eigenvalue(body, pos, true));
+            bounds.gamma = bounds.gamma.max(largest_eigenvalue(body, pos, false));
             bounds.collision_omega2 = bounds.collision_omega2.max(model.k_collision / m.mass);
             bounds.collision_gamma = bounds.collision_gamma.max(model.d_collision / m.mass);
         }

@@ -465,6 +465,11 @@ impl World {
                 "a world file holds the classic 8×8×8 cube of side 1 only",
             ));
         }
+        if body.spring_table().is_some() {
+            return Err(ModelError::new(
+                "a world file holds no per-spring rest lengths, stiffnesses or dampings",
+            ));
+        }
         let m = &body.material;
         if !(m.stiffness.iter().all(|&k| k == m.stiffness[0])
             && m.damping.iter().all(|&d| d == m.damping[0]))

@@ -98,9 +98,7 @@ fn the_springs_of_a_body_with_holes_are_those_of_its_kept_cells() {
         let lattice = Lattice::new(counts, size);
         let body = Body::from_cells(lattice, cells.clone(), Material::classic()).unwrap();
         let mut got = Vec::new();
-        body.for_each_spring(|a, b, rest, kind| {
-            got.push((a.min(b), a.max(b), rest, kind as usize))
-        });
+        body.for_each_spring(|s| got.push((s.a.min(s.b), s.a.max(s.b), s.rest, s.kind as usize)));
         got.sort_by_key(|s| (s.0, s.1));
         let want = brute_force_springs(counts, size, &cells);
         assert_eq!(got.len(), want.len(), "{counts:?}");

@@ -11,8 +11,8 @@ use std::sync::Mutex;
 
 use jello_core::forces::PARALLEL_MIN_POINTS;
 use jello_core::{
-    step, Aabb, Control, ForceField, Integrator, Lattice, ModelBuilder, Obstacle, Plane, Pull,
-    Scratch, Sphere, State, Vec3,
+    step, Aabb, Body, Control, ForceField, Integrator, Lattice, Material, ModelBuilder, Obstacle,
+    Plane, Pull, Scratch, Sphere, SpringScale, State, Vec3,
 };
 
 /// Counts allocations (and reallocations) made by any thread.
@@ -49,13 +49,29 @@ const LARGE: [usize; 3] = [24, 24, 24];
 
 /// Allocations in all threads during `steps` steps of `integrator` on a lattice of `counts`
 /// points, with a non-uniform field, a plane the lattice crosses, a sphere, pins, control forces
-/// and a pull, after three warm-up steps.
-fn allocations_while_stepping(counts: [usize; 3], integrator: Integrator, steps: usize) -> usize {
+/// and a pull, and per-spring values when `per_spring`, after three warm-up steps.
+fn allocations_while_stepping(
+    counts: [usize; 3],
+    integrator: Integrator,
+    steps: usize,
+    per_spring: bool,
+) -> usize {
     let field =
         ForceField::from_fn(5, Aabb::classic(), |p| Vec3::new(-p.y, p.x, -0.01) * 0.01).unwrap();
     let plane = Plane::facing([0.0, 0.0, 1.0, 0.5], Vec3::ZERO).unwrap();
+    let mut body = Body::lattice_box(
+        Lattice::new(counts, Vec3::new(1.0, 1.0, 1.0)),
+        Material::classic(),
+    );
+    if per_spring {
+        body.scale_springs(|s| SpringScale {
+            rest: 1.0 + 0.01 * (s.a % 3) as f64,
+            ..SpringScale::ONE
+        })
+        .unwrap();
+    }
     let model = ModelBuilder::new()
-        .lattice(Lattice::new(counts, Vec3::new(1.0, 1.0, 1.0)))
+        .bodies(vec![body])
         .integrator(integrator)
         .dt(2e-4)
         .field(Some(field))
@@ -92,8 +108,9 @@ fn allocations_while_stepping(counts: [usize; 3], integrator: Integrator, steps:
 }
 
 /// Every integrator on the classic cube (one thread) and on a 24³ lattice (threaded when the
-/// `parallel` feature is on, as it is by default), stepped on a thread of a 4-thread pool (4, so
-/// that the work is split even on a one-core machine): no allocation in any thread.
+/// `parallel` feature is on, as it is by default), with and without per-spring values, stepped
+/// on a thread of a 4-thread pool (4, so that the work is split even on a one-core machine): no
+/// allocation in any thread.
 #[test]
 fn steps_do_not_allocate() {
     let _turn = SERIAL.lock().unwrap_or_else(|e| e.into_inner());
@@ -109,11 +126,14 @@ fn steps_do_not_allocate() {
     pool.install(|| {
         for (counts, steps) in [([8, 8, 8], 200), (LARGE, 20)] {
             for integrator in Integrator::ALL {
-                let made = allocations_while_stepping(counts, integrator, steps);
-                assert_eq!(
-                    made, 0,
-                    "{integrator} on {counts:?}: {made} allocations in {steps} steps"
-                );
+                for per_spring in [false, true] {
+                    let made = allocations_while_stepping(counts, integrator, steps, per_spring);
+                    assert_eq!(
+                        made, 0,
+                        "{integrator} on {counts:?} (per-spring values: {per_spring}): {made} \
+                         allocations in {steps} steps"
+                    );
+                }
             }
         }
     });
@@ -130,7 +150,7 @@ fn steps_from_outside_the_pool_do_not_allocate() {
     let _turn = SERIAL.lock().unwrap_or_else(|e| e.into_inner());
     for integrator in Integrator::ALL {
         let steps = 200;
-        let made = allocations_while_stepping(LARGE, integrator, steps);
+        let made = allocations_while_stepping(LARGE, integrator, steps, false);
         assert_eq!(
             made, 0,
             "{integrator} on {LARGE:?} from outside the pool: {made} allocations in {steps} steps"

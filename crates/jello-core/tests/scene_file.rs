@@ -163,6 +163,72 @@ fn the_skin_reproduces_the_placed_mesh_at_rest() {
     }
 }
 
+/// A bilayer strip: the top layer's springs shorter at rest than the bottom's. The region holds
+/// exactly the springs with both ends in it, the scene reads back the same, and the free strip
+/// curls with its ends rising toward the shorter side, about as far as Timoshenko's bimetal
+/// gives for a continuum: two equal layers of thickness h/2 and a mismatch ε curl with curvature
+/// κ = 3ε/(2h) (here 0.375 /m), so a strip of length L rises by about L²κ/8 = 0.12 m at its ends.
+/// (The lattice is no continuum: its mid-plane springs belong to the short layer, and its shear
+/// and bend springs add their own stiffness: it settles at 0.0958 m.)
+#[test]
+fn a_region_of_shorter_springs_curls_a_strip() {
+    let text = "[simulation]\ndt = 0.0005\n\
+                [[body]]\ncube = { points = [17, 3, 5], size = [1.6, 0.2, 0.4] }\n\
+                centre = [0.0, 0.0, 0.0]\nmass = 0.01\ndamping = [2.0, 2.0, 2.0]\n\
+                [[body.region]]\nmin = [-0.8, -0.1, 0.0]\nmax = [0.8, 0.1, 0.2]\nrest = 0.9\n";
+    let file = parse(text).unwrap();
+    assert_eq!(parse(&file.to_toml()).unwrap(), file);
+    let scene = file.to_scene("s.toml").unwrap();
+    let body = scene.model.body(0);
+    let rest = body.rest_positions();
+    let plain = jello_core::Body::lattice_box(body.lattice().clone(), body.material);
+    let mut lattice_rest = Vec::new();
+    plain.for_each_spring(|s| lattice_rest.push(s.rest));
+    let mut n = 0;
+    let mut in_region = 0;
+    body.for_each_spring(|s| {
+        let upper = rest[s.a].z >= -1e-12 && rest[s.b].z >= -1e-12;
+        let want = if upper {
+            0.9 * lattice_rest[n]
+        } else {
+            lattice_rest[n]
+        };
+        assert_eq!(s.rest, want, "{s:?}");
+        in_region += upper as usize;
+        n += 1;
+    });
+    // The top three of five layers: 17 × 3 × 3 points.
+    assert_eq!(
+        in_region,
+        jello_core::Body::lattice_box(
+            jello_core::Lattice::new([17, 3, 3], Vec3::new(1.6, 0.2, 0.2)),
+            body.material,
+        )
+        .spring_count()
+    );
+    let mut state = scene.state.clone();
+    let mut scratch = jello_core::Scratch::new(&scene.model);
+    for _ in 0..4000 {
+        jello_core::step(
+            &scene.model,
+            &mut state,
+            &jello_core::Control::none(),
+            &mut scratch,
+        )
+        .unwrap();
+    }
+    let z = |i: usize| {
+        let p = body.lattice().index(i, 1, 2);
+        state.pos[body.points().start + p].z
+    };
+    let rise = 0.5 * (z(0) + z(16)) - z(8);
+    let timoshenko = 1.6f64.powi(2) * (3.0 * 0.1 / (2.0 * 0.4)) / 8.0;
+    assert!(
+        (rise / timoshenko - 1.0).abs() < 0.3,
+        "the ends rise toward the short side by {rise} m, Timoshenko {timoshenko} m"
+    );
+}
+
 /// One hostile scene: the error's line and column, and a piece of its message.
 fn assert_error(text: &str, line: usize, column: usize, says: &str) {
     let e = parse(text)
@@ -254,6 +320,32 @@ fn bad_scenes_are_errors_naming_the_line_and_column() {
         1,
         0,
         "pin 1: a shake needs a finite amplitude and a finite frequency above 0",
+    );
+    // Regions of springs: an empty box, corners the wrong way round, a bad factor, a stray key.
+    let region = |body: &str| format!("{cube}[[body.region]]\n{body}");
+    assert_error(
+        &region("min = [2.0, 2.0, 2.0]\nmax = [3.0, 3.0, 3.0]\nstiffness = 2.0\n"),
+        1,
+        0,
+        "region 1: no spring has both ends in [2.0, 2.0, 2.0] to [3.0, 3.0, 3.0] (the body rests within [0.0, 0.0, 0.0] to [1.0, 1.0, 1.0] as placed)",
+    );
+    assert_error(
+        &region("min = [0.0, 0.0, 1.0]\nmax = [1.0, 1.0, 0.0]\n"),
+        1,
+        0,
+        "region 1: needs finite corners with min ≤ max",
+    );
+    assert_error(
+        &region("min = [0.0, 0.0, 0.0]\nmax = [1.0, 1.0, 1.0]\nrest = 0.0\n"),
+        1,
+        0,
+        "region 1: rest length factor must be finite and positive",
+    );
+    assert_error(
+        &region("min = [0.0, 0.0, 0.0]\nmax = [1.0, 1.0, 1.0]\nsoftness = 2.0\n"),
+        6,
+        1,
+        "unknown field `softness`",
     );
     // Not text.
     let e = SceneFile::parse(b"[[body]]\n\xff\xfe", "s.toml").unwrap_err();

@@ -8,6 +8,7 @@ use clap::Args;
 use jello_core::body::rotation_xyz;
 use jello_core::diagnostics::centre_of_mass;
 use jello_core::field::RES_RANGE;
+use jello_core::scene_file::RegionSpec;
 use jello_core::{defaults, Aabb, ForceField, Integrator, Lattice, Vec3, World};
 
 use super::{parse_integrator, parse_non_negative, parse_positive};
@@ -133,6 +134,15 @@ pub struct CreateArgs {
     /// per body, with --pin.
     #[arg(long, value_name = "AX,AY,AZ,F", allow_hyphen_values = true)]
     pub shake: Vec<Numbers<4>>,
+    /// Give the springs with both ends in the box (X0,Y0,Z0)–(X1,Y1,Z1) (at rest, after placing
+    /// the body) factors on their stiffness, damping and rest length, e.g.
+    /// 0,0,0.5,1,1,1,stiffness=4,rest=0.9; per body, repeatable (overlaps multiply).
+    #[arg(
+        long,
+        value_name = "X0,Y0,Z0,X1,Y1,Z1,KEY=F…",
+        allow_hyphen_values = true
+    )]
+    pub region: Vec<RegionArg>,
     /// Scene: a solid sphere obstacle; repeatable.
     #[arg(long, value_name = "X,Y,Z,R", allow_hyphen_values = true)]
     pub sphere: Vec<Numbers<4>>,
@@ -184,6 +194,60 @@ impl FromStr for PinArg {
             }
             _ => Err(format!("expected X,Y,Z or X,Y,Z,R, found \"{s}\"")),
         }
+    }
+}
+
+/// `X0,Y0,Z0,X1,Y1,Z1,KEY=F[,KEY=F…]`: a box of springs and their factors.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RegionArg {
+    /// The region as a scene file holds it.
+    pub spec: RegionSpec,
+}
+
+impl FromStr for RegionArg {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        let parts: Vec<&str> = s.split(',').map(str::trim).collect();
+        let expected = || {
+            format!(
+                "expected X0,Y0,Z0,X1,Y1,Z1 then stiffness=F, damping=F or rest=F (at least \
+                 one), found \"{s}\""
+            )
+        };
+        if parts.len() < 7 {
+            return Err(expected());
+        }
+        let [x0, y0, z0, x1, y1, z1] = parts[..6].join(",").parse::<Numbers<6>>()?.0;
+        let mut spec = RegionSpec {
+            min: [x0, y0, z0],
+            max: [x1, y1, z1],
+            stiffness: 1.0,
+            damping: 1.0,
+            rest: 1.0,
+        };
+        for part in &parts[6..] {
+            let (key, value) = part.split_once('=').ok_or_else(expected)?;
+            let value: f64 = value
+                .trim()
+                .parse()
+                .ok()
+                .filter(|v: &f64| v.is_finite())
+                .ok_or_else(|| {
+                    format!("expected a finite number after {key}=, found \"{part}\"")
+                })?;
+            match key.trim() {
+                "stiffness" => spec.stiffness = value,
+                "damping" => spec.damping = value,
+                "rest" => spec.rest = value,
+                other => return Err(format!(
+                    "unknown factor \"{other}\" (expected stiffness, damping or rest) in \"{s}\""
+                )),
+            }
+        }
+        spec.scale()
+            .check()
+            .map_err(|e| format!("{e} in \"{s}\""))?;
+        Ok(RegionArg { spec })
     }
 }
 
@@ -372,6 +436,7 @@ pub fn create(args: CreateArgs, matches: &clap::ArgMatches) -> Result<(), CliErr
         ("--cube", !args.cube.is_empty()),
         ("--friction", args.friction.is_some()),
         ("--shake", !args.shake.is_empty()),
+        ("--region", !args.region.is_empty()),
         ("--cells", !args.cells.is_empty()),
         ("--size", !args.size.is_empty()),
         ("--at", !args.at.is_empty()),

@@ -6,7 +6,7 @@ use std::path::PathBuf;
 use clap::Args;
 use jello_core::diagnostics::{energy, max_penetration, model_centre_of_mass, momentum};
 use jello_core::stability::ModeBounds;
-use jello_core::{Integrator, Model, SpringKind};
+use jello_core::{Integrator, Model, SpringKind, SpringScale};
 
 use super::parse_integrator;
 use crate::error::CliError;
@@ -179,4 +179,37 @@ fn print_body(m: &Model, b: usize, name: &str) {
         k[1],
         k[2]
     );
+    if body.spring_table().is_some() {
+        println!("{}", describe_scaled_springs(body));
+    }
+}
+
+/// The springs of a body that have their own values: how many, and the range of each factor.
+fn describe_scaled_springs(body: &jello_core::Body) -> String {
+    let mut count = 0;
+    let mut range = [[f64::INFINITY, f64::NEG_INFINITY]; 3];
+    body.for_each_spring_scale(|_, s| {
+        if s != SpringScale::ONE {
+            count += 1;
+            for (r, f) in range.iter_mut().zip([s.stiffness, s.damping, s.rest]) {
+                *r = [r[0].min(f), r[1].max(f)];
+            }
+        }
+    });
+    let factors: Vec<String> = ["stiffness", "damping", "rest length"]
+        .iter()
+        .zip(range)
+        .filter(|(_, [lo, hi])| !(*lo == 1.0 && *hi == 1.0))
+        .map(|(what, [lo, hi])| {
+            if lo == hi {
+                format!("{what} ×{lo}")
+            } else {
+                format!("{what} ×{lo} to ×{hi}")
+            }
+        })
+        .collect();
+    format!(
+        "               {count} springs with their own values: {}",
+        factors.join(", ")
+    )
 }

@@ -44,7 +44,7 @@ fn owners(
             )));
         }
         let b = body - 1;
-        if seen[b] && id != "pin" {
+        if seen[b] && id != "pin" && id != "region" {
             return Err(CliError::usage(format!(
                 "{flag} is given twice for body {}",
                 b + 1
@@ -121,6 +121,7 @@ pub fn create_scene(args: &CreateArgs, matches: &ArgMatches) -> Result<(), CliEr
     let viscosity = per_body(matches, "viscosity", "--viscosity", &at, &args.viscosity)?;
     let pin_owners = owners(matches, "pin", "--pin", &at)?;
     let shake = per_body(matches, "shake", "--shake", &at, &args.shake)?;
+    let region_owners = owners(matches, "region", "--region", &at)?;
 
     let mut bodies = Vec::new();
     for (b, (_, shape)) in starts.iter().enumerate() {
@@ -192,6 +193,12 @@ pub fn create_scene(args: &CreateArgs, matches: &ArgMatches) -> Result<(), CliEr
                 }),
                 path: None,
             })
+            .collect();
+        spec.region = region_owners
+            .iter()
+            .zip(&args.region)
+            .filter(|(&o, _)| o == b)
+            .map(|(_, r)| r.spec)
             .collect();
         if shake[b].is_some() && spec.pins.is_empty() {
             return Err(CliError::usage(format!(
