@@ -239,9 +239,7 @@ impl FromStr for RegionArg {
                 "stiffness" => spec.stiffness = value,
                 "damping" => spec.damping = value,
                 "rest" => spec.rest = value,
-                other => return Err(format!(
-                    "unknown factor \"{other}\" (expected stiffness, damping or rest) in \"{s}\""
-                )),
+                other => return Err(unknown_factor(other, s)),
             }
         }
         spec.scale()
@@ -249,6 +247,11 @@ impl FromStr for RegionArg {
             .map_err(|e| format!("{e} in \"{s}\""))?;
         Ok(RegionArg { spec })
     }
+}
+
+/// The error for a region's factor that is not stiffness, damping or rest.
+fn unknown_factor(key: &str, arg: &str) -> String {
+    format!("unknown factor \"{key}\" (expected stiffness, damping or rest) in \"{arg}\"")
 }
 
 /// `N` comma-separated finite numbers.
