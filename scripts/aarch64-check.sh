@@ -41,7 +41,8 @@ native=target/release/jello
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
 # Each integrator, the plane and a field; 150 steps each (qemu runs about 50 times slower).
-for case in "rotate.w rk4" "skewedCorner.w euler" "jello.w rk2" "tornado.w symplecticeuler"; do
+for case in "rotate.w rk4" "skewedCorner.w euler" "jello.w rk2" "tornado.w symplecticeuler" \
+  "spin.w backwardeuler"; do
   set -- $case
   "$native" run "examples/$1" --integrator "$2" --steps 150 -q --save "$tmp/native.w" >/dev/null
   qemu-aarch64 -L /usr/aarch64-linux-gnu "$arm" run "examples/$1" --integrator "$2" --steps 150 -q \
@@ -51,4 +52,4 @@ for case in "rotate.w rk4" "skewedCorner.w euler" "jello.w rk2" "tornado.w sympl
     exit 1
   fi
 done
-echo "aarch64-check.sh: the aarch64 build (under qemu) saves the same bytes as the native one on 4 worlds"
+echo "aarch64-check.sh: the aarch64 build (under qemu) saves the same bytes as the native one on 5 worlds"

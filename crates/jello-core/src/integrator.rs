@@ -14,16 +14,34 @@ pub enum Integrator {
     Rk4,
     /// Symplectic (semi-implicit) Euler: `v += dt·a(p, v)`, then `p += dt·v` (new velocity).
     SymplecticEuler,
+    /// Backward (implicit) Euler: `v₁ = v₀ + dt·a(p₀ + dt·v₁, v₁)`, `p₁ = p₀ + dt·v₁`, solved by
+    /// Newton's method (see [`crate::implicit`]); stable at any time step. Also `Implicit`.
+    BackwardEuler,
 }
 
 impl Integrator {
     /// Every integrator, in the order they are listed to users.
-    pub const ALL: [Integrator; 4] = [
+    pub const ALL: [Integrator; 5] = [
+        Integrator::Euler,
+        Integrator::Rk2,
+        Integrator::Rk4,
+        Integrator::SymplecticEuler,
+        Integrator::BackwardEuler,
+    ];
+
+    /// The explicit integrators (a fixed number of force evaluations per step), which SPEC.md
+    /// names.
+    pub const EXPLICIT: [Integrator; 4] = [
         Integrator::Euler,
         Integrator::Rk2,
         Integrator::Rk4,
         Integrator::SymplecticEuler,
     ];
+
+    /// True for an integrator that solves an implicit equation each step (no stability limit).
+    pub fn is_implicit(self) -> bool {
+        matches!(self, Integrator::BackwardEuler)
+    }
 
     /// Canonical name, as written to world files.
     pub fn name(self) -> &'static str {
@@ -32,6 +50,7 @@ impl Integrator {
             Integrator::Rk2 => "RK2",
             Integrator::Rk4 => "RK4",
             Integrator::SymplecticEuler => "SymplecticEuler",
+            Integrator::BackwardEuler => "BackwardEuler",
         }
     }
 
@@ -42,6 +61,7 @@ impl Integrator {
             Integrator::Rk2 => &["Midpoint", "MP"],
             Integrator::Rk4 => &[],
             Integrator::SymplecticEuler => &["Symplectic", "SemiImplicitEuler"],
+            Integrator::BackwardEuler => &["Implicit", "ImplicitEuler"],
         }
     }
 
@@ -56,18 +76,20 @@ impl Integrator {
     /// Order of accuracy (global error ∝ dtᵒʳᵈᵉʳ).
     pub fn order(self) -> u32 {
         match self {
-            Integrator::Euler | Integrator::SymplecticEuler => 1,
+            Integrator::Euler | Integrator::SymplecticEuler | Integrator::BackwardEuler => 1,
             Integrator::Rk2 => 2,
             Integrator::Rk4 => 4,
         }
     }
 
-    /// Force evaluations per step.
-    pub fn force_evaluations(self) -> usize {
+    /// Force evaluations per step; `None` for an implicit integrator (as many as its solver
+    /// takes).
+    pub fn force_evaluations(self) -> Option<usize> {
         match self {
-            Integrator::Euler | Integrator::SymplecticEuler => 1,
-            Integrator::Rk2 => 2,
-            Integrator::Rk4 => 4,
+            Integrator::Euler | Integrator::SymplecticEuler => Some(1),
+            Integrator::Rk2 => Some(2),
+            Integrator::Rk4 => Some(4),
+            Integrator::BackwardEuler => None,
         }
     }
 

@@ -37,6 +37,7 @@ pub mod field;
 pub mod forces;
 pub mod friction;
 pub mod gltf;
+pub mod implicit;
 pub mod integrator;
 pub mod lattice;
 pub mod mesh;

@@ -93,6 +93,8 @@ pub struct Model {
     pub steps_per_frame: u32,
     /// A point further than this outside `bounds` (m) means the run has blown up.
     pub escape_margin: f64,
+    /// How closely the implicit integrator solves each step (see [`crate::implicit`]).
+    pub newton: crate::implicit::Newton,
 }
 
 impl Model {
@@ -156,6 +158,7 @@ impl Model {
             integrator: self.integrator,
             steps_per_frame: self.steps_per_frame,
             escape_margin: self.escape_margin,
+            newton: self.newton,
         }
     }
 }
@@ -178,6 +181,7 @@ pub struct ModelBuilder {
     integrator: Integrator,
     steps_per_frame: u32,
     escape_margin: f64,
+    newton: crate::implicit::Newton,
 }
 
 impl Default for ModelBuilder {
@@ -198,6 +202,7 @@ impl Default for ModelBuilder {
             integrator: Integrator::Rk4,
             steps_per_frame: defaults::STEPS_PER_FRAME,
             escape_margin: defaults::ESCAPE_MARGIN,
+            newton: crate::implicit::Newton::default(),
         }
     }
 }
@@ -206,6 +211,15 @@ impl ModelBuilder {
     /// A builder holding the classic defaults.
     pub fn new() -> Self {
         Self::default()
+    }
+
+    /// How closely the implicit integrator solves each step (default [`Newton::default`]);
+    /// checked by [`build`](Self::build).
+    ///
+    /// [`Newton::default`]: crate::implicit::Newton
+    pub fn newton(mut self, newton: crate::implicit::Newton) -> Self {
+        self.newton = newton;
+        self
     }
 
     /// The bodies (default: one, the classic 8×8×8 cube of side 1 m of classic jello). The
@@ -418,6 +432,10 @@ impl ModelBuilder {
                 ));
             }
         }
+        positive("Newton tolerance", self.newton.tolerance)?;
+        if self.newton.max_iterations == 0 {
+            return Err(ModelError::new("Newton iterations must be at least 1"));
+        }
         Ok(Model {
             bodies: self.bodies,
             k_collision: self.k_collision,
@@ -434,6 +452,7 @@ impl ModelBuilder {
             integrator: self.integrator,
             steps_per_frame: self.steps_per_frame,
             escape_margin: self.escape_margin,
+            newton: self.newton,
         })
     }
 }

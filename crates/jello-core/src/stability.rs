@@ -97,8 +97,10 @@ fn largest_eigenvalue(body: &Body, pos: &[Vec3], tangent: bool) -> f64 {
 /// would cost more than the estimate is worth).
 pub const POWER_ITERATION_MAX_SPRINGS: usize = 1_000_000;
 
-/// Spectral radius of one step of `integrator` with size `h` on `x'' = −w2·x − g·x'`.
-fn spectral_radius(integrator: Integrator, w2: f64, g: f64, h: f64) -> f64 {
+/// Spectral radius of one step of `integrator` with size `h` on `x'' = −w2·x − g·x'`: the factor
+/// by which the step scales that mode's amplitude (above 1: unstable; below 1 with `g = 0`: the
+/// method's own damping).
+pub fn spectral_radius(integrator: Integrator, w2: f64, g: f64, h: f64) -> f64 {
     let f = |x: f64, v: f64| -w2 * x - g * v;
     let one_step = |x: f64, v: f64| -> (f64, f64) {
         match integrator {
@@ -110,6 +112,11 @@ fn spectral_radius(integrator: Integrator, w2: f64, g: f64, h: f64) -> f64 {
             Integrator::Rk2 => {
                 let (xm, vm) = (x + 0.5 * h * v, v + 0.5 * h * f(x, v));
                 (x + h * vm, v + h * f(xm, vm))
+            }
+            Integrator::BackwardEuler => {
+                // v₁ = v + h(−w2 (x + h v₁) − g v₁), solved for v₁.
+                let v1 = (v - h * w2 * x) / (1.0 + h * g + h * h * w2);
+                (x + h * v1, v1)
             }
             Integrator::Rk4 => {
                 let (k1x, k1v) = (v, f(x, v));

@@ -8,6 +8,7 @@
 use std::fmt;
 
 use crate::forces::{force_pass, ForceScratch, PARALLEL_MIN_POINTS};
+use crate::implicit::{self, ImplicitScratch};
 use crate::integrator::Integrator;
 use crate::model::Model;
 use crate::soa::Soa;
@@ -35,6 +36,8 @@ pub struct Scratch {
     /// The step's result, swapped into the state when it is sound.
     next_pos: Vec<Vec3>,
     next_vel: Vec<Vec3>,
+    /// The implicit solver's buffers (sized on its first step).
+    implicit: ImplicitScratch,
 }
 
 impl Scratch {
@@ -51,6 +54,7 @@ impl Scratch {
             sum_vel: z(2),
             next_pos: vec![Vec3::ZERO; model.point_count()],
             next_vel: vec![Vec3::ZERO; model.point_count()],
+            implicit: ImplicitScratch::default(),
         }
     }
 }
@@ -62,6 +66,16 @@ pub enum BlowUpCause {
     NonFinite,
     /// A point went further outside the box than the escape margin; holds its position.
     Escaped(Vec3),
+    /// The implicit solve did not converge: the residual reached (m/s, `max |g|`, see
+    /// [`crate::implicit`]) after so many Newton iterations.
+    NotConverged {
+        /// Residual reached (m/s).
+        residual: f64,
+        /// Newton iterations taken.
+        iterations: u32,
+        /// The tolerance it was to reach (m/s, before scaling by the largest speed).
+        tolerance: f64,
+    },
 }
 
 /// A step that was rejected because the state blew up. The state is left at the last good step.
@@ -92,6 +106,20 @@ pub struct BlowUp {
 
 impl fmt::Display for BlowUp {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        if let BlowUpCause::NotConverged {
+            residual,
+            iterations,
+            tolerance,
+        } = self.cause
+        {
+            return write!(
+                f,
+                "the implicit solve did not converge at step {} (t = {:.6} s): residual \
+                 {residual:.3e} m/s after {iterations} Newton iterations (the tolerance is \
+                 {:.0e} m/s); {} with dt = {} s: try a smaller --dt",
+                self.step, self.time, tolerance, self.integrator, self.dt
+            );
+        }
         let [i, j, k] = self.point_ijk;
         write!(
             f,
@@ -108,6 +136,7 @@ impl fmt::Display for BlowUp {
                 "is more than {} m outside the box, at ({:.3e}, {:.3e}, {:.3e})",
                 self.escape_margin, p.x, p.y, p.z
             )?,
+            BlowUpCause::NotConverged { .. } => unreachable!("written above"),
         }
         write!(
             f,
@@ -152,8 +181,41 @@ pub fn step(
         *scratch = Scratch::new(model);
     }
     let dt = model.dt;
-    let sound = integrate(model, state, control, scratch);
     let start_time = state.time;
+    let sound = if model.integrator.is_implicit() {
+        let s = &mut *scratch;
+        match implicit::step(
+            model,
+            state,
+            control,
+            &mut s.force,
+            &mut s.implicit,
+            &mut s.next_pos,
+            &mut s.next_vel,
+        ) {
+            Ok(()) => block_is_sound(model, &s.next_pos, &s.next_vel),
+            Err(e) => {
+                return Err(BlowUp {
+                    step: state.steps + 1,
+                    time: state.time,
+                    point: 0,
+                    body: 0,
+                    point_ijk: model.locate(0).1,
+                    cause: BlowUpCause::NotConverged {
+                        residual: e.residual,
+                        iterations: e.iterations,
+                        tolerance: model.newton.tolerance,
+                    },
+                    integrator: model.integrator,
+                    dt,
+                    suggested_dt: Some(round_half(dt)),
+                    escape_margin: model.escape_margin,
+                })
+            }
+        }
+    } else {
+        integrate(model, state, control, scratch)
+    };
 
     // Step boundary: accept the new state only if it is sound.
     let s = scratch;
@@ -196,7 +258,13 @@ pub fn step(
     Ok(())
 }
 
-/// One step of the integrator from `state` into `s.next_pos` and `s.next_vel`; whether the
+/// Half of `dt`, as a short decimal.
+fn round_half(dt: f64) -> f64 {
+    let half = 0.5 * dt;
+    format!("{half:.2e}").parse().unwrap_or(half)
+}
+
+/// One step of an explicit integrator from `state` into `s.next_pos` and `s.next_vel`; whether the
 /// result is sound (every value finite, no point beyond the escape margin).
 ///
 /// Each force evaluation is one [`force_pass`]: the integrator's update for a block of points
@@ -229,6 +297,7 @@ fn integrate(model: &Model, state: &State, control: &Control, s: &mut Scratch) -
         sum_vel,
         next_pos,
         next_vel,
+        implicit: _,
     } = s;
     let (p, v) = (&*pos, &*vel);
     let sound = |np: &[Vec3], nv: &[Vec3]| block_is_sound(model, np, nv);
@@ -338,6 +407,7 @@ fn integrate(model: &Model, state: &State, control: &Control, s: &mut Scratch) -
                 },
             )
         }
+        Integrator::BackwardEuler => unreachable!("the implicit step is taken by step()"),
     }
 }
 

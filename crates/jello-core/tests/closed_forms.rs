@@ -27,7 +27,8 @@ fn free_fall_follows_the_parabola() {
         // Euler lags by ½ g t dt (it moves with the old velocity); symplectic Euler leads by it.
         let bias = match integrator {
             Integrator::Euler => 0.5 * g * t * dt,
-            Integrator::SymplecticEuler => -0.5 * g * t * dt,
+            // Backward Euler too: the velocity first, then the position with it.
+            Integrator::SymplecticEuler | Integrator::BackwardEuler => -0.5 * g * t * dt,
             _ => 0.0,
         };
         for (p, p0) in state.pos.iter().zip(&start) {

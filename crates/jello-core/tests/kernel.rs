@@ -120,6 +120,7 @@ fn textbook_step(model: &Model, pos: &[Vec3], vel: &[Vec3], control: &Control) -
     };
     let dt = model.dt;
     match model.integrator {
+        Integrator::BackwardEuler => unreachable!("an explicit integrator"),
         Integrator::Euler => [axpy(pos, vel, dt), axpy(vel, &acc(pos, vel), dt)],
         Integrator::SymplecticEuler => {
             let v = axpy(vel, &acc(pos, vel), dt);
@@ -183,7 +184,7 @@ fn every_integrator_steps_as_the_textbook_writes_it_on_a_threaded_lattice() {
         forces: pos.iter().map(|_| rng.vec3() * 0.01).collect(),
         ..Control::none()
     };
-    for integrator in Integrator::ALL {
+    for integrator in Integrator::EXPLICIT {
         let mut model = base.clone();
         model.integrator = integrator;
         let [p, v] = textbook_step(&model, &pos, &vel, &control);

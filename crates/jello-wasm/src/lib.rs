@@ -725,10 +725,22 @@ impl JelloSim {
 /// The blow-up in words for the viewer's banner (the core's `Display` speaks to the command
 /// line, with its `--dt` flag).
 fn describe_blow_up(b: &BlowUp) -> String {
+    if let BlowUpCause::NotConverged {
+        residual,
+        iterations,
+        ..
+    } = b.cause
+    {
+        return format!(
+            "The implicit solve did not converge at step {} (t = {:.4} s): residual {residual:.2e} m/s after {iterations} Newton iterations. Try a smaller dt than {} s.",
+            b.step, b.time, b.dt
+        );
+    }
     let [i, j, k] = b.point_ijk;
     let cause = match b.cause {
         BlowUpCause::NonFinite => "got a non-finite position or velocity".to_string(),
         BlowUpCause::Escaped(_) => format!("flew more than {} m outside the box", b.escape_margin),
+        BlowUpCause::NotConverged { .. } => unreachable!("described above"),
     };
     let advice = match b.suggested_dt {
         Some(dt) => format!("try dt = {dt} s"),

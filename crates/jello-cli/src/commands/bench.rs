@@ -14,9 +14,12 @@ pub struct BenchArgs {
     /// Points per side of the N×N×N lattice.
     #[arg(long, default_value_t = 8, value_parser = clap::value_parser!(u64).range(2..=512))]
     pub size: u64,
-    /// Integrator (Euler, RK2, RK4, SymplecticEuler).
+    /// Integrator (Euler, RK2, RK4, SymplecticEuler, BackwardEuler).
     #[arg(long, value_parser = parse_integrator, default_value = "RK4")]
     pub integrator: Integrator,
+    /// Time step (s) [default: the scene's 0.0005].
+    #[arg(long, value_parser = parse_positive)]
+    pub dt: Option<f64>,
     /// Worker threads (1 = the calling thread only).
     #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u64).range(1..=256))]
     pub threads: u64,
@@ -32,6 +35,8 @@ pub struct BenchArgs {
 struct Measurement {
     points: usize,
     springs: usize,
+    /// Time step (s).
+    dt: f64,
     steps: u64,
     wall: f64,
 }
@@ -43,37 +48,46 @@ pub fn bench(args: BenchArgs) -> Result<(), CliError> {
         .num_threads(threads)
         .build()
         .map_err(|e| CliError::input(format!("cannot start {threads} threads: {e}")))?;
-    let m = pool.install(|| measure(args.size as usize, args.integrator, args.seconds))?;
+    let m = pool.install(|| measure(args.size as usize, args.integrator, args.dt, args.seconds))?;
 
     let steps_per_s = m.steps as f64 / m.wall;
-    let evals_per_s = (m.springs * args.integrator.force_evaluations()) as f64 * steps_per_s;
+    let real_time = steps_per_s * m.dt;
+    // An implicit step evaluates the forces as often as its solver needs: no fixed count.
+    let evals_per_s = args
+        .integrator
+        .force_evaluations()
+        .map(|k| (m.springs * k) as f64 * steps_per_s);
     let peak = peak_rss_mib();
     let tier = simd::active_tier();
     if args.json {
         println!(
             "{{\"impl\": \"jello\", \"size\": {}, \"points\": {}, \"springs\": {}, \"integrator\": \"{}\", \
-             \"threads\": {threads}, \"simd\": \"{tier}\", \"steps\": {}, \"seconds\": {:.3}, \"steps_per_s\": {:.1}, \
-             \"spring_evals_per_s\": {:.1}, \"peak_rss_mib\": {}, \"version\": \"{}\"}}",
+             \"threads\": {threads}, \"simd\": \"{tier}\", \"dt\": {}, \"steps\": {}, \"seconds\": {:.3}, \"steps_per_s\": {:.1}, \
+             \"real_time\": {:.4}, \"spring_evals_per_s\": {}, \"peak_rss_mib\": {}, \"version\": \"{}\"}}",
             args.size,
             m.points,
             m.springs,
             args.integrator,
+            m.dt,
             m.steps,
             m.wall,
             steps_per_s,
-            evals_per_s,
+            real_time,
+            evals_per_s.map_or("null".to_string(), |e| format!("{e:.1}")),
             peak.map_or("null".to_string(), |p| format!("{p:.1}")),
             env!("CARGO_PKG_VERSION")
         );
     } else {
         println!(
-            "{n}³ lattice ({} points, {} springs), {}, {threads} thread(s), {tier}: {:.0} steps/s, {:.1} M spring evaluations/s \
+            "{n}³ lattice ({} points, {} springs), {}, dt {} s, {threads} thread(s), {tier}: {:.0} steps/s, {:.3}× real time{} \
              ({} steps in {:.2} s{})",
             m.points,
             m.springs,
             args.integrator,
+            m.dt,
             steps_per_s,
-            evals_per_s / 1e6,
+            real_time,
+            evals_per_s.map_or(String::new(), |e| format!(", {:.1} M spring evaluations/s", e / 1e6)),
             m.steps,
             m.wall,
             peak.map_or(String::new(), |p| format!(", peak memory {p:.0} MiB")),
@@ -86,9 +100,23 @@ pub fn bench(args: BenchArgs) -> Result<(), CliError> {
 /// Warms up for a tenth of the time (at least a few steps), then steps for about `seconds`.
 /// The measured run starts again from the initial state. A blow-up (the scene never blows up at
 /// its dt) is an error.
-fn measure(n: usize, integrator: Integrator, seconds: f64) -> Result<Measurement, CliError> {
+fn measure(
+    n: usize,
+    integrator: Integrator,
+    dt: Option<f64>,
+    seconds: f64,
+) -> Result<Measurement, CliError> {
     let (model, state) =
         scenes::benchmark(n, integrator).map_err(|e| CliError::input(e.to_string()))?;
+    let model = match dt {
+        Some(dt) => model
+            .to_builder()
+            .dt(dt)
+            .build()
+            .map_err(|e| CliError::usage(format!("--dt: {e}")))?,
+        None => model,
+    };
+    let dt = model.dt;
     let (points, springs) = (model.point_count(), model.spring_count());
     let mut sim = Simulation::new(model, state);
     let advance = |sim: &mut Simulation, steps: u64| -> Result<(), CliError> {
@@ -127,6 +155,7 @@ fn measure(n: usize, integrator: Integrator, seconds: f64) -> Result<Measurement
     Ok(Measurement {
         points,
         springs,
+        dt,
         steps,
         wall: start.elapsed().as_secs_f64(),
     })

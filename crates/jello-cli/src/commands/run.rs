@@ -28,7 +28,8 @@ pub struct RunArgs {
     /// Simulated time to run (s), rounded up to whole steps.
     #[arg(long, value_parser = parse_positive)]
     pub time: Option<f64>,
-    /// Integrator to use instead of the file's (Euler, RK2, RK4, SymplecticEuler; any case).
+    /// Integrator to use instead of the file's (Euler, RK2, RK4, SymplecticEuler,
+    /// BackwardEuler; any case).
     #[arg(long, value_parser = parse_integrator)]
     pub integrator: Option<Integrator>,
     /// Time step to use instead of the file's (s).

@@ -1,0 +1,281 @@
+//! The implicit integrator (backward Euler, `jello_core::implicit`): its recurrence in closed
+//! form, stability far past the explicit limit, energy, convergence order, momentum, threads,
+//! and the report of a step that does not converge.
+
+mod common;
+
+use common::{max_diff, on_threads, Lcg as Rng};
+use jello_core::diagnostics::{energy, momentum};
+use jello_core::implicit::Newton;
+use jello_core::stability::stable_dt;
+use jello_core::{
+    step, Aabb, BlowUpCause, Body, Control, Integrator, Lattice, Material, Model, ModelBuilder,
+    Scratch, State, Vec3,
+};
+
+fn far_walls() -> Aabb {
+    Aabb::new(Vec3::new(-50.0, -50.0, -50.0), Vec3::new(50.0, 50.0, 50.0)).unwrap()
+}
+
+/// Two points joined by one spring of rest length `rest` along x.
+fn dumbbell(rest: f64, material: Material, dt: f64, integrator: Integrator) -> Model {
+    let body = Body::lattice_box(Lattice::new([2, 1, 1], Vec3::new(rest, 1.0, 1.0)), material);
+    ModelBuilder::new()
+        .bodies(vec![body])
+        .bounds(far_walls())
+        .dt(dt)
+        .integrator(integrator)
+        .build()
+        .unwrap()
+}
+
+/// A damped spring moving along its axis is linear, so backward Euler is the recurrence
+/// `r₁ = (r₀ − h ω² s₀)/(1 + hγ + h²ω²)`, `s₁ = s₀ + h r₁` on the stretch `s` and the
+/// stretching speed `r`, with `ω² = 2k/m`, `γ = 2d/m`; the centre of mass moves uniformly. At a
+/// step of 0.05 s, five times the oscillator's period over 2π.
+#[test]
+fn a_damped_spring_follows_the_backward_euler_recurrence() {
+    let (k, d, m, rest, h) = (40.0, 0.3, 0.1, 0.5, 0.05);
+    let material = Material {
+        mass: m,
+        stiffness: [k; 3],
+        damping: [d; 3],
+    };
+    let model = dumbbell(rest, material, h, Integrator::BackwardEuler);
+    let mut state = State::new(
+        vec![Vec3::new(0.0, 0.0, 0.0), Vec3::new(rest + 0.1, 0.0, 0.0)],
+        vec![Vec3::new(0.3, 0.0, 0.0), Vec3::new(-0.2, 0.0, 0.0)],
+    );
+    let (w2, gamma) = (2.0 * k / m, 2.0 * d / m);
+    let (mut s, mut r) = (0.1, -0.5);
+    let centre = |st: &State| (st.pos[0].x + st.pos[1].x) * 0.5;
+    let c0 = centre(&state);
+    let mut scratch = Scratch::new(&model);
+    for n in 1..=100 {
+        step(&model, &mut state, &Control::none(), &mut scratch).unwrap();
+        r = (r - h * w2 * s) / (1.0 + h * gamma + h * h * w2);
+        s += h * r;
+        let stretch = state.pos[1].x - state.pos[0].x - rest;
+        let speed = state.vel[1].x - state.vel[0].x;
+        assert!(
+            (stretch - s).abs() < 1e-9,
+            "step {n}: stretch {stretch} vs {s}"
+        );
+        assert!((speed - r).abs() < 1e-8, "step {n}: speed {speed} vs {r}");
+        let drift = centre(&state) - (c0 + 0.05 * h * n as f64);
+        assert!(drift.abs() < 1e-12, "step {n}: centre off by {drift}");
+    }
+}
+
+/// A stiff undamped spring at 100 times RK4's stable step: RK4 blows up, backward Euler keeps
+/// the stretch and the energy from ever growing.
+#[test]
+fn a_stiff_spring_far_past_the_explicit_limit_stays_bounded() {
+    let material = Material {
+        mass: 1e-3,
+        stiffness: [1e6; 3],
+        damping: [0.0; 3],
+    };
+    let limit = stable_dt(
+        &dumbbell(0.5, material, 1e-3, Integrator::Rk4),
+        Integrator::Rk4,
+    );
+    let h = 100.0 * limit;
+    let start = State::new(
+        vec![Vec3::new(0.0, 0.0, 0.0), Vec3::new(0.55, 0.0, 0.0)],
+        vec![Vec3::ZERO; 2],
+    );
+    let rk4 = dumbbell(0.5, material, h, Integrator::Rk4);
+    let mut state = start.clone();
+    let mut scratch = Scratch::new(&rk4);
+    let blew_up = (0..200).any(|_| step(&rk4, &mut state, &Control::none(), &mut scratch).is_err());
+    assert!(blew_up, "RK4 at 100× its limit blows up");
+
+    let model = dumbbell(0.5, material, h, Integrator::BackwardEuler);
+    let mut state = start;
+    let mut scratch = Scratch::new(&model);
+    let e0 = energy(&model, &state).total();
+    let mut last = e0;
+    for _ in 0..500 {
+        step(&model, &mut state, &Control::none(), &mut scratch).unwrap();
+        let stretch = (state.pos[1].x - state.pos[0].x - 0.5).abs();
+        assert!(stretch <= 0.05 + 1e-12, "stretch {stretch}");
+        let e = energy(&model, &state).total();
+        assert!(e <= last + 1e-12 * e0, "energy rose from {last} to {e}");
+        last = e;
+    }
+}
+
+/// With no field, no gravity and no outside force, the energy never rises above its start,
+/// at frame-rate steps, while the cube tumbles and hits a wall.
+#[test]
+fn energy_never_rises_without_outside_work() {
+    for dt in [0.01, 1.0 / 60.0] {
+        let model = ModelBuilder::new()
+            .integrator(Integrator::BackwardEuler)
+            .dt(dt)
+            .build()
+            .unwrap();
+        let mut rng = Rng(5);
+        let mut state = State::at_rest(&model);
+        for (p, v) in state.pos.iter_mut().zip(state.vel.iter_mut()) {
+            *p += rng.vec3() * 0.03 - Vec3::new(0.5, 0.5, 0.5);
+            *v = Vec3::new(3.0, -1.0, 2.0) + rng.vec3() * 0.5;
+        }
+        let start = energy(&model, &state).total();
+        let mut scratch = Scratch::new(&model);
+        let mut touched = false;
+        for _ in 0..300 {
+            step(&model, &mut state, &Control::none(), &mut scratch).unwrap();
+            let e = energy(&model, &state);
+            touched |= e.collision > 0.0;
+            assert!(
+                e.total() <= start,
+                "dt {dt}: energy {} above {start}",
+                e.total()
+            );
+        }
+        assert!(touched, "dt {dt}: the cube reaches a wall");
+        assert!(energy(&model, &state).total() < 0.5 * start);
+    }
+}
+
+/// Against a fine RK4 reference, the error at t = 0.02 s halves when dt halves (first order).
+#[test]
+fn the_error_is_first_order() {
+    let run = |integrator, dt: f64| {
+        let model = ModelBuilder::new()
+            .integrator(integrator)
+            .dt(dt)
+            .gravity(Vec3::new(0.0, 0.0, -9.81))
+            .bounds(far_walls())
+            .build()
+            .unwrap();
+        let mut rng = Rng(9);
+        let mut state = State::at_rest(&model);
+        for (p, v) in state.pos.iter_mut().zip(state.vel.iter_mut()) {
+            *p += rng.vec3() * 0.02;
+            *v = rng.vec3() * 0.5;
+        }
+        common::run(&model, &mut state, (0.02 / dt).round() as usize);
+        state.pos
+    };
+    let reference = run(Integrator::Rk4, 1e-5);
+    let errors: Vec<f64> = [1e-4, 5e-5, 2.5e-5]
+        .iter()
+        .map(|&dt| max_diff(&run(Integrator::BackwardEuler, dt), &reference))
+        .collect();
+    for pair in errors.windows(2) {
+        let ratio = pair[0] / pair[1];
+        assert!((1.8..2.2).contains(&ratio), "errors {errors:?}");
+    }
+}
+
+/// Internal forces conserve momentum: a cube in free flight keeps it to rounding.
+#[test]
+fn internal_forces_conserve_momentum() {
+    let model = ModelBuilder::new()
+        .integrator(Integrator::BackwardEuler)
+        .dt(1.0 / 60.0)
+        .bounds(far_walls())
+        .build()
+        .unwrap();
+    let mut rng = Rng(2);
+    let mut state = State::at_rest(&model);
+    for (p, v) in state.pos.iter_mut().zip(state.vel.iter_mut()) {
+        *p += rng.vec3() * 0.05;
+        *v = Vec3::new(0.2, 0.1, -0.1) + rng.vec3() * 0.3;
+    }
+    let p0 = momentum(&model, &state.vel);
+    common::run(&model, &mut state, 120);
+    let p1 = momentum(&model, &state.vel);
+    assert!((p1 - p0).max_abs() < 1e-12, "{p0:?} → {p1:?}");
+}
+
+/// The same bits on 1, 2 and 3 threads, on a lattice large enough for threads.
+#[test]
+fn implicit_steps_are_bit_identical_on_any_thread_count() {
+    let model = ModelBuilder::new()
+        .lattice(Lattice::new([22, 21, 20], Vec3::new(1.0, 1.0, 1.0)))
+        .integrator(Integrator::BackwardEuler)
+        .dt(0.01)
+        .gravity(Vec3::new(0.0, 0.0, -9.81))
+        .build()
+        .unwrap();
+    let mut start = State::at_rest(&model);
+    start
+        .pos
+        .iter_mut()
+        .for_each(|p| *p -= Vec3::new(0.5, 0.5, 1.995));
+    let run = |threads| {
+        on_threads(threads, || {
+            let mut state = start.clone();
+            common::run(&model, &mut state, 8);
+            state
+        })
+    };
+    let one = run(1);
+    assert!(
+        one.pos.iter().any(|p| p.z < -2.0),
+        "the cube reaches the floor"
+    );
+    assert_eq!(one, run(2));
+    assert_eq!(one, run(3));
+}
+
+/// A step that does not converge within the allowed Newton iterations is reported with its
+/// residual, and the state stays at the last good step.
+#[test]
+fn a_step_that_does_not_converge_is_reported() {
+    let model = ModelBuilder::new()
+        .integrator(Integrator::BackwardEuler)
+        .dt(1.0 / 60.0)
+        .newton(Newton {
+            tolerance: 1e-9,
+            max_iterations: 1,
+        })
+        .build()
+        .unwrap();
+    let mut rng = Rng(4);
+    let mut state = State::at_rest(&model);
+    state
+        .pos
+        .iter_mut()
+        .for_each(|p| *p += rng.vec3() * 0.05);
+    let before = state.clone();
+    let err = step(
+        &model,
+        &mut state,
+        &Control::none(),
+        &mut Scratch::new(&model),
+    )
+    .unwrap_err();
+    let BlowUpCause::NotConverged {
+        residual,
+        iterations,
+        ..
+    } = err.cause
+    else {
+        panic!("{err}")
+    };
+    assert_eq!(iterations, 1);
+    assert!(residual > 1e-9, "{residual}");
+    assert_eq!(state, before);
+    let said = err.to_string();
+    assert!(
+        said.contains("did not converge at step 1") && said.contains("after 1 Newton iterations"),
+        "{said}"
+    );
+    for bad in [
+        Newton {
+            tolerance: 0.0,
+            max_iterations: 5,
+        },
+        Newton {
+            tolerance: 1e-9,
+            max_iterations: 0,
+        },
+    ] {
+        assert!(ModelBuilder::new().newton(bad).build().is_err());
+    }
+}
