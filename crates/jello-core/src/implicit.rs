@@ -20,18 +20,19 @@
 //! undamped.) The scheme is first order; as `h → 0` it agrees with the explicit integrators.
 //!
 //! Newton's method: each iteration solves `A·Δv = −M·g` with `A = M + h·D₀ + h²·K`, `K` the
-//! stiffness matrix of the springs (a compressed spring's transverse stiffness clamped at zero,
-//! so that `A` is symmetric positive definite), of the penalty springs the point is in at the
-//! iterate (with an obstacle's friction ties along its surface) and of the pulls, by conjugate
-//! gradients preconditioned with `A`'s 3×3 diagonal blocks; then a backtracking line search on
-//! the incremental potential (one body and no friction: the common case), or on `|g|²_M`
-//! otherwise.
+//! stiffness matrix of the springs (with a compressed spring's negative transverse stiffness,
+//! or, when that leaves `A` not positive definite, clamped at zero), of the penalty springs the
+//! point is in at the iterate (with an obstacle's friction ties along its surface) and of the
+//! pulls, by conjugate gradients preconditioned with `A`'s 3×3 diagonal blocks; then a
+//! backtracking line search on the incremental potential (one body and no friction: the common
+//! case), or on `|g|²_M` otherwise.
 //!
 //! A step has converged when every point's residual `|g|` is at most [`TOLERANCE`] times
-//! `max(1, max |v₁|)` (m/s; both settable, [`Model::newton`](crate::Model::newton)); then the mass-weighted mean residual of the moving points is taken
-//! out of their velocities (the exact solution has none), so internal forces conserve momentum
-//! to rounding. A step that does not converge within [`MAX_NEWTON`] iterations (by default) is reported (the
-//! state stays at the last good step) with the residual reached.
+//! `max(1, max |v₁|)` (m/s; both settable, [`Model::newton`](crate::Model::newton)); then the
+//! mass-weighted mean residual of the moving points is taken out of their velocities (the exact
+//! solution has none), so internal forces conserve momentum to rounding. A step that does not
+//! converge within [`MAX_NEWTON`] iterations (by default) is reported (the state stays at the
+//! last good step) with the residual reached.
 //!
 //! Every loop here runs in a fixed order on the calling thread (the force evaluations are
 //! bit-identical on any thread count), so results do not depend on the thread count; the buffers

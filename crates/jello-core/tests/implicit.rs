@@ -238,10 +238,7 @@ fn a_step_that_does_not_converge_is_reported() {
         .unwrap();
     let mut rng = Rng(4);
     let mut state = State::at_rest(&model);
-    state
-        .pos
-        .iter_mut()
-        .for_each(|p| *p += rng.vec3() * 0.05);
+    state.pos.iter_mut().for_each(|p| *p += rng.vec3() * 0.05);
     let before = state.clone();
     let err = step(
         &model,
