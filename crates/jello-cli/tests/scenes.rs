@@ -533,35 +533,20 @@ fn regions_of_springs_from_the_command_line() {
     );
     assert_eq!(info.matches("with their own values").count(), 1, "{info}");
 
-    dir.fails(
-        &["create", "s.toml", "--cube", "4", "--region", "0,0,0,1,1,1"],
-        2,
-        "at least one",
-    );
-    dir.fails(
-        &[
-            "create",
-            "s.toml",
-            "--cube",
-            "4",
-            "--region",
-            "0,0,0,1,1,1,hardness=2",
-        ],
-        2,
-        "unknown factor \"hardness\"",
-    );
-    dir.fails(
-        &[
-            "create",
-            "s.toml",
-            "--cube",
-            "4",
-            "--region",
+    for (region, says) in [
+        ("0,0,0,1,1,1", "at least one"),
+        ("0,0,0,1,1,1,hardness=2", "unknown factor \"hardness\""),
+        (
             "0,0,0,1,1,1,rest=-1",
-        ],
-        2,
-        "rest length factor must be finite and positive",
-    );
+            "rest length factor must be finite and positive",
+        ),
+    ] {
+        dir.fails(
+            &["create", "s.toml", "--cube", "4", "--region", region],
+            2,
+            says,
+        );
+    }
     dir.fails(
         &[
             "create",

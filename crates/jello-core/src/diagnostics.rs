@@ -51,10 +51,7 @@ pub fn energy(model: &Model, state: &State) -> Energy {
             .filter(active)
             .map(|(_, &p)| {
                 model
-                    .bounds
-                    .wall_contacts(p)
-                    .chain(model.plane.and_then(|pl| pl.contact(p)))
-                    .chain(model.obstacles.iter().filter_map(|o| o.contact(p)))
+                    .contacts(p)
                     .fold(0.0, |sum, c| sum + c.depth * c.depth)
             })
             .sum::<f64>()

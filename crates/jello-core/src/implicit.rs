@@ -138,11 +138,14 @@ struct Block {
     damping: f64,
 }
 
-/// Why a step did not converge: the residual reached (m/s) and the Newton iterations taken.
+/// Why a step did not converge: the residual reached (m/s), where, and the Newton iterations
+/// taken.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct NotConverged {
     /// `max |g|` at the last iterate (m/s).
     pub residual: f64,
+    /// The point (flat index) with that residual.
+    pub point: usize,
     /// Newton iterations taken.
     pub iterations: u32,
 }
@@ -264,20 +267,11 @@ impl ImplicitScratch {
             if free == 0.0 {
                 continue;
             }
-            for c in contacts(model, p) {
+            for c in model.contacts(p) {
                 add_outer(d, c.normal, model.d_collision);
             }
         }
     }
-}
-
-/// The contacts of a point at `p` with the walls, the plane and the obstacles.
-fn contacts(model: &Model, p: Vec3) -> impl Iterator<Item = crate::obstacle::Contact> + '_ {
-    model
-        .bounds
-        .wall_contacts(p)
-        .chain(model.plane.and_then(|pl| pl.contact(p)))
-        .chain(model.obstacles.iter().filter_map(move |o| o.contact(p)))
 }
 
 /// One backward-Euler step from `state` into `next_pos` and `next_vel` (not checked for
@@ -309,10 +303,7 @@ pub(crate) fn step(
             break;
         }
         if iterations == model.newton.max_iterations {
-            return Err(NotConverged {
-                residual: norm,
-                iterations,
-            });
+            return Err(not_converged(&s.g, iterations));
         }
         iterations += 1;
         // The springs' true transverse stiffness first (a compressed spring's is negative, and
@@ -354,11 +345,7 @@ pub(crate) fn step(
             alpha *= 0.5;
         }
         if !accepted {
-            let (norm, _) = max_norms(&s.g, &s.v);
-            return Err(NotConverged {
-                residual: norm,
-                iterations,
-            });
+            return Err(not_converged(&s.g, iterations));
         }
     }
     // The exact solution has Σ m·g = 0 over the moving points (their momentum changes by h
@@ -386,6 +373,23 @@ pub(crate) fn step(
 }
 
 /// `max |g|` and `max |v|`.
+/// The report of a step that stopped with residual `g` after `iterations`.
+fn not_converged(g: &[Vec3], iterations: u32) -> NotConverged {
+    let (point, residual) =
+        g.iter()
+            .map(|g| g.length())
+            .enumerate()
+            .fold(
+                (0, 0.0),
+                |best, (p, r)| if r > best.1 { (p, r) } else { best },
+            );
+    NotConverged {
+        residual,
+        point,
+        iterations,
+    }
+}
+
 fn max_norms(g: &[Vec3], v: &[Vec3]) -> (f64, f64) {
     let gmax = g.iter().map(|g| g.length()).fold(0.0, f64::max);
     let vmax = v.iter().map(|v| v.length()).fold(0.0, f64::max);
@@ -528,7 +532,7 @@ fn merit(
     let mut outside = 0.0;
     for p in (0..v.len()).filter(|&p| s.free[p] != 0.0) {
         let q = x(p);
-        outside += contacts(model, q).map(|c| c.depth * c.depth).sum::<f64>();
+        outside += model.contacts(q).map(|c| c.depth * c.depth).sum::<f64>();
         let mut push = model.gravity * s.mass[p] + field;
         if let Some(f) = control.forces.get(p) {
             push += *f;
@@ -596,14 +600,9 @@ fn assemble(
             add_outer(e, c.normal, h2 * kc);
         }
         for c in model.obstacles.iter().filter_map(|o| o.contact(p)) {
+            // The normal's stiffness along it, the ties' (`tangential`) across it.
             add_outer(e, c.normal, h2 * kc - tangential);
-            for axis in [
-                Vec3::new(1.0, 0.0, 0.0),
-                Vec3::new(0.0, 1.0, 0.0),
-                Vec3::new(0.0, 0.0, 1.0),
-            ] {
-                add_outer(e, axis, tangential);
-            }
+            e[..3].iter_mut().for_each(|e| *e += tangential);
         }
     }
     for pull in &control.pulls {
@@ -612,10 +611,7 @@ fn assemble(
         e[..3].iter_mut().for_each(|e| *e += c);
     }
     // The diagonal blocks: the point's own part plus each spring's block at both ends.
-    for (i, (d, e)) in s.diag_inv.iter_mut().zip(&s.extra).enumerate() {
-        let _ = i;
-        *d = *e;
-    }
+    s.diag_inv.copy_from_slice(&s.extra);
     for (row, b) in s.rows.iter().zip(&s.blocks) {
         let mut m = [b.transverse, b.transverse, b.transverse, 0.0, 0.0, 0.0];
         add_outer(&mut m, b.u, b.axial - b.transverse);

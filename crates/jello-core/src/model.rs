@@ -115,6 +115,15 @@ impl Model {
         self.bodies.iter().map(Body::len).sum()
     }
 
+    /// The contacts of a point at `p` with the walls, the inclined plane and the obstacles, in
+    /// that order (each [`Contact`](crate::Contact) with its depth and normal).
+    pub fn contacts(&self, p: Vec3) -> impl Iterator<Item = crate::obstacle::Contact> + '_ {
+        self.bounds
+            .wall_contacts(p)
+            .chain(self.plane.and_then(|pl| pl.contact(p)))
+            .chain(self.obstacles.iter().filter_map(move |o| o.contact(p)))
+    }
+
     /// The body that point `p` (flat index) belongs to, and its lattice coordinates there.
     pub fn locate(&self, p: usize) -> (usize, [usize; 3]) {
         let b = self

@@ -248,7 +248,7 @@ pub fn suggest_dt(model: &Model) -> Option<f64> {
 }
 
 /// `x` rounded down to two significant digits (x > 0).
-fn round_down_2(x: f64) -> f64 {
+pub(crate) fn round_down_2(x: f64) -> f64 {
     let scale = 10f64.powi(x.log10().floor() as i32 - 1);
     let r = (x / scale).floor() * scale;
     // Re-parse the printed form so the suggestion prints as a short decimal.

@@ -112,12 +112,14 @@ impl fmt::Display for BlowUp {
             tolerance,
         } = self.cause
         {
+            let [i, j, k] = self.point_ijk;
             return write!(
                 f,
                 "the implicit solve did not converge at step {} (t = {:.6} s): residual \
-                 {residual:.3e} m/s after {iterations} Newton iterations (the tolerance is \
-                 {:.0e} m/s); {} with dt = {} s: try a smaller --dt",
-                self.step, self.time, tolerance, self.integrator, self.dt
+                 {residual:.3e} m/s, largest at point {} ({i}, {j}, {k}), after {iterations} \
+                 Newton iterations (the tolerance is {:.0e} m/s); {} with dt = {} s: try a \
+                 smaller --dt",
+                self.step, self.time, self.point, tolerance, self.integrator, self.dt
             );
         }
         let [i, j, k] = self.point_ijk;
@@ -195,12 +197,13 @@ pub fn step(
         ) {
             Ok(()) => block_is_sound(model, &s.next_pos, &s.next_vel),
             Err(e) => {
+                let (body, point_ijk) = model.locate(e.point);
                 return Err(BlowUp {
                     step: state.steps + 1,
                     time: state.time,
-                    point: 0,
-                    body: 0,
-                    point_ijk: model.locate(0).1,
+                    point: e.point,
+                    body: body as u32,
+                    point_ijk,
                     cause: BlowUpCause::NotConverged {
                         residual: e.residual,
                         iterations: e.iterations,
@@ -208,9 +211,9 @@ pub fn step(
                     },
                     integrator: model.integrator,
                     dt,
-                    suggested_dt: Some(round_half(dt)),
+                    suggested_dt: Some(stability::round_down_2(0.5 * dt)),
                     escape_margin: model.escape_margin,
-                })
+                });
             }
         }
     } else {
@@ -256,12 +259,6 @@ pub fn step(
     // Obstacle friction ties, drags and lets go its anchors between steps.
     s.force.update_anchors(model, &state.pos);
     Ok(())
-}
-
-/// Half of `dt`, as a short decimal.
-fn round_half(dt: f64) -> f64 {
-    let half = 0.5 * dt;
-    format!("{half:.2e}").parse().unwrap_or(half)
 }
 
 /// One step of an explicit integrator from `state` into `s.next_pos` and `s.next_vel`; whether the

@@ -7,7 +7,7 @@ mod common;
 #[path = "common/meshes.rs"]
 mod meshes;
 
-use common::{max_diff, on_threads, Lcg as Rng};
+use common::{max_diff, Lcg as Rng};
 use jello_core::contact::pair_force;
 use jello_core::diagnostics::{body_centre_of_mass, momentum};
 use jello_core::forces::accelerations;
@@ -401,13 +401,7 @@ fn several_bodies_are_bit_identical_on_any_thread_count() {
     for p in model.body(1).points() {
         start.vel[p] = Vec3::new(0.0, 0.0, -3.0);
     }
-    let run = |threads| {
-        on_threads(threads, || {
-            let mut state = start.clone();
-            common::run(&model, &mut state, 60);
-            state
-        })
-    };
+    let run = |threads| common::run_on_threads(&model, &start, 60, threads);
     let one = run(1);
     assert!(
         jello_core::contact::overlap(&model, &one.pos).0 > 0.0,

@@ -4,7 +4,7 @@
 
 mod common;
 
-use common::{max_diff, on_threads, Lcg as Rng};
+use common::{max_diff, Lcg as Rng};
 use jello_core::diagnostics::{energy, momentum};
 use jello_core::implicit::Newton;
 use jello_core::stability::stable_dt;
@@ -207,13 +207,7 @@ fn implicit_steps_are_bit_identical_on_any_thread_count() {
         .pos
         .iter_mut()
         .for_each(|p| *p -= Vec3::new(0.5, 0.5, 1.995));
-    let run = |threads| {
-        on_threads(threads, || {
-            let mut state = start.clone();
-            common::run(&model, &mut state, 8);
-            state
-        })
-    };
+    let run = |threads| common::run_on_threads(&model, &start, 8, threads);
     let one = run(1);
     assert!(
         one.pos.iter().any(|p| p.z < -2.0),
@@ -260,7 +254,9 @@ fn a_step_that_does_not_converge_is_reported() {
     assert_eq!(state, before);
     let said = err.to_string();
     assert!(
-        said.contains("did not converge at step 1") && said.contains("after 1 Newton iterations"),
+        said.contains("did not converge at step 1")
+            && said.contains(&format!("largest at point {}", err.point))
+            && said.contains("after 1 Newton iterations"),
         "{said}"
     );
     for bad in [

@@ -4,7 +4,7 @@
 
 mod common;
 
-use common::{max_diff, on_threads, Lcg as Rng};
+use common::{max_diff, Lcg as Rng};
 use jello_core::diagnostics::energy;
 use jello_core::forces::{accelerations, PARALLEL_MIN_POINTS};
 use jello_core::stability::stable_dt;
@@ -397,13 +397,7 @@ fn per_spring_values_are_bit_identical_on_any_thread_count() {
         .build()
         .unwrap();
     let start = State::at_rest(&model);
-    let run = |threads| {
-        on_threads(threads, || {
-            let mut state = start.clone();
-            common::run(&model, &mut state, 30);
-            state
-        })
-    };
+    let run = |threads| common::run_on_threads(&model, &start, 30, threads);
     let one = run(1);
     assert_eq!(one, run(2));
     assert_eq!(one, run(3));

@@ -41,6 +41,15 @@ pub fn on_threads<T: Send>(threads: usize, f: impl FnOnce() -> T + Send) -> T {
         .install(f)
 }
 
+/// `steps` steps from `start` on a fresh pool of `threads` threads (see [`on_threads`]).
+pub fn run_on_threads(model: &Model, start: &State, steps: usize, threads: usize) -> State {
+    on_threads(threads, || {
+        let mut state = start.clone();
+        run(model, &mut state, steps);
+        state
+    })
+}
+
 /// A deterministic pseudo-random number in [−1, 1) (64-bit LCG).
 pub struct Lcg(pub u64);
 
