@@ -130,6 +130,49 @@ impl ForceField {
         lerp(c0, c1, fx)
     }
 
+    /// The derivatives of [`sample`](Self::sample) along x, y and z at `p` (N/m): within a cell,
+    /// those of its trilinear interpolation; zero along an axis where `p` is outside the box
+    /// (the sample is constant there).
+    pub fn gradient(&self, p: Vec3) -> [Vec3; 3] {
+        if self.uniform.is_some() {
+            return [Vec3::ZERO; 3];
+        }
+        let b = &self.bounds;
+        let q = p.clamp(b.min, b.max);
+        let cells = (self.res - 1) as f64;
+        let (i, fx) = cell(q.x, b.min.x, b.max.x, cells);
+        let (j, fy) = cell(q.y, b.min.y, b.max.y, cells);
+        let (k, fz) = cell(q.z, b.min.z, b.max.z, cells);
+        let r = self.res;
+        let at =
+            |di: usize, dj: usize, dk: usize| self.forces[((i + di) * r + j + dj) * r + k + dk];
+        // The cell's eight corners weighted for the value, with one axis's weights replaced by
+        // that axis's derivative (−1, +1 over the cell's width).
+        let weight = |t: f64, d: usize, derivative: bool| match (derivative, d) {
+            (false, 0) => 1.0 - t,
+            (false, _) => t,
+            (true, 0) => -1.0,
+            (true, _) => 1.0,
+        };
+        let inside = |v: f64, lo: f64, hi: f64| if v > lo && v < hi { 1.0 } else { 0.0 };
+        let scale = [
+            inside(p.x, b.min.x, b.max.x) * cells / (b.max.x - b.min.x),
+            inside(p.y, b.min.y, b.max.y) * cells / (b.max.y - b.min.y),
+            inside(p.z, b.min.z, b.max.z) * cells / (b.max.z - b.min.z),
+        ];
+        let mut out = [Vec3::ZERO; 3];
+        for (axis, o) in out.iter_mut().enumerate() {
+            for (di, dj, dk) in (0..8).map(|c| (c >> 2, (c >> 1) & 1, c & 1)) {
+                let w = weight(fx, di, axis == 0)
+                    * weight(fy, dj, axis == 1)
+                    * weight(fz, dk, axis == 2);
+                *o += at(di, dj, dk) * w;
+            }
+            *o = *o * scale[axis];
+        }
+        out
+    }
+
     /// The force everywhere, when every node holds the same one.
     pub fn uniform(&self) -> Option<Vec3> {
         self.uniform
@@ -158,4 +201,44 @@ fn cell(v: f64, lo: f64, hi: f64, cells: f64) -> (usize, f64) {
     let u = (v - lo) / (hi - lo) * cells;
     let i = (u.floor()).clamp(0.0, cells - 1.0);
     (i as usize, u - i)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The gradient is the derivative of the trilinear sample: against central differences
+    /// inside cells, on a field that is not linear.
+    #[test]
+    fn the_gradient_is_the_samples_derivative() {
+        let field = ForceField::from_fn(4, Aabb::classic(), |p| {
+            Vec3::new(p.x * p.y, p.z * p.z - p.x, (p.x + 2.0 * p.y).sin())
+        })
+        .unwrap();
+        let e = 1e-6;
+        for p in [
+            Vec3::new(0.3, -0.7, 1.1),
+            Vec3::new(-1.9, 1.2, 0.05),
+            Vec3::new(1.5, 0.4, -1.3),
+        ] {
+            let gradient = field.gradient(p);
+            for (axis, g) in gradient.iter().enumerate() {
+                let mut d = Vec3::ZERO;
+                match axis {
+                    0 => d.x = e,
+                    1 => d.y = e,
+                    _ => d.z = e,
+                }
+                let numeric = (field.sample(p + d) - field.sample(p - d)) / (2.0 * e);
+                assert!(
+                    (*g - numeric).max_abs() < 1e-6,
+                    "axis {axis} at {p:?}: {g:?} vs {numeric:?}"
+                );
+            }
+        }
+        // Outside the box the sample is constant along the clamped axis.
+        let outside = field.gradient(Vec3::new(2.5, 0.0, 0.0));
+        assert_eq!(outside[0], Vec3::ZERO);
+        assert_ne!(outside[1], Vec3::ZERO);
+    }
 }

@@ -22,10 +22,19 @@
 //! Newton's method: each iteration solves `A·Δv = −M·g` with `A = M + h·D₀ + h²·K`, `K` the
 //! stiffness matrix of the springs (with a compressed spring's negative transverse stiffness,
 //! or, when that leaves `A` not positive definite, clamped at zero), of the penalty springs the
-//! point is in at the iterate (with an obstacle's friction ties along its surface) and of the
-//! pulls, by conjugate gradients preconditioned with `A`'s 3×3 diagonal blocks; then a
-//! backtracking line search on the incremental potential (one body and no friction: the common
-//! case), or on `|g|²_M` otherwise.
+//! point is in at the iterate (with an obstacle's friction ties along its surface), of the
+//! pulls and of the field (the symmetric part of minus its gradient, made positive
+//! semi-definite), by conjugate gradients preconditioned with `A`'s 3×3 diagonal blocks. They
+//! stop when their residual has fallen a hundredfold, and a hundredfold further after each
+//! Newton iteration that does not cut `|g|` tenfold (an inexact solve barely reaches soft
+//! modes, and Newton's method then creeps along them). Then a backtracking line search on the
+//! incremental potential (one body and no friction: the common case; a field that is not
+//! uniform has no potential, and its work along the line is added instead), or on `|g|²_M`
+//! otherwise; the potential's fall is computed term by term from differences, so that it stays
+//! visible below the potential's own rounding. A full step that falls faster than its
+//! quadratic model is extended while the potential keeps falling (a buckling lattice slides).
+//! The gradient's antisymmetric part (a field's curl) is not in `A`: where it dominates the
+//! masses at the step, Newton's method may not converge, and the step is reported.
 //!
 //! A step has converged when every point's residual `|g|` is at most [`TOLERANCE`] times
 //! `max(1, max |v₁|)` (m/s; both settable, [`Model::newton`](crate::Model::newton)); then the
@@ -38,6 +47,7 @@
 //! bit-identical on any thread count), so results do not depend on the thread count; the buffers
 //! are sized on the first implicit step and reused, so later steps do not allocate.
 
+use crate::field::ForceField;
 use crate::forces::{force_pass, ForceScratch};
 use crate::model::Model;
 use crate::soa::Soa;
@@ -48,7 +58,7 @@ use crate::vec3::Vec3;
 pub const TOLERANCE: f64 = 1e-9;
 
 /// Newton iterations before a step is reported as not converged, by default.
-pub const MAX_NEWTON: u32 = 60;
+pub const MAX_NEWTON: u32 = 200;
 
 /// How closely a step is solved: converged when `max |g| ≤ tolerance · max(1, max |v₁|)`
 /// (m/s), reported when that takes more than `max_iterations` Newton iterations.
@@ -72,11 +82,19 @@ impl Default for Newton {
 /// Conjugate-gradient iterations per Newton iteration, at most.
 const MAX_CG: usize = 2000;
 
-/// Conjugate gradients stop when the residual of `A·Δv = −M·g` has fallen by this factor.
+/// Conjugate gradients stop when the residual of `A·Δv = −M·g` has fallen by this factor, at
+/// first in a step: Newton's method needs no more while it converges quickly.
 const CG_REDUCTION: f64 = 1e-2;
+
+/// The factor they reach when Newton's method converges slowly: tightened a hundredfold after
+/// each Newton iteration that does not cut the residual tenfold, down to this.
+const CG_REDUCTION_EXACT: f64 = 1e-8;
 
 /// Halvings of the Newton step before the line search gives up.
 const MAX_HALVINGS: u32 = 30;
+
+/// Doublings of a Newton step that falls faster than its model, at most.
+const MAX_EXPANSIONS: u32 = 10;
 
 /// A symmetric 3×3 matrix: `[xx, yy, zz, xy, xz, yz]`.
 type Sym = [f64; 6];
@@ -157,8 +175,10 @@ pub struct ImplicitScratch {
     blocks: Vec<Block>,
     /// Each spring's direction at the step's start (zero for a spring of zero length).
     start_dir: Vec<Vec3>,
-    /// The field's force on each point at the step's start (for the merit; see [`merit`]).
-    start_field: Vec<Vec3>,
+    /// The field's force on each point at the iterate's and the trial's end positions (for the
+    /// line search; see [`field_work`]).
+    field: Vec<Vec3>,
+    field_trial: Vec<Vec3>,
     /// Per point: mass (kg), and 1 for a point that moves, 0 for one pinned or unused.
     mass: Vec<f64>,
     free: Vec<f64>,
@@ -189,6 +209,20 @@ pub struct ImplicitScratch {
 }
 
 impl ImplicitScratch {
+    /// The trial point `v + α·Δv`.
+    fn set_trial(&mut self, alpha: f64) {
+        for ((t, &v), &dv) in self.trial.iter_mut().zip(&self.v).zip(&self.dv) {
+            *t = v + dv * alpha;
+        }
+    }
+
+    /// The trial point (with its residual and field) becomes the iterate.
+    fn take_trial(&mut self) {
+        std::mem::swap(&mut self.v, &mut self.trial);
+        std::mem::swap(&mut self.g, &mut self.g_trial);
+        std::mem::swap(&mut self.field, &mut self.field_trial);
+    }
+
     fn fits(&self, model: &Model) -> bool {
         self.mass.len() == model.point_count()
     }
@@ -200,7 +234,8 @@ impl ImplicitScratch {
             rows: Vec::with_capacity(model.spring_count()),
             blocks: Vec::with_capacity(model.spring_count()),
             start_dir: Vec::with_capacity(model.spring_count()),
-            start_field: vec![Vec3::ZERO; n],
+            field: zeros.clone(),
+            field_trial: zeros.clone(),
             mass: vec![0.0; n],
             free: vec![0.0; n],
             start_damping: vec![[0.0; 6]; n],
@@ -256,12 +291,6 @@ impl ImplicitScratch {
             let l = d.length();
             *u = if l > 0.0 { d / l } else { Vec3::ZERO };
         }
-        for (f, &p) in self.start_field.iter_mut().zip(x0) {
-            *f = model
-                .field
-                .as_ref()
-                .map_or(Vec3::ZERO, |field| field.sample(p));
-        }
         for ((d, &p), &free) in self.start_damping.iter_mut().zip(x0).zip(&self.free) {
             *d = [0.0; 6];
             if free == 0.0 {
@@ -295,8 +324,9 @@ pub(crate) fn step(
     // The forces but the dampers are evaluated at zero velocity.
     s.v_soa.fill_zero();
     s.v.copy_from_slice(v0);
-    let (mut merit, mut norm2) = residual(model, control, force, s, x0, v0, h, false);
+    let mut norm2 = residual(model, control, force, s, x0, v0, h, false);
     let mut iterations = 0;
+    let mut reduction = CG_REDUCTION;
     loop {
         let (norm, vmax) = max_norms(&s.g, &s.v);
         if norm <= model.newton.tolerance * vmax.max(1.0) {
@@ -310,42 +340,22 @@ pub(crate) fn step(
         // clamping it slows Newton's method down to a crawl on a crushed lattice); clamped at
         // zero when that makes A indefinite.
         assemble(model, control, s, x0, h, false);
-        if !solve(s) {
+        if !solve(s, reduction) {
             assemble(model, control, s, x0, h, true);
-            solve(s);
+            solve(s, reduction);
         }
-        // Backtrack until the merit falls enough (Armijo): its slope along Δv is M·g·Δv for the
-        // incremental potential; for |g|²_M a plain decrease is asked.
-        let slope: f64 = if has_potential(model) {
-            s.g.iter()
-                .zip(&s.dv)
-                .zip(&s.mass)
-                .map(|((g, d), m)| m * g.dot(*d))
-                .sum()
-        } else {
-            0.0
-        };
-        let mut alpha = 1.0;
-        let mut accepted = false;
-        for _ in 0..=MAX_HALVINGS {
-            for ((t, &v), &dv) in s.trial.iter_mut().zip(&s.v).zip(&s.dv) {
-                *t = v + dv * alpha;
-            }
-            let (m, n2) = residual(model, control, force, s, x0, v0, h, true);
-            // Near the solution the merit's decrease falls below its rounding, and at a
-            // contact's kink it may not fall at all: a step that lowers the residual is taken
-            // too.
-            if m < merit + 1e-4 * alpha * slope.min(0.0) || n2 < norm2 {
-                std::mem::swap(&mut s.v, &mut s.trial);
-                std::mem::swap(&mut s.g, &mut s.g_trial);
-                (merit, norm2) = (m, n2);
-                accepted = true;
-                break;
-            }
-            alpha *= 0.5;
+        let before = norm2;
+        match line_search(model, control, force, s, x0, v0, h, norm2) {
+            Some(reached) => norm2 = reached,
+            // An inexact direction may not lead down at all: solve exactly before giving up.
+            None if reduction > CG_REDUCTION_EXACT => reduction = CG_REDUCTION_EXACT,
+            None => return Err(not_converged(&s.g, iterations)),
         }
-        if !accepted {
-            return Err(not_converged(&s.g, iterations));
+        // A Newton step that did not cut the residual tenfold was mostly held back by the
+        // inexact solve (a soft mode the conjugate gradients barely reached, which they then
+        // creep along): solve the next one more exactly.
+        if norm2 > 1e-2 * before {
+            reduction = (reduction * 1e-2).max(CG_REDUCTION_EXACT);
         }
     }
     // The exact solution has Σ m·g = 0 over the moving points (their momentum changes by h
@@ -372,7 +382,6 @@ pub(crate) fn step(
     Ok(())
 }
 
-/// `max |g|` and `max |v|`.
 /// The report of a step that stopped with residual `g` after `iterations`.
 fn not_converged(g: &[Vec3], iterations: u32) -> NotConverged {
     let (point, residual) =
@@ -390,6 +399,76 @@ fn not_converged(g: &[Vec3], iterations: u32) -> NotConverged {
     }
 }
 
+/// Backtracks along the Newton direction `s.dv` from the iterate until the merit falls enough
+/// (Armijo), and takes that point as the iterate; returns its `|g|²_M`, or `None` when no step
+/// along `Δv` lowers the merit or the residual. The merit is the incremental potential when the
+/// forces have one (see [`has_potential`]), else `|g|²_M`.
+#[allow(clippy::too_many_arguments)]
+fn line_search(
+    model: &Model,
+    control: &Control,
+    force: &mut ForceScratch,
+    s: &mut ImplicitScratch,
+    x0: &[Vec3],
+    v0: &[Vec3],
+    h: f64,
+    norm2: f64,
+) -> Option<f64> {
+    let potential = has_potential(model);
+    // The potential's slope along Δv is M·g·Δv (negative); for |g|²_M a plain fall is asked.
+    let slope: f64 = if potential {
+        s.g.iter()
+            .zip(&s.dv)
+            .zip(&s.mass)
+            .map(|((g, d), m)| m * g.dot(*d))
+            .sum()
+    } else {
+        0.0
+    };
+    let fall_to_trial = |s: &mut ImplicitScratch, force: &mut ForceScratch, from: f64| {
+        let n2 = residual(model, control, force, s, x0, v0, h, true);
+        let fall = if !n2.is_finite() {
+            f64::NEG_INFINITY
+        } else if potential {
+            potential_fall(model, control, s, x0, v0, h)
+        } else {
+            from - n2
+        };
+        (fall, n2)
+    };
+    let mut alpha = 1.0;
+    for _ in 0..=MAX_HALVINGS {
+        s.set_trial(alpha);
+        let (fall, n2) = fall_to_trial(s, force, norm2);
+        // At a contact's kink the merit may not fall at all: a step that lowers the residual
+        // is taken too.
+        if fall > -1e-4 * alpha * slope.min(0.0) || n2 < norm2 {
+            s.take_trial();
+            let mut reached = n2;
+            // A full step that lowers the potential by more than ¾ of its slope (a quadratic
+            // model predicts ½) is sliding down a direction where `A` overstates the curvature
+            // (a buckling lattice, whose negative stiffness was clamped): go on along it while
+            // the potential keeps falling.
+            if alpha == 1.0 && slope < 0.0 && fall > -0.75 * slope {
+                for _ in 0..MAX_EXPANSIONS {
+                    s.set_trial(1.0);
+                    let (fall, n2) = fall_to_trial(s, force, reached);
+                    if fall <= 0.0 {
+                        break;
+                    }
+                    s.take_trial();
+                    reached = n2;
+                    s.dv.iter_mut().for_each(|d| *d = *d * 2.0);
+                }
+            }
+            return Some(reached);
+        }
+        alpha *= 0.5;
+    }
+    None
+}
+
+/// `max |g|` and `max |v|`.
 fn max_norms(g: &[Vec3], v: &[Vec3]) -> (f64, f64) {
     let gmax = g.iter().map(|g| g.length()).fold(0.0, f64::max);
     let vmax = v.iter().map(|v| v.length()).fold(0.0, f64::max);
@@ -397,8 +476,8 @@ fn max_norms(g: &[Vec3], v: &[Vec3]) -> (f64, f64) {
 }
 
 /// The residual `g` of the iterate (or, when `trial`, of the trial point) into `s.g` (or
-/// `s.g_trial`); returns the line search's merit there (see [`merit`]) and `|g|²_M` (a
-/// non-finite value gives infinity, which the line search never accepts).
+/// `s.g_trial`); returns `|g|²_M` there (a non-finite value gives infinity, which the line
+/// search never accepts).
 #[allow(clippy::too_many_arguments)]
 fn residual(
     model: &Model,
@@ -409,13 +488,24 @@ fn residual(
     v0: &[Vec3],
     h: f64,
     trial: bool,
-) -> (f64, f64) {
+) -> f64 {
     {
         let v = if trial { &s.trial } else { &s.v };
         let [xx, xy, xz] = s.x_soa.parts_mut();
         for (i, (&x, &v)) in x0.iter().zip(v).enumerate() {
             let p = x + v * h;
             (xx[i], xy[i], xz[i]) = (p.x, p.y, p.z);
+        }
+        // The field at the end positions, for the line search's work of the field.
+        let field = if trial {
+            &mut s.field_trial
+        } else {
+            &mut s.field
+        };
+        if let (Some(f), true) = (&model.field, has_potential(model)) {
+            for (out, (&x, &v)) in field.iter_mut().zip(x0.iter().zip(v)) {
+                *out = f.sample(x + v * h);
+            }
         }
     }
     // Every force but the dampers: at zero velocity.
@@ -442,7 +532,6 @@ fn residual(
         let a = Vec3::new(ax[i], ay[i], az[i]) + g[i] * (s.free[i] / s.mass[i]);
         g[i] = v[i] - v0[i] - a * h;
     }
-    let m = merit(model, control, s, v, &g, v0, h);
     let norm: f64 = g
         .iter()
         .zip(&s.mass)
@@ -453,8 +542,11 @@ fn residual(
     } else {
         s.g = g;
     }
-    let finite = |x: f64| if x.is_finite() { x } else { f64::INFINITY };
-    (finite(m), finite(norm))
+    if norm.is_finite() {
+        norm
+    } else {
+        f64::INFINITY
+    }
 }
 
 /// `out = −D₀·v`: the dampers' force at velocities `v` (N).
@@ -474,72 +566,110 @@ fn damper_force(control: &Control, s: &ImplicitScratch, v: &[Vec3], out: &mut [V
     }
 }
 
+/// The work of the field from the iterate's end positions to the trial's (J), by the trapezoid
+/// rule: its part of the potential's fall (see [`potential_fall`]). A field that is not uniform
+/// has no potential; along a line this is the work that would be its potential's fall, to
+/// second order, and its slope at the iterate is the field's part of `M·g·Δv`, as the line
+/// search needs.
+fn field_work(s: &ImplicitScratch, h: f64) -> f64 {
+    let mut work = 0.0;
+    for ((((&a, &b), &v), &t), &free) in s
+        .field
+        .iter()
+        .zip(&s.field_trial)
+        .zip(&s.v)
+        .zip(&s.trial)
+        .zip(&s.free)
+    {
+        work += free * 0.5 * (a + b).dot(t - v) * h;
+    }
+    work
+}
+
 /// True when the merit can be the incremental potential: one body (contacts between bodies are
-/// found by a grid the merit does not have) and no friction ties. A field that is not uniform
-/// has no potential; the merit takes its force at the step's start as constant, which is close
-/// (the line search also takes any step that lowers the residual).
+/// found by a grid the merit does not have) and no friction ties; a field's part is added along
+/// each line (see [`field_work`]).
 fn has_potential(model: &Model) -> bool {
     model.bodies().len() == 1 && (model.friction == 0.0 || model.obstacles.is_empty())
 }
 
-/// The line search's merit at `v` with residual `g`: the incremental potential
-/// `½|v − v₀|²_M + ½h·vᵀD₀v + U(x₀ + h·v)` when the forces have a potential (its gradient is
-/// `M·g`; a non-uniform field's, see [`has_potential`], nearly), else `|g|²_M`.
-fn merit(
+/// How much the incremental potential `½|v − v₀|²_M + ½h·vᵀD₀v + U(x₀ + h·v)` falls from the
+/// iterate `v` to the trial `t` (J; with [`field_work`], so that its slope is `−M·g·Δv`). Each
+/// term's change is computed from the difference of its arguments (`a² − b² = (a − b)(a + b)`),
+/// not as the difference of two sums: near the solution the fall is far below the rounding of
+/// the potential itself, and the line search must still see it.
+fn potential_fall(
     model: &Model,
     control: &Control,
     s: &ImplicitScratch,
-    v: &[Vec3],
-    g: &[Vec3],
+    x0: &[Vec3],
     v0: &[Vec3],
     h: f64,
 ) -> f64 {
-    if !has_potential(model) {
-        return g
-            .iter()
-            .zip(&s.mass)
-            .map(|(g, m)| m * g.length_squared())
-            .sum();
-    }
-    let x = |p: usize| Vec3::new(s.x_soa.x()[p], s.x_soa.y()[p], s.x_soa.z()[p]);
-    let mut phi = 0.0;
-    // Kinetic part and the dampers' ½h·vᵀD₀v.
+    let (v, t) = (&s.v[..], &s.trial[..]);
+    let at = |p: usize, w: &[Vec3]| x0[p] + w[p] * h;
+    let mut fall = field_work(s, h);
+    // Kinetic part and the contacts' dampers.
     for p in 0..v.len() {
-        let dv = v[p] - v0[p];
-        phi += 0.5 * s.mass[p] * dv.length_squared();
-        phi += 0.5 * h * v[p].dot(sym_mul(&s.start_damping[p], v[p]));
+        let step = t[p] - v[p];
+        fall -= 0.5 * s.mass[p] * step.dot((t[p] - v0[p]) + (v[p] - v0[p]));
+        fall -= 0.5 * h * step.dot(sym_mul(&s.start_damping[p], t[p] + v[p]));
     }
-    let mut spring = 0.0;
+    // Springs and their dampers.
     for (row, &u) in s.rows.iter().zip(&s.start_dir) {
         let (a, b) = (row.a as usize, row.b as usize);
-        let w = u.dot(v[a] - v[b]);
-        phi += 0.5 * h * row.d * w * w;
-        let stretch = (x(a) - x(b)).length() - row.rest;
-        spring += 0.5 * row.k * stretch * stretch;
+        let relative = (t[a] - v[a]) - (t[b] - v[b]);
+        let (wv, wt) = (u.dot(v[a] - v[b]), u.dot(t[a] - t[b]));
+        fall -= 0.5 * h * row.d * u.dot(relative) * (wt + wv);
+        let (dv, dt) = (at(a, v) - at(b, v), at(a, t) - at(b, t));
+        let (lv, lt) = (dv.length(), dt.length());
+        if lv + lt > 0.0 {
+            let lengthening = (relative * h).dot(dt + dv) / (lt + lv);
+            fall -= 0.5 * row.k * lengthening * (lt + lv - 2.0 * row.rest);
+        }
     }
     for pull in &control.pulls {
         let p = pull.point as usize;
-        phi += 0.5 * h * pull.damping * v[p].length_squared();
-        phi += 0.5 * pull.stiffness * (pull.target - x(p)).length_squared();
+        let step = t[p] - v[p];
+        fall -= 0.5 * h * pull.damping * step.dot(t[p] + v[p]);
+        let (xv, xt) = (at(p, v), at(p, t));
+        fall -= 0.5 * pull.stiffness * (step * -h).dot((pull.target - xt) + (pull.target - xv));
     }
-    // Penalty springs, gravity, a uniform field and control forces, on the moving points (the
-    // others do not move, so their terms are constant).
-    let field = model
-        .field
-        .as_ref()
-        .and_then(|f| f.uniform())
-        .unwrap_or(Vec3::ZERO);
+    // Penalty springs, gravity and control forces, on the moving points (the others do not
+    // move).
     let mut outside = 0.0;
     for p in (0..v.len()).filter(|&p| s.free[p] != 0.0) {
-        let q = x(p);
-        outside += model.contacts(q).map(|c| c.depth * c.depth).sum::<f64>();
-        let mut push = model.gravity * s.mass[p] + field;
+        outside += contact_change(model, at(p, v), at(p, t), (t[p] - v[p]) * h);
+        let mut push = model.gravity * s.mass[p];
         if let Some(f) = control.forces.get(p) {
             push += *f;
         }
-        phi -= push.dot(q);
+        fall += push.dot((t[p] - v[p]) * h);
     }
-    phi + spring + 0.5 * model.k_collision * outside
+    fall - 0.5 * model.k_collision * outside
+}
+
+/// The change of a point's `Σ depth²` over its contacts from `xv` to `xt = xv + step`: for
+/// contacts with the same flat surface at both (the same normal), `(dₜ − dᵥ)(dₜ + dᵥ)` with
+/// `dₜ − dᵥ = −n·step` exactly; otherwise the difference of the sums.
+fn contact_change(model: &Model, xv: Vec3, xt: Vec3, step: Vec3) -> f64 {
+    let (mut at_v, mut at_t) = (model.contacts(xv), model.contacts(xt));
+    let mut paired = 0.0;
+    loop {
+        match (at_v.next(), at_t.next()) {
+            (None, None) => return paired,
+            (Some(cv), Some(ct)) if cv.normal == ct.normal => {
+                paired += -ct.normal.dot(step) * (ct.depth + cv.depth);
+            }
+            _ => break,
+        }
+    }
+    let sum = |c: &mut dyn Iterator<Item = crate::obstacle::Contact>| {
+        c.map(|c| c.depth * c.depth).sum::<f64>()
+    };
+    let whole_v = sum(&mut model.contacts(xv));
+    let whole_t = sum(&mut model.contacts(xt));
+    whole_t - whole_v
 }
 
 /// The blocks of `A` at the iterate, the contact and pull parts, and the inverted diagonal.
@@ -592,6 +722,11 @@ fn assemble(
             *e += h * d;
         }
         let p = at(i, &s.v);
+        if let Some(field) = model.field.as_ref().filter(|f| f.uniform().is_none()) {
+            for (e, k) in e.iter_mut().zip(field_stiffness(field, p)) {
+                *e += h2 * k;
+            }
+        }
         let walls = model
             .bounds
             .wall_contacts(p)
@@ -627,6 +762,30 @@ fn assemble(
     }
 }
 
+/// The field's stiffness at `p` for `A`: minus the symmetric part of its gradient (a field has
+/// no potential, so its gradient need not be symmetric, and `A` must be), made positive
+/// semi-definite by adding its Gershgorin bound on the smallest eigenvalue when that is negative.
+/// A field that pulls towards a point (stiffer there than the masses) needs it, or Newton's
+/// method crawls.
+fn field_stiffness(field: &ForceField, p: Vec3) -> Sym {
+    let [dx, dy, dz] = field.gradient(p);
+    let mut k: Sym = [
+        -dx.x,
+        -dy.y,
+        -dz.z,
+        -0.5 * (dy.x + dx.y),
+        -0.5 * (dz.x + dx.z),
+        -0.5 * (dz.y + dy.z),
+    ];
+    let lowest = (k[0] - k[3].abs() - k[4].abs())
+        .min(k[1] - k[3].abs() - k[5].abs())
+        .min(k[2] - k[4].abs() - k[5].abs());
+    if lowest < 0.0 {
+        k[..3].iter_mut().for_each(|k| *k -= lowest);
+    }
+    k
+}
+
 /// `y = A·x` over the free points (others give 0).
 fn apply(s: &ImplicitScratch, x: &[Vec3], y: &mut [Vec3]) {
     for ((y, e), (&x, &f)) in y.iter_mut().zip(&s.extra).zip(x.iter().zip(&s.free)) {
@@ -646,16 +805,17 @@ fn dot(a: &[Vec3], b: &[Vec3]) -> f64 {
     a.iter().zip(b).map(|(a, b)| a.dot(*b)).sum()
 }
 
-/// Solves `A·Δv = −M·g` into `s.dv` by preconditioned conjugate gradients, from zero; false
+/// Solves `A·Δv = −M·g` into `s.dv` by preconditioned conjugate gradients, from zero, until its
+/// residual has fallen by `reduction`; false
 /// when `A` (or its diagonal) turns out not to be positive definite.
-fn solve(s: &mut ImplicitScratch) -> bool {
+fn solve(s: &mut ImplicitScratch, reduction: f64) -> bool {
     for i in 0..s.dv.len() {
         s.dv[i] = Vec3::ZERO;
         s.r[i] = s.g[i] * (-s.mass[i] * s.free[i]);
         s.z[i] = sym_mul(&s.diag_inv[i], s.r[i]) * s.free[i];
         s.p[i] = s.z[i];
     }
-    let target = dot(&s.r, &s.r) * CG_REDUCTION * CG_REDUCTION;
+    let target = dot(&s.r, &s.r) * reduction * reduction;
     let mut rz = dot(&s.r, &s.z);
     if rz < 0.0 || !rz.is_finite() {
         return false;

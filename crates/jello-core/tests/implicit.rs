@@ -9,8 +9,8 @@ use jello_core::diagnostics::{energy, momentum};
 use jello_core::implicit::Newton;
 use jello_core::stability::stable_dt;
 use jello_core::{
-    step, Aabb, BlowUpCause, Body, Control, Integrator, Lattice, Material, Model, ModelBuilder,
-    Scratch, State, Vec3,
+    step, Aabb, BlowUpCause, Body, Control, ForceField, Integrator, Lattice, Material, Model,
+    ModelBuilder, Plane, Scratch, State, Vec3,
 };
 
 fn far_walls() -> Aabb {
@@ -270,5 +270,67 @@ fn a_step_that_does_not_converge_is_reported() {
         },
     ] {
         assert!(ModelBuilder::new().newton(bad).build().is_err());
+    }
+}
+
+/// A field that pulls every point towards the centre, far stiffer than the masses at the step
+/// (h²c/m ≈ 7: hω ≈ 2.7, past every explicit integrator’s limit): linear, so the trilinear field
+/// is exact and the centre of mass follows backward Euler's recurrence for one point,
+/// `v₁ = (v₀ − h·(c/m)·x₀)/(1 + h²c/m)`, `x₁ = x₀ + h·v₁`, whatever the springs do.
+#[test]
+fn a_stiff_field_pulling_to_the_centre_follows_the_recurrence() {
+    let (c, h) = (50.0, 1.0 / 60.0);
+    let field = ForceField::from_fn(5, Aabb::classic(), |p| p * -c).unwrap();
+    let model = ModelBuilder::new()
+        .integrator(Integrator::BackwardEuler)
+        .dt(h)
+        .field(Some(field))
+        .build()
+        .unwrap();
+    let m = model.bodies()[0].material.mass;
+    let mut rng = Rng(3);
+    let mut state = State::at_rest(&model);
+    for (p, v) in state.pos.iter_mut().zip(state.vel.iter_mut()) {
+        *p += rng.vec3() * 0.02 - Vec3::new(0.2, 0.6, 0.4);
+        *v = Vec3::new(1.0, 0.5, -0.5) + rng.vec3() * 0.3;
+    }
+    let centre = |s: &State| s.pos.iter().fold(Vec3::ZERO, |a, &p| a + p) / s.pos.len() as f64;
+    let speed = |s: &State| s.vel.iter().fold(Vec3::ZERO, |a, &v| a + v) / s.vel.len() as f64;
+    let (mut x, mut v) = (centre(&state), speed(&state));
+    let mut scratch = Scratch::new(&model);
+    for n in 1..=120 {
+        step(&model, &mut state, &Control::none(), &mut scratch).unwrap();
+        v = (v - x * (h * c / m)) / (1.0 + h * h * c / m);
+        x += v * h;
+        let off = (centre(&state) - x).max_abs();
+        assert!(off < 1e-9, "step {n}: the centre is {off} m off");
+    }
+}
+
+/// Hard impacts at frame-rate steps (a cube at 50 m/s into the inclined plane, the lattice
+/// crushed and its springs' stiffness indefinite): every step converges.
+#[test]
+fn hard_impacts_converge() {
+    for dt in [0.01, 1.0 / 60.0] {
+        let model = ModelBuilder::new()
+            .integrator(Integrator::BackwardEuler)
+            .dt(dt)
+            .elastic(172.0, 0.0132)
+            .collision(2800.0, 1.2)
+            .mass(0.00132)
+            .plane(Some(Plane::new([1.0, 1.0, 1.0, 0.5]).unwrap()))
+            .build()
+            .unwrap();
+        let mut state = State::at_rest(&model);
+        state
+            .vel
+            .iter_mut()
+            .for_each(|v| *v = Vec3::new(-50.0, 0.0, 0.0));
+        let mut scratch = Scratch::new(&model);
+        for n in 0..60 {
+            if let Err(e) = step(&model, &mut state, &Control::none(), &mut scratch) {
+                panic!("dt {dt}, step {n}: {e}");
+            }
+        }
     }
 }
