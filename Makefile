@@ -3,7 +3,8 @@
 #               world: `jello view examples/jello.w` prints the URL to open
 #   make test   everything CI runs: format, lints, docs, the aarch64 build (type-checked, and run
 #               under qemu against the native one), all tests, examples up to date, and the
-#               viewer's browser tests (Playwright + Chromium)
+#               Python package's tests (its own venv, pytest), and the viewer's browser tests
+#               (Playwright + Chromium)
 #   make fuzz   fuzz the world-file, OBJ and STL parsers in turn, FUZZ_SECONDS each (one with
 #               FUZZ_TARGET=parse_obj; installs cargo-fuzz and nightly when missing)
 #   make bench  Jello (each SIMD tier) against NumPy, Numba, Taichi, Warp and C; rewrites
@@ -34,6 +35,7 @@ test:
 	cargo build --release
 	scripts/make-examples.sh --check
 	cargo test --workspace
+	scripts/python-test.sh
 	scripts/web-test.sh
 
 examples: build

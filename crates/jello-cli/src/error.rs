@@ -59,3 +59,12 @@ impl fmt::Display for CliError {
         f.write_str(&self.message)
     }
 }
+
+impl From<jello_io::FileError> for CliError {
+    fn from(e: jello_io::FileError) -> Self {
+        match e.kind {
+            jello_io::FileErrorKind::Input => CliError::input(e.message),
+            jello_io::FileErrorKind::Write => CliError::io(e.message),
+        }
+    }
+}

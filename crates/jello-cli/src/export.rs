@@ -9,7 +9,7 @@ use jello_core::surface::{CageVertices, Surface};
 use jello_core::{Model, State, Vec3};
 
 use crate::error::CliError;
-use crate::fsio::{check_writable_target, write_atomic};
+use jello_io::{check_writable_target, write_atomic};
 
 /// Records frames of the model's surface while a run steps.
 pub struct GlbExport {
@@ -81,6 +81,6 @@ impl GlbExport {
 
     /// Writes `bytes` (from [`GlbExport::bytes`]) to the file, atomically.
     pub fn write(&self, bytes: &[u8]) -> Result<(), CliError> {
-        write_atomic(&self.path, bytes)
+        Ok(write_atomic(&self.path, bytes)?)
     }
 }

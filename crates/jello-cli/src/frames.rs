@@ -10,7 +10,7 @@ use jello_core::world::Num;
 use jello_core::{Model, State, Vec3};
 
 use crate::error::CliError;
-use crate::fsio::write_atomic;
+use jello_io::write_atomic;
 
 /// File format of the frames.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]

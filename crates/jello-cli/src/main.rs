@@ -4,7 +4,6 @@ mod commands;
 mod error;
 mod export;
 mod frames;
-mod fsio;
 mod progress;
 
 use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};

@@ -466,21 +466,24 @@ impl ModelBuilder {
     }
 }
 
-/// A lattice with at least one point per axis, two in all, and finite positive sides.
+/// The most points one lattice may have: 2²⁷ (512³, the finest `jello create --mesh --cells`
+/// makes), about 10 GB of state and scratch with RK4. More is refused with an error rather than
+/// left to fail allocating, which would abort the process (a Python interpreter with it).
+pub const MAX_LATTICE_POINTS: usize = 1 << 27;
+
+/// A lattice with at least one point per axis, two in all, at most [`MAX_LATTICE_POINTS`], and
+/// finite positive sides.
 fn check_lattice(lattice: &Lattice) -> Result<(), ModelError> {
     let [nx, ny, nz] = lattice.counts;
-    if nx == 0 || ny == 0 || nz == 0 || nx * ny * nz < 2 {
+    let total = nx.checked_mul(ny).and_then(|v| v.checked_mul(nz));
+    if nx == 0 || ny == 0 || nz == 0 || total.is_some_and(|n| n < 2) {
         return Err(ModelError::new(format!(
             "lattice {nx}×{ny}×{nz} needs at least one point per axis and two in all"
         )));
     }
-    if nx
-        .checked_mul(ny)
-        .and_then(|v| v.checked_mul(nz))
-        .is_none_or(|n| n > u32::MAX as usize / 2)
-    {
+    if total.is_none_or(|n| n > MAX_LATTICE_POINTS) {
         return Err(ModelError::new(format!(
-            "lattice {nx}×{ny}×{nz} is too large"
+            "lattice {nx}×{ny}×{nz} is too large: at most {MAX_LATTICE_POINTS} points"
         )));
     }
     let s = lattice.size;

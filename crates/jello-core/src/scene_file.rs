@@ -55,6 +55,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::body::{rotation_xyz, Body, Material, IDENTITY};
 use crate::field::ForceField;
+use crate::field_preset::FieldPreset;
 use crate::integrator::Integrator;
 use crate::lattice::Lattice;
 use crate::mesh::TriMesh;
@@ -182,6 +183,13 @@ pub struct Collision {
 
 /// Friction coefficient of a scene that does not give one: about rubbery jelly on a plate.
 pub const DEFAULT_FRICTION: f64 = 0.5;
+
+/// Cells along a mesh's longest side when a new scene does not say.
+pub const DEFAULT_CELLS: usize = 10;
+
+/// Gravity of a new scene given neither gravity nor a field (m/s²; z is up, as in the classic
+/// worlds and the viewer).
+pub const DEFAULT_GRAVITY: [f64; 3] = [0.0, 0.0, -9.81];
 
 impl Default for Collision {
     fn default() -> Self {
@@ -447,6 +455,98 @@ impl SceneFile {
         }
     }
 
+    /// Sets a new scene's gravity and field from a preset and an optional gravity, as
+    /// `jello create` and Python's `jello.create` do: the `gravity` preset is an acceleration
+    /// (the same on light and heavy points) unless a gravity is given too, which is an error; any
+    /// other field is sampled on a `res`³ grid over the walls and replaces the default gravity.
+    pub fn set_gravity_and_field(
+        &mut self,
+        preset: FieldPreset,
+        res: usize,
+        gravity: Option<[f64; 3]>,
+    ) -> Result<(), String> {
+        let bounds = match self.bounds {
+            Some(b) => Aabb::new(Vec3::from_array(b.min), Vec3::from_array(b.max))
+                .map_err(|e| format!("box: {e}"))?,
+            None => Aabb::classic(),
+        };
+        let (gravity, field) = match (preset, gravity) {
+            (FieldPreset::Gravity(_), Some(_)) => {
+                return Err("give either a gravity or the gravity field, not both".into())
+            }
+            (FieldPreset::Gravity(g), None) => ([0.0, 0.0, -g], None),
+            (FieldPreset::None, g) => (g.unwrap_or(DEFAULT_GRAVITY), None),
+            (spec, g) => {
+                let f = spec
+                    .sample(res, bounds, 0.0)
+                    .map_err(|e| format!("field: {e}"))?;
+                (g.unwrap_or([0.0; 3]), f)
+            }
+        };
+        self.simulation.gravity = gravity;
+        self.field = field.map(|f| FieldSpec {
+            resolution: res,
+            forces: f.forces().iter().map(|v| v.to_array()).collect(),
+        });
+        Ok(())
+    }
+
+    /// Adds the plane `a x + b y + c z + d = 0` as an obstacle that keeps the bodies on the side
+    /// where the first body's centre of mass lies (as the classic worlds' plane does); `name`
+    /// labels errors.
+    pub fn add_plane_facing_first_body(
+        &mut self,
+        coeffs: [f64; 4],
+        name: &str,
+    ) -> Result<(), SceneError> {
+        let made = self.to_scene(name)?;
+        let centre = crate::diagnostics::body_centre_of_mass(&made.model, 0, &made.state.pos);
+        let plane = Plane::facing(coeffs, centre).map_err(|e| SceneError {
+            source_name: name.to_string(),
+            line: 0,
+            column: 0,
+            message: format!("plane: {e}"),
+        })?;
+        let coeffs = coeffs.map(|c| c * plane.side);
+        self.obstacles.push(ObstacleSpec::Plane { coeffs });
+        Ok(())
+    }
+
+    /// Writes into the bodies the material of `model`'s bodies where it differs from `initial`
+    /// (what the scene gave them when it was made): stiffness, damping and mass per point, in
+    /// place of the ways the file gave them (total mass, density, modulus, viscosity). For saving
+    /// a scene whose materials were changed while it ran.
+    pub fn record_materials(&mut self, model: &Model, initial: &[Material]) {
+        for (spec, (body, initial)) in self
+            .bodies
+            .iter_mut()
+            .zip(model.bodies().iter().zip(initial))
+        {
+            if body.material != *initial {
+                spec.stiffness = Some(body.material.stiffness);
+                spec.damping = Some(body.material.damping);
+                spec.mass = Some(body.material.mass);
+                spec.total_mass = None;
+                spec.density = None;
+                spec.modulus = None;
+                spec.viscosity = None;
+            }
+        }
+        self.collision.stiffness = model.k_collision;
+        self.collision.damping = model.d_collision;
+    }
+
+    /// Each body's name: its own, or `body1`, `body2`… by position.
+    pub fn body_names(&self) -> Vec<String> {
+        (self.bodies.iter().enumerate())
+            .map(|(b, spec)| {
+                spec.name
+                    .clone()
+                    .unwrap_or_else(|| format!("body{}", b + 1))
+            })
+            .collect()
+    }
+
     /// Reads a scene from the bytes of a TOML file; `name` labels errors.
     pub fn parse(bytes: &[u8], name: &str) -> Result<SceneFile, SceneError> {
         let error = |line, column, message: String| SceneError {
@@ -534,7 +634,7 @@ impl SceneFile {
             });
         }
         let mut bodies = Vec::new();
-        let mut names = Vec::new();
+        let names = self.body_names();
         let at_body = |b: usize, message: String| SceneError {
             source_name: name.to_string(),
             line: self.origin.0.get(b).copied().unwrap_or(0),
@@ -543,11 +643,6 @@ impl SceneFile {
         };
         for (b, spec) in self.bodies.iter().enumerate() {
             let body = spec.to_body(name).map_err(|e| at_body(b, e))?;
-            names.push(
-                spec.name
-                    .clone()
-                    .unwrap_or_else(|| format!("body{}", b + 1)),
-            );
             bodies.push(body);
         }
         let c = &self.collision;
@@ -727,8 +822,10 @@ fn check_start(model: &Model, state: &State) -> Result<(), String> {
 }
 
 impl BodySpec {
-    /// Checks the combination of keys.
-    fn check(&self) -> Result<(), String> {
+    /// Checks the combination of keys (one shape; at most one way to give the mass, the
+    /// stiffness and the damping). Reading a scene file checks this; so should a front end that
+    /// builds bodies.
+    pub fn check(&self) -> Result<(), String> {
         match (&self.cube, &self.mesh) {
             (Some(_), Some(_)) => return Err("give either cube or mesh, not both".into()),
             (None, None) => return Err("expected a shape: cube = { … } or mesh = { … }".into()),

@@ -18,8 +18,8 @@ use jello_core::scene_file::SceneFile;
 use jello_core::stability;
 use jello_core::surface::{CageVertices, Surface};
 use jello_core::{
-    Aabb, BlowUp, BlowUpCause, ForceField, Integrator, Lattice, Model, ModelBuilder, Obstacle,
-    Pull, ReadOptions, Simulation, State, Vec3, World,
+    Aabb, BlowUp, BlowUpCause, ForceField, Integrator, Lattice, Material, Model, ModelBuilder,
+    Obstacle, Pull, ReadOptions, Simulation, State, Vec3, World,
 };
 use wasm_bindgen::prelude::*;
 
@@ -695,21 +695,8 @@ impl JelloSim {
         let mut file = file.with_state(model, &self.sim.state);
         file.simulation.dt = model.dt;
         file.simulation.integrator = model.integrator.name().to_string();
-        for (spec, (body, initial)) in file
-            .bodies
-            .iter_mut()
-            .zip(model.bodies().iter().zip(self.initial.0.bodies()))
-        {
-            if body.material != initial.material {
-                spec.stiffness = Some(body.material.stiffness);
-                spec.damping = Some(body.material.damping);
-                spec.mass = Some(body.material.mass);
-                spec.total_mass = None;
-                spec.density = None;
-                spec.modulus = None;
-                spec.viscosity = None;
-            }
-        }
+        let initial: Vec<Material> = self.initial.0.bodies().iter().map(|b| b.material).collect();
+        file.record_materials(model, &initial);
         Ok(file.to_toml())
     }
 

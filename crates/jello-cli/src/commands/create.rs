@@ -8,12 +8,13 @@ use clap::Args;
 use jello_core::body::rotation_xyz;
 use jello_core::diagnostics::centre_of_mass;
 use jello_core::field::RES_RANGE;
+use jello_core::field_preset::parse_numbers;
 use jello_core::scene_file::RegionSpec;
-use jello_core::{defaults, Aabb, ForceField, Integrator, Lattice, Vec3, World};
+use jello_core::{defaults, Aabb, FieldPreset, Integrator, Lattice, Vec3, World};
 
 use super::{parse_integrator, parse_non_negative, parse_positive};
 use crate::error::CliError;
-use crate::fsio::{check_new_output, is_scene, write_atomic};
+use jello_io::{check_new_output, is_scene, write_atomic};
 
 /// Arguments of `jello create`.
 ///
@@ -65,7 +66,7 @@ pub struct CreateArgs {
         allow_hyphen_values = true,
         help = "Force field: none | uniform:FX,FY,FZ | gravity[:G] | vortex:S[:x|y|z] | radial:S | tornado:S"
     )]
-    pub field: FieldSpec,
+    pub field: FieldPreset,
     /// Force field grid resolution (2 to 30).
     #[arg(long, default_value_t = 30, value_parser = clap::value_parser!(u32).range(2..=30))]
     pub res: u32,
@@ -261,21 +262,7 @@ pub struct Numbers<const N: usize>(pub [f64; N]);
 impl<const N: usize> FromStr for Numbers<N> {
     type Err = String;
     fn from_str(s: &str) -> Result<Self, Self::Err> {
-        let parts: Vec<&str> = s.split(',').map(str::trim).collect();
-        if parts.len() != N {
-            return Err(format!(
-                "expected {N} comma-separated numbers, found \"{s}\""
-            ));
-        }
-        let mut out = [0.0; N];
-        for (o, p) in out.iter_mut().zip(&parts) {
-            *o = p
-                .parse::<f64>()
-                .ok()
-                .filter(|v| v.is_finite())
-                .ok_or_else(|| format!("expected a finite number, found \"{p}\" in \"{s}\""))?;
-        }
-        Ok(Numbers(out))
+        parse_numbers::<N>(s).map(Numbers)
     }
 }
 
@@ -311,107 +298,6 @@ impl FromStr for Drag {
             ijk: [ijk[0], ijk[1], ijk[2]],
             by,
         })
-    }
-}
-
-/// Axis of a vortex.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub enum Axis {
-    /// x axis.
-    X,
-    /// y axis.
-    Y,
-    /// z axis.
-    Z,
-}
-
-impl Axis {
-    fn unit(self) -> Vec3 {
-        match self {
-            Axis::X => Vec3::new(1.0, 0.0, 0.0),
-            Axis::Y => Vec3::new(0.0, 1.0, 0.0),
-            Axis::Z => Vec3::new(0.0, 0.0, 1.0),
-        }
-    }
-}
-
-/// A force field to sample on the grid (forces in N at node position p).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub enum FieldSpec {
-    /// No field (`res` 0 in the file).
-    None,
-    /// The same force everywhere.
-    Uniform(Vec3),
-    /// Gravity of `g` m/s² along −z on each point: the force `(0, 0, −g·mass)`.
-    Gravity(f64),
-    /// Swirl about an axis through the origin: `s · (axis × p)`; the official rotate.w is
-    /// `vortex:0.009765625` about z.
-    Vortex(f64, Axis),
-    /// Pull toward the centre of the box: `−s · p` (a negative s pushes out).
-    Radial(f64),
-    /// A vortex about z that sucks in near the floor and lifts near the axis:
-    /// `s · ((−y, x, 0)/(r + 0.25) − 0.3 (x, y, 0) + (0, 0, 1.5 e^(−r²) − 0.5))`, `r = √(x² + y²)`.
-    Tornado(f64),
-}
-
-impl FromStr for FieldSpec {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, Self::Err> {
-        let (kind, rest) = s.split_once(':').unwrap_or((s, ""));
-        let number = |t: &str| {
-            t.trim()
-                .parse::<f64>()
-                .ok()
-                .filter(|v| v.is_finite())
-                .ok_or_else(|| format!("expected a number after \"{kind}:\", found \"{t}\""))
-        };
-        match kind.to_ascii_lowercase().as_str() {
-            "none" if rest.is_empty() => Ok(FieldSpec::None),
-            "uniform" => Ok(FieldSpec::Uniform(rest.parse::<Numbers<3>>()?.vec3())),
-            "gravity" if rest.is_empty() => Ok(FieldSpec::Gravity(9.81)),
-            "gravity" => Ok(FieldSpec::Gravity(number(rest)?)),
-            "vortex" => {
-                let (strength, axis) = rest.split_once(':').unwrap_or((rest, "z"));
-                let axis = match axis.to_ascii_lowercase().as_str() {
-                    "x" => Axis::X,
-                    "y" => Axis::Y,
-                    "z" => Axis::Z,
-                    other => return Err(format!("expected a vortex axis x, y or z, found \"{other}\"")),
-                };
-                Ok(FieldSpec::Vortex(number(strength)?, axis))
-            }
-            "radial" => Ok(FieldSpec::Radial(number(rest)?)),
-            "tornado" => Ok(FieldSpec::Tornado(number(rest)?)),
-            _ => Err(format!(
-                "expected none, uniform:FX,FY,FZ, gravity[:G], vortex:S[:AXIS], radial:S or tornado:S, found \"{s}\""
-            )),
-        }
-    }
-}
-
-impl FieldSpec {
-    /// The force at `p` of a field that does not depend on the mass (every one but gravity).
-    pub(crate) fn force_on(self, p: Vec3) -> Vec3 {
-        self.force(p, 0.0)
-    }
-
-    /// The force at `p` for points of mass `mass`.
-    fn force(self, p: Vec3, mass: f64) -> Vec3 {
-        match self {
-            FieldSpec::None => Vec3::ZERO,
-            FieldSpec::Uniform(f) => f,
-            FieldSpec::Gravity(g) => Vec3::new(0.0, 0.0, -g * mass),
-            FieldSpec::Vortex(s, axis) => axis.unit().cross(p) * s,
-            FieldSpec::Radial(s) => p * -s,
-            FieldSpec::Tornado(s) => {
-                let r2 = p.x * p.x + p.y * p.y;
-                let r = r2.sqrt();
-                let swirl = Vec3::new(-p.y, p.x, 0.0) / (r + 0.25);
-                let inward = Vec3::new(p.x, p.y, 0.0) * -0.3;
-                let lift = Vec3::new(0.0, 0.0, 1.5 * (-r2).exp() - 0.5);
-                (swirl + inward + lift) * s
-            }
-        }
     }
 }
 
@@ -504,16 +390,13 @@ pub fn create(args: CreateArgs, matches: &clap::ArgMatches) -> Result<(), CliErr
         })
         .collect();
 
-    let field = match args.field {
-        FieldSpec::None => None,
-        spec => {
-            let res = args.res as usize;
-            debug_assert!(RES_RANGE.contains(&res));
-            let f = ForceField::from_fn(res, Aabb::classic(), |p| spec.force(p, mass))
-                .map_err(|e| CliError::input(format!("--field: {e}")))?;
-            Some((res, f.forces().to_vec()))
-        }
-    };
+    let res = args.res as usize;
+    debug_assert!(RES_RANGE.contains(&res));
+    let field = args
+        .field
+        .sample(res, Aabb::classic(), mass)
+        .map_err(|e| CliError::input(format!("--field: {e}")))?
+        .map(|f| (res, f.forces().to_vec()));
     if let Some(p) = args.plane {
         if p.0[..3].iter().all(|&c| c == 0.0) {
             return Err(CliError::input(

@@ -10,7 +10,7 @@ use jello_core::{Integrator, Model, SpringKind, SpringScale};
 
 use super::parse_integrator;
 use crate::error::CliError;
-use crate::fsio::{load, Source};
+use jello_io::{load, Source};
 
 /// Arguments of `jello info`.
 #[derive(Args, Debug)]

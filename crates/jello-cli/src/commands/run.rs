@@ -11,8 +11,8 @@ use super::{parse_integrator, parse_positive};
 use crate::error::CliError;
 use crate::export::GlbExport;
 use crate::frames::{FrameFormat, FrameWriter};
-use crate::fsio::{check_writable_target, is_scene, load, write_atomic, Source};
 use crate::progress::Progress;
+use jello_io::{check_writable_target, is_scene, load, write_atomic, Source};
 
 /// Simulated time run when neither `--steps` nor `--time` is given (s).
 const DEFAULT_TIME: f64 = 1.0;
@@ -144,13 +144,9 @@ pub fn run(args: RunArgs) -> Result<(), CliError> {
         None => None,
     };
     if let Some(out) = &args.save {
-        let text = match &source {
-            Source::World(_) => sim
-                .to_world()
-                .map_err(|e| CliError::io(format!("{}: {e}", out.display())))?
-                .to_text(),
-            Source::Scene(scene) => scene.with_state(&sim.model, &sim.state).to_toml(),
-        };
+        let text = source
+            .state_text(&sim)
+            .map_err(|e| CliError::io(format!("{}: {e}", out.display())))?;
         write_atomic(out, text.as_bytes())?;
     }
     if let (Some(x), Some(bytes)) = (&export, &glb) {

@@ -7,21 +7,14 @@
 
 use clap::ArgMatches;
 use jello_core::scene_file::{
-    BodySpec, BoxSpec, Collision, CubeSpec, FieldSpec as SceneField, MeshSpec, ObstacleSpec,
-    PinSpec, SceneFile, Settings, ShakeSpec,
+    BodySpec, BoxSpec, Collision, CubeSpec, MeshSpec, ObstacleSpec, PinSpec, SceneFile, Settings,
+    ShakeSpec, DEFAULT_CELLS, DEFAULT_FRICTION,
 };
-use jello_core::{Aabb, ForceField, TriMesh, Vec3};
+use jello_core::{Aabb, TriMesh, Vec3};
 
-use super::create::{CreateArgs, FieldSpec};
+use super::create::CreateArgs;
 use crate::error::CliError;
-use crate::fsio::{read_bounded, write_atomic};
-
-/// Cells along a mesh's longest side when `--cells` is not given.
-pub const DEFAULT_CELLS: u32 = 10;
-
-/// Gravity of a scene when neither `--gravity` nor `--field` is given (m/s²; z is up, as in the
-/// classic worlds and the viewer).
-pub const DEFAULT_GRAVITY: [f64; 3] = [0.0, 0.0, -9.81];
+use jello_io::{read_bounded, write_atomic};
 
 /// Which body each value of a per-body option belongs to: the last `--mesh` or `--cube` before
 /// it. `starts` are the bodies' positions on the command line, in order.
@@ -139,7 +132,7 @@ pub fn create_scene(args: &CreateArgs, matches: &ArgMatches) -> Result<(), CliEr
                 let mesh = TriMesh::parse(&bytes, &mesh_name)
                     .map_err(|e| CliError::input(e.to_string()))?;
                 spec.mesh = Some(MeshSpec {
-                    cells: cells[b].unwrap_or(DEFAULT_CELLS) as usize,
+                    cells: cells[b].map_or(DEFAULT_CELLS, |c| c as usize),
                     vertices: mesh.vertices.iter().map(|v| v.to_array()).collect(),
                     triangles: mesh.triangles.clone(),
                 });
@@ -217,26 +210,6 @@ pub fn create_scene(args: &CreateArgs, matches: &ArgMatches) -> Result<(), CliEr
         }
         None => Aabb::classic(),
     };
-    let mut gravity = args.gravity.map_or(DEFAULT_GRAVITY, |g| g.0);
-    let field = match args.field {
-        FieldSpec::None => None,
-        // In a scene gravity is an acceleration, the same on light and heavy points.
-        FieldSpec::Gravity(g) if args.gravity.is_none() => {
-            gravity = [0.0, 0.0, -g];
-            None
-        }
-        _ if args.gravity.is_none() => {
-            // A field replaces the default gravity (as in world files, where it is the field).
-            gravity = [0.0; 3];
-            sampled(args, bounds)?
-        }
-        FieldSpec::Gravity(_) => {
-            return Err(CliError::usage(
-                "give either --gravity or --field gravity, not both",
-            ))
-        }
-        _ => sampled(args, bounds)?,
-    };
     let mut obstacles: Vec<ObstacleSpec> = args
         .sphere
         .iter()
@@ -260,32 +233,25 @@ pub fn create_scene(args: &CreateArgs, matches: &ArgMatches) -> Result<(), CliEr
         integrator: args.integrator.name().to_string(),
         dt: args.dt,
         steps_per_frame: args.steps_per_frame,
-        gravity,
-        time: 0.0,
+        ..Settings::default()
     };
     scene.collision = Collision {
         stiffness: args.k_collision,
         damping: args.d_collision,
-        friction: args
-            .friction
-            .unwrap_or(jello_core::scene_file::DEFAULT_FRICTION),
+        friction: args.friction.unwrap_or(DEFAULT_FRICTION),
     };
     scene.bounds = Some(BoxSpec {
         min: bounds.min.to_array(),
         max: bounds.max.to_array(),
     });
-    scene.field = field;
+    scene
+        .set_gravity_and_field(args.field, args.res as usize, args.gravity.map(|g| g.0))
+        .map_err(|e| CliError::usage(format!("--field: {e}")))?;
     scene.obstacles = obstacles;
-    // The plane keeps the bodies on the side where the first body's centre of mass lies.
     if let Some(p) = args.plane {
-        let made = scene
-            .to_scene(&out_name)
-            .map_err(|e| CliError::input(e.to_string()))?;
-        let centre = jello_core::diagnostics::body_centre_of_mass(&made.model, 0, &made.state.pos);
-        let plane = jello_core::Plane::facing(p.0, centre)
+        scene
+            .add_plane_facing_first_body(p.0, &out_name)
             .map_err(|e| CliError::usage(format!("--plane: {e}")))?;
-        let coeffs = p.0.map(|c| c * plane.side);
-        scene.obstacles.push(ObstacleSpec::Plane { coeffs });
     }
     let made = scene
         .to_scene(&out_name)
@@ -310,18 +276,6 @@ pub fn create_scene(args: &CreateArgs, matches: &ArgMatches) -> Result<(), CliEr
         m.pins.len()
     );
     Ok(())
-}
-
-/// The `--field` sampled over the box.
-fn sampled(args: &CreateArgs, bounds: Aabb) -> Result<Option<SceneField>, CliError> {
-    let res = args.res as usize;
-    let spec = args.field;
-    let f = ForceField::from_fn(res, bounds, |p| spec.force_on(p))
-        .map_err(|e| CliError::input(format!("--field: {e}")))?;
-    Ok(Some(SceneField {
-        resolution: res,
-        forces: f.forces().iter().map(|v| v.to_array()).collect(),
-    }))
 }
 
 /// A body's shape as given on the command line.

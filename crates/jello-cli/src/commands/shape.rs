@@ -9,7 +9,7 @@ use jello_core::mesh::SHAPES;
 use jello_core::TriMesh;
 
 use crate::error::CliError;
-use crate::fsio::{check_new_output, write_atomic};
+use jello_io::{check_new_output, write_atomic};
 
 /// Arguments of `jello shape`.
 #[derive(Args, Debug)]

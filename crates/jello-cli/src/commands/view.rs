@@ -26,7 +26,7 @@ use std::time::Duration;
 use clap::Args;
 
 use crate::error::CliError;
-use crate::fsio::load;
+use jello_io::load;
 
 /// Port used when `--port` is not given.
 pub const DEFAULT_PORT: u16 = 7878;

@@ -1,0 +1,202 @@
+"""Types of the native module ``jello._jello`` (re-exported by ``jello``)."""
+
+import os
+from collections.abc import Sequence
+from typing import Any, Literal, final
+
+import numpy as np
+import numpy.typing as npt
+
+_Path = str | os.PathLike[str]
+_Vec3 = Sequence[float] | npt.NDArray[np.floating[Any]]
+_PerKind = float | Sequence[float]
+_Points = npt.ArrayLike
+
+class BlowUp(RuntimeError):
+    """A step blew up; the simulation stays at the last good step."""
+
+    step: int
+    time: float
+    point: int
+    body: int
+    integrator: str
+    dt: float
+    suggested_dt: float | None
+    residual: float | None
+    max_penetration: float
+
+class WorldError(ValueError):
+    """A file or description that makes no valid simulation; names the file and line."""
+
+    filename: str | None
+
+@final
+class Energy:
+    """Kinetic, spring and collision energy (J)."""
+
+    @property
+    def kinetic(self) -> float: ...
+    @property
+    def spring(self) -> float: ...
+    @property
+    def collision(self) -> float: ...
+    @property
+    def total(self) -> float: ...
+
+@final
+class Simulation:
+    """A world or scene being stepped: numpy arrays in and out."""
+
+    def step(self, n: int = 1) -> None: ...
+    def run(self, n: int) -> float: ...
+    @property
+    def positions(self) -> npt.NDArray[np.float64]: ...
+    @positions.setter
+    def positions(self, value: _Points) -> None: ...
+    @property
+    def velocities(self) -> npt.NDArray[np.float64]: ...
+    @velocities.setter
+    def velocities(self, value: _Points) -> None: ...
+    @property
+    def control_forces(self) -> npt.NDArray[np.float64] | None: ...
+    @control_forces.setter
+    def control_forces(self, value: _Points | None) -> None: ...
+    @property
+    def time(self) -> float: ...
+    @property
+    def steps(self) -> int: ...
+    @property
+    def point_count(self) -> int: ...
+    def __len__(self) -> int: ...
+    @property
+    def dt(self) -> float: ...
+    @dt.setter
+    def dt(self, value: float) -> None: ...
+    @property
+    def integrator(self) -> str: ...
+    @integrator.setter
+    def integrator(self, value: str) -> None: ...
+    @property
+    def steps_per_frame(self) -> int: ...
+    @property
+    def name(self) -> str: ...
+    @property
+    def bodies(self) -> list[tuple[str, slice]]: ...
+    def set_material(
+        self,
+        *,
+        stiffness: _PerKind | None = None,
+        damping: _PerKind | None = None,
+        mass: float | None = None,
+        body: int | None = None,
+    ) -> None: ...
+    def set_collision(
+        self, *, stiffness: float | None = None, damping: float | None = None
+    ) -> None: ...
+    def energy(self) -> Energy: ...
+    def max_penetration(self) -> float: ...
+    def save(self, path: _Path) -> None: ...
+    def dumps(self) -> str: ...
+    def copy(self) -> Simulation: ...
+    def __copy__(self) -> Simulation: ...
+    def __deepcopy__(self, memo: Any) -> Simulation: ...
+
+@final
+class Body:
+    """A body of a scene to create: ``cube(...)`` or ``mesh(...)``."""
+
+@final
+class Obstacle:
+    """A static obstacle: ``sphere(...)`` or ``box(...)``."""
+
+@final
+class Pin:
+    """Pinned points of a body: ``pin(...)``."""
+
+@final
+class Region:
+    """Springs of a body with their own factors: ``region(...)``."""
+
+def load(path: _Path, *, integrator: str | None = None, dt: float | None = None) -> Simulation: ...
+def loads(
+    text: str | bytes,
+    *,
+    format: Literal["w", "toml"] | str = "w",
+    name: str = "<string>",
+    integrator: str | None = None,
+    dt: float | None = None,
+) -> Simulation: ...
+def cube(
+    n: int | Sequence[int] | None = None,
+    size: float | Sequence[float] | None = None,
+    *,
+    at: _Vec3 | None = None,
+    rotation: _Vec3 | None = None,
+    velocity: _Vec3 | None = None,
+    spin: _Vec3 | None = None,
+    mass: float | None = None,
+    total_mass: float | None = None,
+    density: float | None = None,
+    stiffness: _PerKind | None = None,
+    damping: _PerKind | None = None,
+    modulus: float | None = None,
+    viscosity: float | None = None,
+    pins: Sequence[Pin] = ...,
+    regions: Sequence[Region] = ...,
+    name: str | None = None,
+) -> Body: ...
+def mesh(
+    path: _Path | None = None,
+    *,
+    vertices: _Points | None = None,
+    triangles: _Points | None = None,
+    cells: int = 10,
+    at: _Vec3 | None = None,
+    rotation: _Vec3 | None = None,
+    velocity: _Vec3 | None = None,
+    spin: _Vec3 | None = None,
+    mass: float | None = None,
+    total_mass: float | None = None,
+    density: float | None = None,
+    stiffness: _PerKind | None = None,
+    damping: _PerKind | None = None,
+    modulus: float | None = None,
+    viscosity: float | None = None,
+    pins: Sequence[Pin] = ...,
+    regions: Sequence[Region] = ...,
+    name: str | None = None,
+) -> Body: ...
+def read_mesh(path: _Path) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.uint32]]: ...
+def sphere(centre: _Vec3, radius: float) -> Obstacle: ...
+def box(min: _Vec3, max: _Vec3) -> Obstacle: ...
+def pin(
+    at: _Vec3, radius: float = 0.0, *, shake: tuple[_Vec3, float] | None = None
+) -> Pin: ...
+def region(
+    min: _Vec3,
+    max: _Vec3,
+    *,
+    stiffness: float = 1.0,
+    damping: float = 1.0,
+    rest: float = 1.0,
+) -> Region: ...
+def create(
+    bodies: Sequence[Body],
+    *,
+    obstacles: Sequence[Obstacle] = ...,
+    plane: Sequence[float] | None = None,
+    gravity: _Vec3 | None = None,
+    field: str | npt.ArrayLike | None = None,
+    res: int = 30,
+    bounds: tuple[_Vec3, _Vec3] | None = None,
+    collision_stiffness: float | None = None,
+    collision_damping: float | None = None,
+    friction: float | None = None,
+    integrator: str = "RK4",
+    dt: float | None = None,
+    steps_per_frame: int | None = None,
+    name: str = "<scene>",
+) -> Simulation: ...
+def simd_tier() -> str: ...
+def integrators() -> list[str]: ...
+

@@ -1,0 +1,508 @@
+//! `jello.Simulation`: a world or scene being stepped, with its state as numpy arrays; and
+//! `jello.load` / `jello.loads`, which make one from a file or its text.
+
+use std::path::PathBuf;
+use std::time::{Duration, Instant};
+
+use jello_core::diagnostics::{energy, max_penetration};
+use jello_core::{Integrator, Material, ModelBuilder};
+use jello_io::Source;
+use numpy::PyArray2;
+use pyo3::exceptions::PyValueError;
+use pyo3::prelude::*;
+use pyo3::types::PySlice;
+
+use crate::arrays::{from_array, to_array};
+use crate::errors::{blow_up_error, unreadable, world_error, write_error};
+
+/// How long a step call runs with the GIL released before it takes the GIL back to look for
+/// Ctrl-C (and lets other Python threads run their Python code).
+const SIGNAL_CHECK_EVERY: Duration = Duration::from_millis(50);
+
+/// A simulation: the model (what does not change), its state (positions, velocities, time) and
+/// the forces from outside, stepped by the core.
+#[pyclass(module = "jello", name = "Simulation")]
+#[derive(Clone)]
+pub struct Simulation {
+    pub(crate) sim: jello_core::Simulation,
+    /// What it was read from or built as, for `save`.
+    pub(crate) source: Source,
+    /// The file name (or a label) that starts blow-up messages, as the CLI's do.
+    pub(crate) name: String,
+    /// Each body's name, in order.
+    pub(crate) body_names: Vec<String>,
+    /// Each body's material as loaded or built, so that a saved scene records changes to it.
+    pub(crate) initial_materials: Vec<Material>,
+}
+
+impl Simulation {
+    /// A simulation made from what `jello-io` loaded.
+    pub(crate) fn new(sim: jello_core::Simulation, source: Source, name: String) -> Self {
+        let body_names = match &source {
+            Source::World(_) => vec!["jello".to_string()],
+            Source::Scene(file) => file.body_names(),
+        };
+        let initial_materials = sim.model.bodies().iter().map(|b| b.material).collect();
+        Simulation {
+            sim,
+            source,
+            name,
+            body_names,
+            initial_materials,
+        }
+    }
+
+    /// The file text of the current state, in the format it was read from or built as.
+    fn state_text(&self) -> Result<String, String> {
+        match &self.source {
+            Source::World(_) => self.source.state_text(&self.sim),
+            Source::Scene(file) => {
+                let mut file = file.clone();
+                file.record_materials(&self.sim.model, &self.initial_materials);
+                Source::Scene(file).state_text(&self.sim)
+            }
+        }
+    }
+
+    /// Rebuilds the model with another integrator or time step; the state and the control carry
+    /// on.
+    fn rebuild(&mut self, integrator: Integrator, dt: f64) -> PyResult<()> {
+        let builder = self.sim.model.to_builder().integrator(integrator).dt(dt);
+        self.replace_model(builder)
+    }
+
+    /// Builds the model `builder` describes and carries the state and control over to it;
+    /// changes nothing when the model is invalid.
+    fn replace_model(&mut self, builder: ModelBuilder) -> PyResult<()> {
+        let model = builder
+            .build()
+            .map_err(|e| PyValueError::new_err(e.to_string()))?;
+        let control = std::mem::take(&mut self.sim.control);
+        let state = self.sim.state.clone();
+        self.sim = jello_core::Simulation::new(model, state);
+        self.sim.control = control;
+        Ok(())
+    }
+}
+
+#[pymethods]
+impl Simulation {
+    /// Advances `n` steps with the GIL released. Raises `jello.BlowUp` at the first step that
+    /// blows up, leaving the state at the last good step (`steps` says how many were taken);
+    /// Ctrl-C stops between steps, leaving a whole step too.
+    #[pyo3(signature = (n = 1))]
+    fn step(&mut self, py: Python<'_>, n: u64) -> PyResult<()> {
+        let mut left = n;
+        while left > 0 {
+            let sim = &mut self.sim;
+            let (done, result) = py.detach(|| {
+                let start = Instant::now();
+                let mut done = 0;
+                while done < left {
+                    if let Err(b) = sim.step() {
+                        return (done, Err(b));
+                    }
+                    done += 1;
+                    if done % 8 == 0 && start.elapsed() >= SIGNAL_CHECK_EVERY {
+                        break;
+                    }
+                }
+                (done, Ok(()))
+            });
+            left -= done;
+            if let Err(b) = result {
+                return Err(blow_up_error(py, &self.name, &b));
+            }
+            py.check_signals()?;
+        }
+        Ok(())
+    }
+
+    /// Steps `n` times as `step` does and returns the deepest penetration (m) into a wall, the
+    /// plane or an obstacle at the start and after every step, as `jello run` reports it. A
+    /// `jello.BlowUp` carries it as `max_penetration`, up to the last good step.
+    fn run(&mut self, py: Python<'_>, n: u64) -> PyResult<f64> {
+        let mut left = n;
+        let mut deepest = max_penetration(&self.sim.model, &self.sim.state.pos);
+        while left > 0 {
+            let sim = &mut self.sim;
+            let (done, result) = py.detach(|| {
+                let start = Instant::now();
+                let mut done = 0;
+                while done < left {
+                    if let Err(b) = sim.step() {
+                        return (done, Err(b));
+                    }
+                    deepest = deepest.max(max_penetration(&sim.model, &sim.state.pos));
+                    done += 1;
+                    if done % 8 == 0 && start.elapsed() >= SIGNAL_CHECK_EVERY {
+                        break;
+                    }
+                }
+                (done, Ok(()))
+            });
+            left -= done;
+            if let Err(b) = result {
+                let err = blow_up_error(py, &self.name, &b);
+                let _ = err.value(py).setattr("max_penetration", deepest);
+                return Err(err);
+            }
+            py.check_signals()?;
+        }
+        Ok(deepest)
+    }
+
+    /// Sets the springs' stiffness (N/m) and damping (N·s/m), a number or one per kind
+    /// (structural, shear, bend), and the mass of each point (kg), of every body or of body
+    /// number `body`; what is not given stays. The state carries on.
+    #[pyo3(signature = (*, stiffness = None, damping = None, mass = None, body = None))]
+    fn set_material(
+        &mut self,
+        stiffness: Option<&Bound<'_, PyAny>>,
+        damping: Option<&Bound<'_, PyAny>>,
+        mass: Option<f64>,
+        body: Option<usize>,
+    ) -> PyResult<()> {
+        let stiffness = stiffness
+            .map(|v| crate::build::one_or_three(v, "stiffness"))
+            .transpose()?;
+        let damping = damping
+            .map(|v| crate::build::one_or_three(v, "damping"))
+            .transpose()?;
+        let mut bodies = self.sim.model.bodies().to_vec();
+        if let Some(b) = body {
+            if b >= bodies.len() {
+                return Err(PyValueError::new_err(format!(
+                    "body: {b} does not exist (there are {})",
+                    bodies.len()
+                )));
+            }
+        }
+        for (b, spec) in bodies.iter_mut().enumerate() {
+            if body.is_some_and(|only| only != b) {
+                continue;
+            }
+            let m = &mut spec.material;
+            if let Some(k) = stiffness {
+                m.stiffness = k;
+            }
+            if let Some(d) = damping {
+                m.damping = d;
+            }
+            if let Some(mass) = mass {
+                m.mass = mass;
+            }
+        }
+        self.replace_model(self.sim.model.to_builder().bodies(bodies))
+    }
+
+    /// Sets the penalty springs' stiffness (N/m) and damping (N·s/m) of the walls, the plane,
+    /// obstacles and contacts between bodies; what is not given stays.
+    #[pyo3(signature = (*, stiffness = None, damping = None))]
+    fn set_collision(&mut self, stiffness: Option<f64>, damping: Option<f64>) -> PyResult<()> {
+        let model = &self.sim.model;
+        let builder = model.to_builder().collision(
+            stiffness.unwrap_or(model.k_collision),
+            damping.unwrap_or(model.d_collision),
+        );
+        self.replace_model(builder)
+    }
+
+    /// The current state as the text of a world file (a world) or scene file (a scene), as
+    /// `save` writes it.
+    fn dumps(&self) -> PyResult<String> {
+        self.state_text()
+            .map_err(|e| PyValueError::new_err(format!("{}: {e}", self.name)))
+    }
+
+    /// Positions (m), a new `(n, 3)` float64 array each time; assign an `(n, 3)` array to move
+    /// the points.
+    #[getter]
+    fn positions<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f64>> {
+        to_array(py, &self.sim.state.pos)
+    }
+
+    #[setter]
+    fn set_positions(&mut self, value: &Bound<'_, PyAny>) -> PyResult<()> {
+        self.sim.state.pos = from_array(value, self.sim.state.pos.len(), "positions")?;
+        Ok(())
+    }
+
+    /// Velocities (m/s), a new `(n, 3)` float64 array each time; assign to set them.
+    #[getter]
+    fn velocities<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f64>> {
+        to_array(py, &self.sim.state.vel)
+    }
+
+    #[setter]
+    fn set_velocities(&mut self, value: &Bound<'_, PyAny>) -> PyResult<()> {
+        self.sim.state.vel = from_array(value, self.sim.state.vel.len(), "velocities")?;
+        Ok(())
+    }
+
+    /// Extra force on each point (N), held through every step until changed: an `(n, 3)` array,
+    /// or `None` for none.
+    #[getter]
+    fn control_forces<'py>(&self, py: Python<'py>) -> Option<Bound<'py, PyArray2<f64>>> {
+        let forces = &self.sim.control.forces;
+        (!forces.is_empty()).then(|| to_array(py, forces))
+    }
+
+    #[setter]
+    fn set_control_forces(&mut self, value: Option<&Bound<'_, PyAny>>) -> PyResult<()> {
+        self.sim.control.forces = match value {
+            None => Vec::new(),
+            Some(v) => from_array(v, self.sim.state.pos.len(), "control_forces")?,
+        };
+        Ok(())
+    }
+
+    /// Simulated time (s).
+    #[getter]
+    fn time(&self) -> f64 {
+        self.sim.state.time
+    }
+
+    /// Steps taken since the state was loaded.
+    #[getter]
+    fn steps(&self) -> u64 {
+        self.sim.state.steps
+    }
+
+    /// Number of points.
+    #[getter]
+    fn point_count(&self) -> usize {
+        self.sim.state.pos.len()
+    }
+
+    fn __len__(&self) -> usize {
+        self.sim.state.pos.len()
+    }
+
+    /// Time step (s); assign to change it (the state carries on).
+    #[getter]
+    fn dt(&self) -> f64 {
+        self.sim.model.dt
+    }
+
+    #[setter]
+    fn set_dt(&mut self, dt: f64) -> PyResult<()> {
+        if !(dt.is_finite() && dt > 0.0) {
+            return Err(PyValueError::new_err(format!(
+                "dt: expected a positive time step (s), found {dt}"
+            )));
+        }
+        self.rebuild(self.sim.model.integrator, dt)
+    }
+
+    /// Integrator name ("Euler", "RK2", "RK4", "SymplecticEuler", "BackwardEuler"); assign a name
+    /// (any case, aliases as in world files) to change it.
+    #[getter]
+    fn integrator(&self) -> &'static str {
+        self.sim.model.integrator.name()
+    }
+
+    #[setter]
+    fn set_integrator(&mut self, name: &str) -> PyResult<()> {
+        let integrator = name
+            .parse::<Integrator>()
+            .map_err(|e| PyValueError::new_err(format!("integrator: {e}")))?;
+        self.rebuild(integrator, self.sim.model.dt)
+    }
+
+    /// Steps per displayed frame (the world file's `n`).
+    #[getter]
+    fn steps_per_frame(&self) -> u32 {
+        self.sim.model.steps_per_frame
+    }
+
+    /// The file this simulation was read from, or the label it was given.
+    #[getter]
+    fn name(&self) -> &str {
+        &self.name
+    }
+
+    /// The bodies, in order: each one's name and the slice of its points in `positions`.
+    #[getter]
+    fn bodies<'py>(&self, py: Python<'py>) -> PyResult<Vec<(String, Bound<'py, PySlice>)>> {
+        Ok(self
+            .sim
+            .model
+            .bodies()
+            .iter()
+            .zip(&self.body_names)
+            .map(|(b, name)| {
+                let r = b.points();
+                (
+                    name.clone(),
+                    PySlice::new(py, r.start as isize, r.end as isize, 1),
+                )
+            })
+            .collect())
+    }
+
+    /// Kinetic, spring and collision energy (J) of the current state.
+    fn energy(&self) -> Energy {
+        let e = energy(&self.sim.model, &self.sim.state);
+        Energy {
+            kinetic: e.kinetic,
+            spring: e.spring,
+            collision: e.collision,
+        }
+    }
+
+    /// How far the deepest point is inside a wall, the plane or an obstacle (m); 0 when none is.
+    fn max_penetration(&self) -> f64 {
+        max_penetration(&self.sim.model, &self.sim.state.pos)
+    }
+
+    /// Saves the current state: a world file (`.w`) for a world, a scene file (`.toml`) for a
+    /// scene, written whole or not at all. Raises `ValueError` for the wrong extension and
+    /// `OSError` when it cannot be written.
+    fn save(&self, path: PathBuf) -> PyResult<()> {
+        let scene = matches!(self.source, Source::Scene(_));
+        if scene != jello_io::is_scene(&path) {
+            return Err(PyValueError::new_err(format!(
+                "{}: a {} saves as {}",
+                path.display(),
+                if scene { "scene" } else { "world" },
+                if scene { ".toml" } else { ".w" }
+            )));
+        }
+        jello_io::check_writable_target(&path).map_err(|e| write_error(e.message))?;
+        let text = self
+            .state_text()
+            .map_err(|e| write_error(format!("{}: {e}", path.display())))?;
+        jello_io::write_atomic(&path, text.as_bytes()).map_err(|e| write_error(e.message))
+    }
+
+    /// An independent copy (model, state and control).
+    fn copy(&self) -> Simulation {
+        self.clone()
+    }
+
+    fn __copy__(&self) -> Simulation {
+        self.clone()
+    }
+
+    fn __deepcopy__(&self, _memo: &Bound<'_, PyAny>) -> Simulation {
+        self.clone()
+    }
+
+    fn __repr__(&self) -> String {
+        format!(
+            "Simulation({:?}, {} points, {}, dt={}, t={})",
+            self.name,
+            self.sim.state.pos.len(),
+            self.sim.model.integrator.name(),
+            self.sim.model.dt,
+            self.sim.state.time
+        )
+    }
+}
+
+/// Kinetic, spring and collision energy (J); `total` is their sum.
+#[pyclass(module = "jello", frozen, get_all)]
+#[derive(Clone, Copy)]
+pub struct Energy {
+    /// `Σ ½ m |v|²`.
+    pub kinetic: f64,
+    /// `Σ ½ k (|L| − R)²` over the springs.
+    pub spring: f64,
+    /// `Σ ½ kCollision depth²` over the walls, plane, obstacles and contacts between bodies.
+    pub collision: f64,
+}
+
+#[pymethods]
+impl Energy {
+    /// Kinetic plus potential energy (J).
+    #[getter]
+    fn total(&self) -> f64 {
+        self.kinetic + self.spring + self.collision
+    }
+
+    fn __repr__(&self) -> String {
+        format!(
+            "Energy(kinetic={:e}, spring={:e}, collision={:e}, total={:e})",
+            self.kinetic,
+            self.spring,
+            self.collision,
+            self.total()
+        )
+    }
+}
+
+/// An integrator by name, for the loaders' keyword.
+fn parse_integrator(name: Option<&str>) -> PyResult<Option<Integrator>> {
+    name.map(|n| {
+        n.parse::<Integrator>()
+            .map_err(|e| PyValueError::new_err(format!("integrator: {e}")))
+    })
+    .transpose()
+}
+
+/// A positive time step, for the loaders' keyword.
+fn check_dt(dt: Option<f64>) -> PyResult<Option<f64>> {
+    match dt {
+        Some(d) if !(d.is_finite() && d > 0.0) => Err(PyValueError::new_err(format!(
+            "dt: expected a positive time step (s), found {d}"
+        ))),
+        d => Ok(d),
+    }
+}
+
+/// Reads a world file (`.w`) or a scene file (`.toml`), with the integrator and time step
+/// replaced when given. Raises `jello.WorldError` naming the file and line for a bad file and
+/// `FileNotFoundError` (or another `OSError`) for one that cannot be read.
+#[pyfunction]
+#[pyo3(signature = (path, *, integrator = None, dt = None))]
+pub fn load(
+    py: Python<'_>,
+    path: PathBuf,
+    integrator: Option<&str>,
+    dt: Option<f64>,
+) -> PyResult<Simulation> {
+    let integrator = parse_integrator(integrator)?;
+    let dt = check_dt(dt)?;
+    if let Some(err) = unreadable(&path) {
+        return Err(err);
+    }
+    let name = path.display().to_string();
+    let (sim, source) = jello_io::load(&path, integrator, dt)
+        .map_err(|e| world_error(py, e.message, Some(&name)))?;
+    Ok(Simulation::new(sim, source, name))
+}
+
+/// Reads a world (`format="w"`) or a scene (`format="toml"`) from its text, `name` labelling
+/// errors and blow-ups; otherwise as `load`.
+#[pyfunction]
+#[pyo3(signature = (text, *, format = "w", name = "<string>", integrator = None, dt = None))]
+pub fn loads(
+    py: Python<'_>,
+    text: &Bound<'_, PyAny>,
+    format: &str,
+    name: &str,
+    integrator: Option<&str>,
+    dt: Option<f64>,
+) -> PyResult<Simulation> {
+    let integrator = parse_integrator(integrator)?;
+    let dt = check_dt(dt)?;
+    let scene = match format.trim_start_matches('.').to_ascii_lowercase().as_str() {
+        "w" => false,
+        "toml" => true,
+        other => {
+            return Err(PyValueError::new_err(format!(
+                "format: expected \"w\" (a world) or \"toml\" (a scene), found {other:?}"
+            )))
+        }
+    };
+    let bytes: Vec<u8> = match text.extract::<String>() {
+        Ok(s) => s.into_bytes(),
+        Err(_) => text.extract::<Vec<u8>>().map_err(|_| {
+            PyValueError::new_err("text: expected str or bytes holding a world or scene file")
+        })?,
+    };
+    let (sim, source) = jello_io::load_bytes(&bytes, name, scene, integrator, dt)
+        .map_err(|e| world_error(py, e.message, Some(name)))?;
+    Ok(Simulation::new(sim, source, name.to_string()))
+}

@@ -1,0 +1,121 @@
+"""Bad input: clear exceptions naming the file and line; blow-ups leave the last good step."""
+
+from __future__ import annotations
+
+import subprocess
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import jello
+from conftest import EXAMPLES
+
+
+def test_a_missing_file_is_file_not_found(tmp_path: Path) -> None:
+    missing = tmp_path / "nowhere.w"
+    with pytest.raises(FileNotFoundError) as e:
+        jello.load(missing)
+    assert e.value.filename == str(missing)
+    with pytest.raises(IsADirectoryError):
+        jello.load(tmp_path)
+
+
+def test_a_bad_world_names_the_file_and_line(tmp_path: Path, cli: Path) -> None:
+    bad = tmp_path / "bad.w"
+    lines = (EXAMPLES / "jello.w").read_text().splitlines()
+    lines[2] = "200 oops 400 0.25"
+    bad.write_text("\n".join(lines) + "\n")
+    with pytest.raises(jello.WorldError) as e:
+        jello.load(bad)
+    assert isinstance(e.value, ValueError)
+    assert e.value.filename == str(bad)
+    assert str(e.value).startswith(f"{bad}:3: ")
+    # The CLI's message, word for word.
+    run = subprocess.run([cli, "run", bad, "--steps", "1"], capture_output=True, text=True)
+    assert run.returncode == 1
+    assert run.stderr.strip() == f"jello: error: {e.value}"
+
+
+def test_a_bad_scene_names_the_line_and_column(tmp_path: Path) -> None:
+    bad = tmp_path / "bad.toml"
+    bad.write_text("[simulation]\ndt = -1\n\n[[body]]\ncube = { points = [4, 4, 4], size = [1, 1, 1] }\n")
+    with pytest.raises(jello.WorldError, match=r"bad\.toml"):
+        jello.load(bad)
+    bad.write_text("[simulation]\ndt = 'soon'\n")
+    with pytest.raises(jello.WorldError, match=r"bad\.toml:2:"):
+        jello.load(bad)
+
+
+def test_every_nonstandard_world_is_refused_or_loads(shared_worlds: Path) -> None:
+    # Every file of the corpus' nonstandard folder either loads or raises WorldError: never
+    # another exception, never a crash of the interpreter.
+    files = sorted((shared_worlds / "nonstandard").glob("*.w"))
+    assert files
+    for f in files:
+        try:
+            jello.load(f)
+        except jello.WorldError as e:
+            assert str(f) in str(e)
+
+
+def test_loads_refuses_what_is_not_a_world() -> None:
+    with pytest.raises(jello.WorldError, match=r"<string>:1:"):
+        jello.loads("not a world")
+    with pytest.raises(ValueError, match=r'format: expected "w"'):
+        jello.loads("", format="obj")
+    with pytest.raises(jello.WorldError, match="expected UTF-8"):
+        jello.loads(b"\xff\xfe", format="toml")
+
+
+def test_unknown_integrators_and_bad_time_steps_are_refused() -> None:
+    sim = jello.load(EXAMPLES / "jello.w")
+    with pytest.raises(ValueError, match="integrator: "):
+        sim.integrator = "leapfrog"
+    with pytest.raises(ValueError, match="dt: expected a positive"):
+        sim.dt = -0.1
+    with pytest.raises(ValueError, match="dt: expected a positive"):
+        jello.load(EXAMPLES / "jello.w", dt=float("nan"))
+    assert (sim.integrator, sim.dt) == ("RK4", 0.0005)
+
+
+def test_a_blow_up_carries_the_cli_message_and_keeps_the_last_good_step(cli: Path) -> None:
+    path = EXAMPLES / "jello.w"
+    sim = jello.load(path, dt=0.004)
+    with pytest.raises(jello.BlowUp) as e:
+        sim.step(10_000)
+    err = e.value
+    assert isinstance(err, RuntimeError)
+    assert sim.steps == err.step - 1
+    assert np.isfinite(sim.positions).all() and np.isfinite(sim.velocities).all()
+    assert err.integrator == "RK4" and err.dt == 0.004
+    assert err.suggested_dt is not None and err.suggested_dt < 0.004
+    run = subprocess.run(
+        [cli, "run", path, "--dt", "0.004", "--steps", "10000", "--quiet"],
+        capture_output=True,
+        text=True,
+    )
+    assert run.returncode == 3
+    assert run.stderr.strip() == f"jello: error: {err}"
+    # Stepping on from the last good step blows up at the same step again.
+    with pytest.raises(jello.BlowUp) as again:
+        sim.step(10)
+    assert again.value.step == err.step
+
+
+def test_run_reports_the_deepest_penetration_as_the_cli_does(cli: Path) -> None:
+    path = EXAMPLES / "moveLeft.w"
+    run = subprocess.run([cli, "run", path, "--steps", "500", "--quiet"], capture_output=True, text=True, check=True)
+    reported = float(run.stdout.split("max penetration ")[1].split(" m")[0])
+    sim = jello.load(path)
+    deepest = sim.run(500)
+    assert f"{deepest:.3e}" == f"{reported:.3e}"
+
+
+def test_saving_refuses_the_wrong_format_and_leaves_nothing(tmp_path: Path) -> None:
+    sim = jello.load(EXAMPLES / "jello.w")
+    with pytest.raises(ValueError, match=r"a world saves as \.w"):
+        sim.save(tmp_path / "out.toml")
+    with pytest.raises(OSError, match="does not exist"):
+        sim.save(tmp_path / "no" / "such" / "out.w")
+    assert list(tmp_path.iterdir()) == []

@@ -1,0 +1,89 @@
+"""Sweeps: a grid of cases on Dask equals the same cases run one by one, alone."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+import jello
+from conftest import EXAMPLES
+
+WORLDS = [EXAMPLES / "jello.w", EXAMPLES / "rotate.w"]
+GRID = {"stiffness": [150.0, 300.0], "dt": [0.0005, 0.004], "integrator": ["RK4", "BackwardEuler"]}
+METRICS = ("final_energy", "kinetic_energy", "max_penetration", "blew_up", "blow_up", "steps", "time")
+
+
+def test_a_sweep_on_a_local_cluster_of_two_workers_equals_the_serial_sweep(tmp_path: Path) -> None:
+    distributed = pytest.importorskip("distributed")
+    with distributed.LocalCluster(
+        n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None
+    ) as cluster, distributed.Client(cluster) as client:
+        on_cluster = jello.sweep(WORLDS, GRID, steps=200, metrics=METRICS, scheduler=client,
+                                 save=tmp_path / "cluster", progress=False)
+    serial = jello.sweep(WORLDS, GRID, steps=200, metrics=METRICS, scheduler="serial",
+                         save=tmp_path / "serial", progress=False)
+    assert len(on_cluster) == 2 * 8
+    pd.testing.assert_frame_equal(
+        on_cluster.drop(columns="saved"), serial.drop(columns="saved"), check_exact=True
+    )
+    for a, b in zip(on_cluster["saved"], serial["saved"]):
+        assert Path(a).read_text() == Path(b).read_text()
+    # Some cases blow up (RK4 at dt 0.004 with these springs), some do not: both are reported.
+    assert on_cluster["blew_up"].any() and not on_cluster["blew_up"].all()
+    blown = on_cluster[on_cluster["blew_up"]].iloc[0]
+    assert "blew up" in blown["blow_up"] and blown["steps"] < 200
+
+
+def test_each_row_is_the_case_run_alone() -> None:
+    table = jello.sweep(WORLDS[:1], {"stiffness": [120.0], "velocity": [(0.5, 0.0, -1.0)]},
+                        time=0.1, metrics=("final_energy", "max_penetration", "steps"),
+                        scheduler="serial", progress=False)
+    sim = jello.load(WORLDS[0])
+    sim.set_material(stiffness=120.0)
+    sim.velocities = np.tile([0.5, 0.0, -1.0], (len(sim), 1))
+    deepest = sim.run(200)
+    row = table.iloc[0]
+    assert row["steps"] == 200
+    assert row["final_energy"] == sim.energy().total
+    assert row["max_penetration"] == deepest
+    assert list(table.columns) == ["world", "stiffness", "velocity", "final_energy", "max_penetration", "steps"]
+
+
+def test_metric_functions_and_explicit_cases() -> None:
+    def lowest_z(sim: jello.Simulation) -> float:
+        return float(sim.positions[:, 2].min())
+
+    table = jello.sweep(EXAMPLES / "gravity.w", cases=[{"dt": 0.0001}, {"dt": 0.0002, "mass": 0.004}],
+                        steps=50, metrics=(lowest_z, "time"), scheduler="serial", progress=False)
+    alone = jello.load(EXAMPLES / "gravity.w", dt=0.0002)
+    alone.set_material(mass=0.004)
+    alone.step(50)
+    assert table["lowest_z"][1] == lowest_z(alone)
+    assert table["lowest_z"][0] != table["lowest_z"][1]
+    assert table["time"].tolist() == pytest.approx([0.005, 0.01])
+    assert np.isnan(table["mass"][0]) and table["mass"][1] == 0.004
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "message"),
+    [
+        ({"parameters": {"stiffnes": [1.0]}}, "unknown parameter 'stiffnes'"),
+        ({"parameters": {"dt": 0.1}}, "needs a list of values"),
+        ({"metrics": ("energy",)}, "unknown metric 'energy'"),
+        ({"steps": 10, "time": 1.0}, "either steps or time"),
+        ({"parameters": {"dt": [1.0]}, "cases": [{}]}, "either parameters"),
+    ],
+)
+def test_bad_sweeps_are_refused_before_anything_runs(kwargs: dict[str, object], message: str) -> None:
+    with pytest.raises(ValueError, match=message):
+        jello.sweep(EXAMPLES / "jello.w", scheduler="serial", progress=False, **kwargs)  # type: ignore[arg-type]
+
+
+def test_a_bad_world_fails_before_the_cluster_starts(tmp_path: Path) -> None:
+    bad = tmp_path / "bad.w"
+    bad.write_text("RK4\n")
+    with pytest.raises(jello.WorldError, match="bad.w"):
+        jello.sweep(bad, scheduler="tcp://127.0.0.1:1", progress=False)
