@@ -295,8 +295,8 @@ impl Simulation {
         self.rebuild(self.sim.model.integrator, dt)
     }
 
-    /// Integrator name ("Euler", "RK2", "RK4", "SymplecticEuler", "BackwardEuler"); assign a name
-    /// (any case, aliases as in world files) to change it.
+    /// Integrator name ("Euler", "RK2", "RK4", "SymplecticEuler", "BackwardEuler", "SDIRK2");
+    /// assign a name (any case, aliases as in world files) to change it.
     #[getter]
     fn integrator(&self) -> &'static str {
         self.sim.model.integrator.name()

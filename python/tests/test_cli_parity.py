@@ -44,11 +44,11 @@ def test_steps_in_pieces_equal_steps_at_once() -> None:
     assert np.array_equal(whole.velocities, pieces.velocities)
 
 
-@pytest.mark.parametrize("integrator", ["Euler", "RK2", "SymplecticEuler", "BackwardEuler"])
+@pytest.mark.parametrize("integrator", ["Euler", "RK2", "SymplecticEuler", "BackwardEuler", "SDIRK2"])
 def test_integrator_and_dt_equal_the_cli_options(integrator: str, cli: Path, tmp_path: Path) -> None:
     path = EXAMPLES / "gravity.w"
     cli_out = tmp_path / "cli.w"
-    dt = "0.01" if integrator == "BackwardEuler" else "0.0002"
+    dt = "0.01" if integrator in ("BackwardEuler", "SDIRK2") else "0.0002"
     subprocess.run(
         [cli, "run", path, "--steps", "50", "--integrator", integrator, "--dt", dt,
          "--save", cli_out, "--quiet"],

@@ -1,4 +1,6 @@
-//! Backward Euler, the implicit integrator: stable at any time step.
+//! The implicit integrators, stable at any time step: backward Euler, and SDIRK2, whose two
+//! stages are each solved as a backward-Euler step from a point of their own (see [`step`]); what
+//! follows is about that solve.
 //!
 //! A step of size `h` finds the end velocity `v₁` with
 //!
@@ -49,6 +51,7 @@
 
 use crate::field::ForceField;
 use crate::forces::{force_pass, ForceScratch};
+use crate::integrator::Integrator;
 use crate::model::Model;
 use crate::soa::Soa;
 use crate::state::{Control, State};
@@ -202,6 +205,9 @@ pub struct ImplicitScratch {
     z: Vec<Vec3>,
     p: Vec<Vec3>,
     ap: Vec<Vec3>,
+    /// SDIRK2: the start of its second stage (positions, velocities).
+    base_x: Vec<Vec3>,
+    base_v: Vec<Vec3>,
     /// The force routine's inputs and output.
     x_soa: Soa,
     v_soa: Soa,
@@ -249,7 +255,9 @@ impl ImplicitScratch {
             r: zeros.clone(),
             z: zeros.clone(),
             p: zeros.clone(),
-            ap: zeros,
+            ap: zeros.clone(),
+            base_x: zeros.clone(),
+            base_v: zeros,
             x_soa: Soa::zeros(n),
             v_soa: Soa::zeros(n),
             acc: Soa::zeros(n),
@@ -303,8 +311,23 @@ impl ImplicitScratch {
     }
 }
 
-/// One backward-Euler step from `state` into `next_pos` and `next_vel` (not checked for
-/// soundness here). `Err` when Newton's method did not converge.
+/// SDIRK2's implicit coefficient `γ = 1 − √2/2`: each stage is a backward-Euler step of size
+/// `γ·h` (the value that makes the method L-stable and of order 2).
+pub const SDIRK2_GAMMA: f64 = 1.0 - 0.5 * std::f64::consts::SQRT_2;
+
+/// The second stage starts from `y₀ + c·(Y₁ − y₀)`, `c = (1 − γ)/γ = 1 + √2`.
+pub const SDIRK2_C: f64 = (1.0 - SDIRK2_GAMMA) / SDIRK2_GAMMA;
+
+/// One step of the model's implicit integrator from `state` into `next_pos` and `next_vel`
+/// (not checked for soundness here). `Err` when Newton's method did not converge.
+///
+/// SDIRK2 (Alexander 1977; `y = (x, v)`, `F(y) = (v, M⁻¹·(f(x) − D·v))`): the stage
+/// `Y₁ = y₀ + γh·F(Y₁)`, a backward-Euler step of size `γh`; then `y₁ = y₀ + (1 − γ)h·F(Y₁) +
+/// γh·F(y₁)`, which, as `γh·F(Y₁) = Y₁ − y₀`, is a backward-Euler step of size `γh` from
+/// `y₀ + c·(Y₁ − y₀)`. No force is evaluated outside the solves, and every solve is the
+/// minimisation below, so the stages are as robust as backward Euler's step. The dampers `D`
+/// are taken for the whole step at `x₀ + (h/2)·v₀`, the step's predicted middle, which keeps the
+/// method second order where the dampers turn with the springs.
 pub(crate) fn step(
     model: &Model,
     state: &State,
@@ -320,7 +343,50 @@ pub(crate) fn step(
     s.load(model);
     let h = model.dt;
     let (x0, v0) = (&state.pos[..], &state.vel[..]);
-    s.start_dampers(model, x0);
+    if model.integrator != Integrator::Sdirk2 {
+        s.start_dampers(model, x0);
+        return backward_euler(model, control, force, s, x0, v0, h, next_pos, next_vel);
+    }
+    let k = SDIRK2_GAMMA * h;
+    // The second stage's start lives in buffers taken out of the scratch while it is solved from.
+    let (mut bx, mut bv) = (std::mem::take(&mut s.base_x), std::mem::take(&mut s.base_v));
+    for ((b, &x), &v) in bx.iter_mut().zip(x0).zip(v0) {
+        *b = x + v * (0.5 * h);
+    }
+    s.start_dampers(model, &bx);
+    let first = backward_euler(model, control, force, s, x0, v0, k, next_pos, next_vel);
+    if first.is_ok() {
+        for ((((bx, bv), (&x1, &v1)), &x), &v) in bx
+            .iter_mut()
+            .zip(bv.iter_mut())
+            .zip(next_pos.iter().zip(next_vel.iter()))
+            .zip(x0)
+            .zip(v0)
+        {
+            *bx = x + (x1 - x) * SDIRK2_C;
+            *bv = v + (v1 - v) * SDIRK2_C;
+        }
+    }
+    let result = first
+        .and_then(|()| backward_euler(model, control, force, s, &bx, &bv, k, next_pos, next_vel));
+    (s.base_x, s.base_v) = (bx, bv);
+    result
+}
+
+/// One backward-Euler step of size `h` from `(x0, v0)` into `next_pos` and `next_vel`, the
+/// scratch loaded and its dampers set.
+#[allow(clippy::too_many_arguments)]
+fn backward_euler(
+    model: &Model,
+    control: &Control,
+    force: &mut ForceScratch,
+    s: &mut ImplicitScratch,
+    x0: &[Vec3],
+    v0: &[Vec3],
+    h: f64,
+    next_pos: &mut [Vec3],
+    next_vel: &mut [Vec3],
+) -> Result<(), NotConverged> {
     // The forces but the dampers are evaluated at zero velocity.
     s.v_soa.fill_zero();
     s.v.copy_from_slice(v0);

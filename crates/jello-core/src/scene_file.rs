@@ -4,7 +4,7 @@
 //!
 //! ```toml
 //! [simulation]
-//! integrator = "RK4"          # Euler, RK2, RK4, SymplecticEuler, BackwardEuler
+//! integrator = "RK4"          # Euler, RK2, RK4, SymplecticEuler, BackwardEuler, SDIRK2
 //! dt = 0.0005                 # s
 //! steps_per_frame = 1
 //! gravity = [0.0, 0.0, -9.81] # m/s², on every point whatever its mass

@@ -17,6 +17,7 @@
 //! every step size; with proportional damping its limit is about `d/k` whatever the mass.
 
 use crate::body::Body;
+use crate::implicit::{SDIRK2_C, SDIRK2_GAMMA};
 use crate::integrator::Integrator;
 use crate::model::Model;
 use crate::vec3::Vec3;
@@ -117,6 +118,16 @@ pub fn spectral_radius(integrator: Integrator, w2: f64, g: f64, h: f64) -> f64 {
                 // v₁ = v + h(−w2 (x + h v₁) − g v₁), solved for v₁.
                 let v1 = (v - h * w2 * x) / (1.0 + h * g + h * h * w2);
                 (x + h * v1, v1)
+            }
+            Integrator::Sdirk2 => {
+                // Two backward-Euler steps of size k = γh, the second from y + c·(Y₁ − y).
+                let k = SDIRK2_GAMMA * h;
+                let solve = |bx: f64, bv: f64| {
+                    let v1 = (bv - k * w2 * bx) / (1.0 + k * g + k * k * w2);
+                    (bx + k * v1, v1)
+                };
+                let (x1, v1) = solve(x, v);
+                solve(x + SDIRK2_C * (x1 - x), v + SDIRK2_C * (v1 - v))
             }
             Integrator::Rk4 => {
                 let (k1x, k1v) = (v, f(x, v));

@@ -404,7 +404,9 @@ fn integrate(model: &Model, state: &State, control: &Control, s: &mut Scratch) -
                 },
             )
         }
-        Integrator::BackwardEuler => unreachable!("the implicit step is taken by step()"),
+        Integrator::BackwardEuler | Integrator::Sdirk2 => {
+            unreachable!("the implicit steps are taken by step()")
+        }
     }
 }
 

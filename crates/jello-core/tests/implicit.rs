@@ -1,12 +1,12 @@
-//! The implicit integrator (backward Euler, `jello_core::implicit`): its recurrence in closed
-//! form, stability far past the explicit limit, energy, convergence order, momentum, threads,
-//! and the report of a step that does not converge.
+//! The implicit integrators (backward Euler and SDIRK2, `jello_core::implicit`): their
+//! recurrences in closed form, stability far past the explicit limit, energy, convergence order,
+//! momentum, threads, and the report of a step that does not converge.
 
 mod common;
 
 use common::{max_diff, Lcg as Rng};
 use jello_core::diagnostics::{energy, momentum};
-use jello_core::implicit::Newton;
+use jello_core::implicit::{Newton, SDIRK2_C, SDIRK2_GAMMA};
 use jello_core::stability::stable_dt;
 use jello_core::{
     step, Aabb, BlowUpCause, Body, Control, ForceField, Integrator, Lattice, Material, Model,
@@ -110,9 +110,14 @@ fn a_stiff_spring_far_past_the_explicit_limit_stays_bounded() {
 /// at frame-rate steps, while the cube tumbles and hits a wall.
 #[test]
 fn energy_never_rises_without_outside_work() {
-    for dt in [0.01, 1.0 / 60.0] {
+    for (integrator, dt) in [
+        (Integrator::BackwardEuler, 0.01),
+        (Integrator::BackwardEuler, 1.0 / 60.0),
+        (Integrator::Sdirk2, 0.01),
+        (Integrator::Sdirk2, 1.0 / 60.0),
+    ] {
         let model = ModelBuilder::new()
-            .integrator(Integrator::BackwardEuler)
+            .integrator(integrator)
             .dt(dt)
             .build()
             .unwrap();
@@ -131,12 +136,46 @@ fn energy_never_rises_without_outside_work() {
             touched |= e.collision > 0.0;
             assert!(
                 e.total() <= start,
-                "dt {dt}: energy {} above {start}",
+                "{integrator} dt {dt}: energy {} above {start}",
                 e.total()
             );
         }
         assert!(touched, "dt {dt}: the cube reaches a wall");
         assert!(energy(&model, &state).total() < 0.5 * start);
+    }
+}
+
+/// The state at t = 0.02 s of a perturbed, spinning classic cube under gravity (far walls).
+fn perturbed_cube_at_20_ms(integrator: Integrator, dt: f64) -> Vec<Vec3> {
+    let model = ModelBuilder::new()
+        .integrator(integrator)
+        .dt(dt)
+        .gravity(Vec3::new(0.0, 0.0, -9.81))
+        .bounds(far_walls())
+        .build()
+        .unwrap();
+    let mut rng = Rng(9);
+    let mut state = State::at_rest(&model);
+    for (p, v) in state.pos.iter_mut().zip(state.vel.iter_mut()) {
+        *p += rng.vec3() * 0.02;
+        *v = rng.vec3() * 0.5;
+    }
+    common::run(&model, &mut state, (0.02 / dt).round() as usize);
+    state.pos
+}
+
+/// Against a fine RK4 reference, SDIRK2's error at t = 0.02 s quarters when dt halves (second
+/// order, the springs' dampers turning with them included).
+#[test]
+fn sdirk2_error_is_second_order() {
+    let reference = perturbed_cube_at_20_ms(Integrator::Rk4, 1e-5);
+    let errors: Vec<f64> = [1e-4, 5e-5, 2.5e-5]
+        .iter()
+        .map(|&dt| max_diff(&perturbed_cube_at_20_ms(Integrator::Sdirk2, dt), &reference))
+        .collect();
+    for pair in errors.windows(2) {
+        let ratio = pair[0] / pair[1];
+        assert!((3.6..4.4).contains(&ratio), "errors {errors:?}");
     }
 }
 
@@ -333,4 +372,169 @@ fn hard_impacts_converge() {
             }
         }
     }
+}
+
+/// A damped spring moving along its axis is linear, so SDIRK2 is two backward-Euler steps of
+/// size `k = γh` on the stretch and stretching speed, the second from `y₀ + c·(Y₁ − y₀)`; at a
+/// step of 0.05 s, five times the oscillator's period over 2π.
+#[test]
+fn a_damped_spring_follows_the_sdirk2_recurrence() {
+    let (k, d, m, rest, h) = (40.0, 0.3, 0.1, 0.5, 0.05);
+    let material = Material {
+        mass: m,
+        stiffness: [k; 3],
+        damping: [d; 3],
+    };
+    let model = dumbbell(rest, material, h, Integrator::Sdirk2);
+    let mut state = State::new(
+        vec![Vec3::new(0.0, 0.0, 0.0), Vec3::new(rest + 0.1, 0.0, 0.0)],
+        vec![Vec3::new(0.3, 0.0, 0.0), Vec3::new(-0.2, 0.0, 0.0)],
+    );
+    let (w2, gamma) = (2.0 * k / m, 2.0 * d / m);
+    let step_k = SDIRK2_GAMMA * h;
+    let backward_euler = |s: f64, r: f64| {
+        let r1 = (r - step_k * w2 * s) / (1.0 + step_k * gamma + step_k * step_k * w2);
+        (s + step_k * r1, r1)
+    };
+    let (mut s, mut r) = (0.1, -0.5);
+    let centre = |st: &State| (st.pos[0].x + st.pos[1].x) * 0.5;
+    let c0 = centre(&state);
+    let mut scratch = Scratch::new(&model);
+    for n in 1..=100 {
+        step(&model, &mut state, &Control::none(), &mut scratch).unwrap();
+        let (s1, r1) = backward_euler(s, r);
+        (s, r) = backward_euler(s + SDIRK2_C * (s1 - s), r + SDIRK2_C * (r1 - r));
+        let stretch = state.pos[1].x - state.pos[0].x - rest;
+        let speed = state.vel[1].x - state.vel[0].x;
+        assert!(
+            (stretch - s).abs() < 1e-9,
+            "step {n}: stretch {stretch} vs {s}"
+        );
+        assert!((speed - r).abs() < 1e-8, "step {n}: speed {speed} vs {r}");
+        let drift = centre(&state) - (c0 + 0.05 * h * n as f64);
+        assert!(drift.abs() < 1e-12, "step {n}: centre off by {drift}");
+    }
+}
+
+/// A stiff undamped spring at 100 times RK4's stable step stays bounded under SDIRK2, and its
+/// energy never grows (L-stable: the stiff mode is damped, not kept).
+#[test]
+fn sdirk2_keeps_a_stiff_spring_bounded_far_past_the_explicit_limit() {
+    let material = Material {
+        mass: 1e-3,
+        stiffness: [1e6; 3],
+        damping: [0.0; 3],
+    };
+    let limit = stable_dt(
+        &dumbbell(0.5, material, 1e-3, Integrator::Rk4),
+        Integrator::Rk4,
+    );
+    let model = dumbbell(0.5, material, 100.0 * limit, Integrator::Sdirk2);
+    let mut state = State::new(
+        vec![Vec3::new(0.0, 0.0, 0.0), Vec3::new(0.55, 0.0, 0.0)],
+        vec![Vec3::ZERO; 2],
+    );
+    let mut scratch = Scratch::new(&model);
+    let e0 = energy(&model, &state).total();
+    let mut last = e0;
+    for _ in 0..500 {
+        step(&model, &mut state, &Control::none(), &mut scratch).unwrap();
+        let stretch = (state.pos[1].x - state.pos[0].x - 0.5).abs();
+        assert!(stretch <= 0.05 + 1e-12, "stretch {stretch}");
+        let e = energy(&model, &state).total();
+        assert!(e <= last + 1e-12 * e0, "energy rose from {last} to {e}");
+        last = e;
+    }
+    assert!(
+        last < 1e-3 * e0,
+        "the stiff mode is damped away: {last} of {e0}"
+    );
+}
+
+/// SDIRK2 keeps far more of a slow oscillation than backward Euler at a frame-rate step: an
+/// undamped spring of period 1 s after 1 s at dt = 1/60.
+#[test]
+fn sdirk2_damps_a_slow_oscillation_far_less_than_backward_euler() {
+    let (m, rest) = (0.5, 0.5);
+    // ω² = 2k/m = (2π)² for a 1 Hz oscillation of the stretch.
+    let k = m * (2.0 * std::f64::consts::PI).powi(2) / 2.0;
+    let material = Material {
+        mass: m,
+        stiffness: [k; 3],
+        damping: [0.0; 3],
+    };
+    let kept = |integrator| {
+        let model = dumbbell(rest, material, 1.0 / 60.0, integrator);
+        let mut state = State::new(
+            vec![Vec3::new(0.0, 0.0, 0.0), Vec3::new(rest + 0.1, 0.0, 0.0)],
+            vec![Vec3::ZERO; 2],
+        );
+        let e0 = energy(&model, &state).total();
+        common::run(&model, &mut state, 60);
+        energy(&model, &state).total() / e0
+    };
+    let (be, sdirk2) = (kept(Integrator::BackwardEuler), kept(Integrator::Sdirk2));
+    assert!(be < 0.6, "backward Euler keeps {be}");
+    assert!(sdirk2 > 0.99, "SDIRK2 keeps {sdirk2}");
+    // And the same fractions as the methods' amplification factors on the linear oscillator.
+    for (integrator, fraction) in [
+        (Integrator::BackwardEuler, be),
+        (Integrator::Sdirk2, sdirk2),
+    ] {
+        let rho = jello_core::stability::spectral_radius(
+            integrator,
+            (2.0 * std::f64::consts::PI).powi(2),
+            0.0,
+            1.0 / 60.0,
+        );
+        let predicted = rho.powi(120);
+        assert!(
+            (fraction / predicted - 1.0).abs() < 0.02,
+            "{integrator}: kept {fraction}, |R|^120 = {predicted}"
+        );
+    }
+}
+
+/// SDIRK2: internal forces conserve momentum, on any thread count bit for bit, and with no
+/// outside work the tumbling cube's energy ends far below its start.
+#[test]
+fn sdirk2_conserves_momentum_and_is_bit_identical_on_any_thread_count() {
+    let model = ModelBuilder::new()
+        .integrator(Integrator::Sdirk2)
+        .dt(1.0 / 60.0)
+        .bounds(far_walls())
+        .build()
+        .unwrap();
+    let mut rng = Rng(2);
+    let mut state = State::at_rest(&model);
+    for (p, v) in state.pos.iter_mut().zip(state.vel.iter_mut()) {
+        *p += rng.vec3() * 0.05;
+        *v = Vec3::new(0.2, 0.1, -0.1) + rng.vec3() * 0.3;
+    }
+    let p0 = momentum(&model, &state.vel);
+    let mut moved = state.clone();
+    common::run(&model, &mut moved, 120);
+    let p1 = momentum(&model, &moved.vel);
+    assert!((p1 - p0).max_abs() < 1e-12, "{p0:?} → {p1:?}");
+
+    let big = ModelBuilder::new()
+        .lattice(Lattice::new([22, 21, 20], Vec3::new(1.0, 1.0, 1.0)))
+        .integrator(Integrator::Sdirk2)
+        .dt(0.01)
+        .gravity(Vec3::new(0.0, 0.0, -9.81))
+        .build()
+        .unwrap();
+    let mut start = State::at_rest(&big);
+    start
+        .pos
+        .iter_mut()
+        .for_each(|p| *p -= Vec3::new(0.5, 0.5, 1.995));
+    let run = |threads| common::run_on_threads(&big, &start, 6, threads);
+    let one = run(1);
+    assert!(
+        one.pos.iter().any(|p| p.z < -2.0),
+        "the cube reaches the floor"
+    );
+    assert_eq!(one, run(2));
+    assert_eq!(one, run(3));
 }

@@ -120,7 +120,7 @@ fn textbook_step(model: &Model, pos: &[Vec3], vel: &[Vec3], control: &Control) -
     };
     let dt = model.dt;
     match model.integrator {
-        Integrator::BackwardEuler => unreachable!("an explicit integrator"),
+        Integrator::BackwardEuler | Integrator::Sdirk2 => unreachable!("an explicit integrator"),
         Integrator::Euler => [axpy(pos, vel, dt), axpy(vel, &acc(pos, vel), dt)],
         Integrator::SymplecticEuler => {
             let v = axpy(vel, &acc(pos, vel), dt);

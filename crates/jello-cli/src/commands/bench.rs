@@ -14,7 +14,7 @@ pub struct BenchArgs {
     /// Points per side of the N×N×N lattice.
     #[arg(long, default_value_t = 8, value_parser = clap::value_parser!(u64).range(2..=512))]
     pub size: u64,
-    /// Integrator (Euler, RK2, RK4, SymplecticEuler, BackwardEuler).
+    /// Integrator (Euler, RK2, RK4, SymplecticEuler, BackwardEuler, SDIRK2).
     #[arg(long, value_parser = parse_integrator, default_value = "RK4")]
     pub integrator: Integrator,
     /// Time step (s) [default: the scene's 0.0005].

@@ -25,7 +25,7 @@ pub struct CreateArgs {
     /// The file to write: a world file (.w), or a scene file (.toml) of bodies and obstacles.
     #[arg(value_name = "OUT.w|OUT.toml")]
     pub out: PathBuf,
-    /// Integrator (Euler, RK2, RK4, SymplecticEuler, BackwardEuler; any case).
+    /// Integrator (Euler, RK2, RK4, SymplecticEuler, BackwardEuler, SDIRK2; any case).
     #[arg(long, value_parser = parse_integrator, default_value = "RK4")]
     pub integrator: Integrator,
     /// Time step (s).

@@ -29,7 +29,7 @@ pub struct RunArgs {
     #[arg(long, value_parser = parse_positive)]
     pub time: Option<f64>,
     /// Integrator to use instead of the file's (Euler, RK2, RK4, SymplecticEuler,
-    /// BackwardEuler; any case).
+    /// BackwardEuler, SDIRK2; any case).
     #[arg(long, value_parser = parse_integrator)]
     pub integrator: Option<Integrator>,
     /// Time step to use instead of the file's (s).
