@@ -19,6 +19,14 @@ use crate::errors::{blow_up_error, unreadable, world_error, write_error};
 /// Ctrl-C (and lets other Python threads run their Python code).
 const SIGNAL_CHECK_EVERY: Duration = Duration::from_millis(50);
 
+/// Why stepping stopped before the steps asked for.
+enum Stopped {
+    /// A step blew up; the state is the last good step.
+    BlowUp(jello_core::BlowUp),
+    /// Ctrl-C (or another signal handler's exception) between steps.
+    Interrupted(PyErr),
+}
+
 /// A simulation: the model (what does not change), its state (positions, velocities, time) and
 /// the forces from outside, stepped by the core.
 #[pyclass(module = "jello", name = "Simulation")]
@@ -64,6 +72,40 @@ impl Simulation {
         }
     }
 
+    /// `n` steps with the GIL released, `after_step` called after each, in chunks of about
+    /// [`SIGNAL_CHECK_EVERY`] between which Ctrl-C is looked for (a `KeyboardInterrupt` leaves a
+    /// whole step). `Err` with the first blow-up, the state at the last good step.
+    fn advance(
+        &mut self,
+        py: Python<'_>,
+        n: u64,
+        mut after_step: impl FnMut(&jello_core::Simulation) + Send,
+    ) -> Result<(), Stopped> {
+        let mut left = n;
+        while left > 0 {
+            let sim = &mut self.sim;
+            let (done, result) = py.detach(|| {
+                let start = Instant::now();
+                let mut done = 0;
+                while done < left {
+                    if let Err(b) = sim.step() {
+                        return (done, Err(b));
+                    }
+                    after_step(sim);
+                    done += 1;
+                    if done % 8 == 0 && start.elapsed() >= SIGNAL_CHECK_EVERY {
+                        break;
+                    }
+                }
+                (done, Ok(()))
+            });
+            left -= done;
+            result.map_err(Stopped::BlowUp)?;
+            py.check_signals().map_err(Stopped::Interrupted)?;
+        }
+        Ok(())
+    }
+
     /// Rebuilds the model with another integrator or time step; the state and the control carry
     /// on.
     fn rebuild(&mut self, integrator: Integrator, dt: f64) -> PyResult<()> {
@@ -92,64 +134,30 @@ impl Simulation {
     /// Ctrl-C stops between steps, leaving a whole step too.
     #[pyo3(signature = (n = 1))]
     fn step(&mut self, py: Python<'_>, n: u64) -> PyResult<()> {
-        let mut left = n;
-        while left > 0 {
-            let sim = &mut self.sim;
-            let (done, result) = py.detach(|| {
-                let start = Instant::now();
-                let mut done = 0;
-                while done < left {
-                    if let Err(b) = sim.step() {
-                        return (done, Err(b));
-                    }
-                    done += 1;
-                    if done % 8 == 0 && start.elapsed() >= SIGNAL_CHECK_EVERY {
-                        break;
-                    }
-                }
-                (done, Ok(()))
-            });
-            left -= done;
-            if let Err(b) = result {
-                return Err(blow_up_error(py, &self.name, &b));
-            }
-            py.check_signals()?;
+        match self.advance(py, n, |_| {}) {
+            Ok(()) => Ok(()),
+            Err(Stopped::BlowUp(b)) => Err(blow_up_error(py, &self.name, &b)),
+            Err(Stopped::Interrupted(e)) => Err(e),
         }
-        Ok(())
     }
 
     /// Steps `n` times as `step` does and returns the deepest penetration (m) into a wall, the
     /// plane or an obstacle at the start and after every step, as `jello run` reports it. A
     /// `jello.BlowUp` carries it as `max_penetration`, up to the last good step.
     fn run(&mut self, py: Python<'_>, n: u64) -> PyResult<f64> {
-        let mut left = n;
         let mut deepest = max_penetration(&self.sim.model, &self.sim.state.pos);
-        while left > 0 {
-            let sim = &mut self.sim;
-            let (done, result) = py.detach(|| {
-                let start = Instant::now();
-                let mut done = 0;
-                while done < left {
-                    if let Err(b) = sim.step() {
-                        return (done, Err(b));
-                    }
-                    deepest = deepest.max(max_penetration(&sim.model, &sim.state.pos));
-                    done += 1;
-                    if done % 8 == 0 && start.elapsed() >= SIGNAL_CHECK_EVERY {
-                        break;
-                    }
-                }
-                (done, Ok(()))
-            });
-            left -= done;
-            if let Err(b) = result {
+        let result = self.advance(py, n, |sim| {
+            deepest = deepest.max(max_penetration(&sim.model, &sim.state.pos));
+        });
+        match result {
+            Ok(()) => Ok(deepest),
+            Err(Stopped::BlowUp(b)) => {
                 let err = blow_up_error(py, &self.name, &b);
                 let _ = err.value(py).setattr("max_penetration", deepest);
-                return Err(err);
+                Err(err)
             }
-            py.check_signals()?;
+            Err(Stopped::Interrupted(e)) => Err(e),
         }
-        Ok(deepest)
     }
 
     /// Sets the springs' stiffness (N/m) and damping (N·s/m), a number or one per kind

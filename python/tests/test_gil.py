@@ -62,3 +62,28 @@ def test_python_threads_run_while_stepping() -> None:
     counter.join()
     # Holding the GIL for the whole call would allow a tick or two at its edges.
     assert during > 20
+
+
+def test_ctrl_c_stops_a_long_step_call_between_steps() -> None:
+    # In a child process, SIGINT a second into a call of ten million steps (about a quarter of
+    # an hour): KeyboardInterrupt comes at a whole step, the state sound.
+    import subprocess
+    import sys
+
+    script = """
+import os, signal, threading
+import numpy as np
+import jello
+signal.signal(signal.SIGINT, signal.default_int_handler)
+sim = jello.load(%r)
+threading.Timer(1.0, lambda: os.kill(os.getpid(), signal.SIGINT)).start()
+try:
+    sim.step(10_000_000)
+except KeyboardInterrupt:
+    print(sim.steps, bool(np.isfinite(sim.positions).all()))
+""" % str(EXAMPLES / "jello.w")
+    run = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=120)
+    assert run.returncode == 0, run.stderr
+    # Had it not stopped, the call would have outlived the timeout many times over.
+    steps, finite = run.stdout.split()
+    assert 0 < int(steps) < 10_000_000 and finite == "True"

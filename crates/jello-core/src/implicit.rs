@@ -1,5 +1,5 @@
 //! The implicit integrators, stable at any time step: backward Euler, and SDIRK2, whose two
-//! stages are each solved as a backward-Euler step from a point of their own (see [`step`]); what
+//! stages are each solved as a backward-Euler step from a point of their own (see `step` below); what
 //! follows is about that solve.
 //!
 //! A step of size `h` finds the end velocity `v₁` with

@@ -29,46 +29,81 @@ fn dumbbell(rest: f64, material: Material, dt: f64, integrator: Integrator) -> M
         .unwrap()
 }
 
-/// A damped spring moving along its axis is linear, so backward Euler is the recurrence
-/// `r₁ = (r₀ − h ω² s₀)/(1 + hγ + h²ω²)`, `s₁ = s₀ + h r₁` on the stretch `s` and the
-/// stretching speed `r`, with `ω² = 2k/m`, `γ = 2d/m`; the centre of mass moves uniformly. At a
-/// step of 0.05 s, five times the oscillator's period over 2π.
+/// One step of each implicit method on the linear oscillator `s'' = −ω²s − γs'` (stretch `s`,
+/// speed `r`): backward Euler is `r₁ = (r₀ − hω²s₀)/(1 + hγ + h²ω²)`, `s₁ = s₀ + h r₁`; SDIRK2
+/// is two such steps of size `γ_S·h`, the second from `y₀ + c·(Y₁ − y₀)`.
+fn oscillator_step(
+    integrator: Integrator,
+    (s, r): (f64, f64),
+    w2: f64,
+    gamma: f64,
+    h: f64,
+) -> (f64, f64) {
+    let backward_euler = |(s, r): (f64, f64), k: f64| {
+        let r1 = (r - k * w2 * s) / (1.0 + k * gamma + k * k * w2);
+        (s + k * r1, r1)
+    };
+    match integrator {
+        Integrator::BackwardEuler => backward_euler((s, r), h),
+        Integrator::Sdirk2 => {
+            let k = SDIRK2_GAMMA * h;
+            let (s1, r1) = backward_euler((s, r), k);
+            backward_euler((s + SDIRK2_C * (s1 - s), r + SDIRK2_C * (r1 - r)), k)
+        }
+        other => unreachable!("{other} is not implicit"),
+    }
+}
+
+/// A damped spring moving along its axis is linear, so each method follows its recurrence
+/// ([`oscillator_step`]) on the stretch and the stretching speed, with `ω² = 2k/m`,
+/// `γ = 2d/m`; the centre of mass moves uniformly. At a step of 0.05 s, five times the
+/// oscillator's period over 2π.
 #[test]
-fn a_damped_spring_follows_the_backward_euler_recurrence() {
+fn a_damped_spring_follows_each_methods_recurrence() {
     let (k, d, m, rest, h) = (40.0, 0.3, 0.1, 0.5, 0.05);
     let material = Material {
         mass: m,
         stiffness: [k; 3],
         damping: [d; 3],
     };
-    let model = dumbbell(rest, material, h, Integrator::BackwardEuler);
-    let mut state = State::new(
-        vec![Vec3::new(0.0, 0.0, 0.0), Vec3::new(rest + 0.1, 0.0, 0.0)],
-        vec![Vec3::new(0.3, 0.0, 0.0), Vec3::new(-0.2, 0.0, 0.0)],
-    );
-    let (w2, gamma) = (2.0 * k / m, 2.0 * d / m);
-    let (mut s, mut r) = (0.1, -0.5);
-    let centre = |st: &State| (st.pos[0].x + st.pos[1].x) * 0.5;
-    let c0 = centre(&state);
-    let mut scratch = Scratch::new(&model);
-    for n in 1..=100 {
-        step(&model, &mut state, &Control::none(), &mut scratch).unwrap();
-        r = (r - h * w2 * s) / (1.0 + h * gamma + h * h * w2);
-        s += h * r;
-        let stretch = state.pos[1].x - state.pos[0].x - rest;
-        let speed = state.vel[1].x - state.vel[0].x;
-        assert!(
-            (stretch - s).abs() < 1e-9,
-            "step {n}: stretch {stretch} vs {s}"
+    for integrator in [Integrator::BackwardEuler, Integrator::Sdirk2] {
+        let model = dumbbell(rest, material, h, integrator);
+        let mut state = State::new(
+            vec![Vec3::new(0.0, 0.0, 0.0), Vec3::new(rest + 0.1, 0.0, 0.0)],
+            vec![Vec3::new(0.3, 0.0, 0.0), Vec3::new(-0.2, 0.0, 0.0)],
         );
-        assert!((speed - r).abs() < 1e-8, "step {n}: speed {speed} vs {r}");
-        let drift = centre(&state) - (c0 + 0.05 * h * n as f64);
-        assert!(drift.abs() < 1e-12, "step {n}: centre off by {drift}");
+        let (w2, gamma) = (2.0 * k / m, 2.0 * d / m);
+        let mut y = (0.1, -0.5);
+        let centre = |st: &State| (st.pos[0].x + st.pos[1].x) * 0.5;
+        let c0 = centre(&state);
+        let mut scratch = Scratch::new(&model);
+        for n in 1..=100 {
+            step(&model, &mut state, &Control::none(), &mut scratch).unwrap();
+            y = oscillator_step(integrator, y, w2, gamma, h);
+            let stretch = state.pos[1].x - state.pos[0].x - rest;
+            let speed = state.vel[1].x - state.vel[0].x;
+            assert!(
+                (stretch - y.0).abs() < 1e-9,
+                "{integrator} step {n}: stretch {stretch} vs {}",
+                y.0
+            );
+            assert!(
+                (speed - y.1).abs() < 1e-8,
+                "{integrator} step {n}: speed {speed} vs {}",
+                y.1
+            );
+            let drift = centre(&state) - (c0 + 0.05 * h * n as f64);
+            assert!(
+                drift.abs() < 1e-12,
+                "{integrator} step {n}: centre off by {drift}"
+            );
+        }
     }
 }
 
-/// A stiff undamped spring at 100 times RK4's stable step: RK4 blows up, backward Euler keeps
-/// the stretch and the energy from ever growing.
+/// A stiff undamped spring at 100 times RK4's stable step: RK4 blows up; each implicit method
+/// keeps the stretch bounded and the energy from ever growing, and damps the stiff mode away
+/// (L-stable).
 #[test]
 fn a_stiff_spring_far_past_the_explicit_limit_stays_bounded() {
     let material = Material {
@@ -91,18 +126,27 @@ fn a_stiff_spring_far_past_the_explicit_limit_stays_bounded() {
     let blew_up = (0..200).any(|_| step(&rk4, &mut state, &Control::none(), &mut scratch).is_err());
     assert!(blew_up, "RK4 at 100× its limit blows up");
 
-    let model = dumbbell(0.5, material, h, Integrator::BackwardEuler);
-    let mut state = start;
-    let mut scratch = Scratch::new(&model);
-    let e0 = energy(&model, &state).total();
-    let mut last = e0;
-    for _ in 0..500 {
-        step(&model, &mut state, &Control::none(), &mut scratch).unwrap();
-        let stretch = (state.pos[1].x - state.pos[0].x - 0.5).abs();
-        assert!(stretch <= 0.05 + 1e-12, "stretch {stretch}");
-        let e = energy(&model, &state).total();
-        assert!(e <= last + 1e-12 * e0, "energy rose from {last} to {e}");
-        last = e;
+    for integrator in [Integrator::BackwardEuler, Integrator::Sdirk2] {
+        let model = dumbbell(0.5, material, h, integrator);
+        let mut state = start.clone();
+        let mut scratch = Scratch::new(&model);
+        let e0 = energy(&model, &state).total();
+        let mut last = e0;
+        for _ in 0..500 {
+            step(&model, &mut state, &Control::none(), &mut scratch).unwrap();
+            let stretch = (state.pos[1].x - state.pos[0].x - 0.5).abs();
+            assert!(stretch <= 0.05 + 1e-12, "{integrator}: stretch {stretch}");
+            let e = energy(&model, &state).total();
+            assert!(
+                e <= last + 1e-12 * e0,
+                "{integrator}: energy rose from {last} to {e}"
+            );
+            last = e;
+        }
+        assert!(
+            last < 1e-3 * e0,
+            "{integrator}: the stiff mode is damped away: {last} of {e0}"
+        );
     }
 }
 
@@ -179,30 +223,19 @@ fn sdirk2_error_is_second_order() {
     }
 }
 
-/// Against a fine RK4 reference, the error at t = 0.02 s halves when dt halves (first order).
+/// Against a fine RK4 reference, backward Euler's error at t = 0.02 s halves when dt halves
+/// (first order).
 #[test]
 fn the_error_is_first_order() {
-    let run = |integrator, dt: f64| {
-        let model = ModelBuilder::new()
-            .integrator(integrator)
-            .dt(dt)
-            .gravity(Vec3::new(0.0, 0.0, -9.81))
-            .bounds(far_walls())
-            .build()
-            .unwrap();
-        let mut rng = Rng(9);
-        let mut state = State::at_rest(&model);
-        for (p, v) in state.pos.iter_mut().zip(state.vel.iter_mut()) {
-            *p += rng.vec3() * 0.02;
-            *v = rng.vec3() * 0.5;
-        }
-        common::run(&model, &mut state, (0.02 / dt).round() as usize);
-        state.pos
-    };
-    let reference = run(Integrator::Rk4, 1e-5);
+    let reference = perturbed_cube_at_20_ms(Integrator::Rk4, 1e-5);
     let errors: Vec<f64> = [1e-4, 5e-5, 2.5e-5]
         .iter()
-        .map(|&dt| max_diff(&run(Integrator::BackwardEuler, dt), &reference))
+        .map(|&dt| {
+            max_diff(
+                &perturbed_cube_at_20_ms(Integrator::BackwardEuler, dt),
+                &reference,
+            )
+        })
         .collect();
     for pair in errors.windows(2) {
         let ratio = pair[0] / pair[1];
@@ -213,47 +246,51 @@ fn the_error_is_first_order() {
 /// Internal forces conserve momentum: a cube in free flight keeps it to rounding.
 #[test]
 fn internal_forces_conserve_momentum() {
-    let model = ModelBuilder::new()
-        .integrator(Integrator::BackwardEuler)
-        .dt(1.0 / 60.0)
-        .bounds(far_walls())
-        .build()
-        .unwrap();
-    let mut rng = Rng(2);
-    let mut state = State::at_rest(&model);
-    for (p, v) in state.pos.iter_mut().zip(state.vel.iter_mut()) {
-        *p += rng.vec3() * 0.05;
-        *v = Vec3::new(0.2, 0.1, -0.1) + rng.vec3() * 0.3;
+    for integrator in [Integrator::BackwardEuler, Integrator::Sdirk2] {
+        let model = ModelBuilder::new()
+            .integrator(integrator)
+            .dt(1.0 / 60.0)
+            .bounds(far_walls())
+            .build()
+            .unwrap();
+        let mut rng = Rng(2);
+        let mut state = State::at_rest(&model);
+        for (p, v) in state.pos.iter_mut().zip(state.vel.iter_mut()) {
+            *p += rng.vec3() * 0.05;
+            *v = Vec3::new(0.2, 0.1, -0.1) + rng.vec3() * 0.3;
+        }
+        let p0 = momentum(&model, &state.vel);
+        common::run(&model, &mut state, 120);
+        let p1 = momentum(&model, &state.vel);
+        assert!((p1 - p0).max_abs() < 1e-12, "{integrator}: {p0:?} → {p1:?}");
     }
-    let p0 = momentum(&model, &state.vel);
-    common::run(&model, &mut state, 120);
-    let p1 = momentum(&model, &state.vel);
-    assert!((p1 - p0).max_abs() < 1e-12, "{p0:?} → {p1:?}");
 }
 
 /// The same bits on 1, 2 and 3 threads, on a lattice large enough for threads.
 #[test]
 fn implicit_steps_are_bit_identical_on_any_thread_count() {
-    let model = ModelBuilder::new()
-        .lattice(Lattice::new([22, 21, 20], Vec3::new(1.0, 1.0, 1.0)))
-        .integrator(Integrator::BackwardEuler)
-        .dt(0.01)
-        .gravity(Vec3::new(0.0, 0.0, -9.81))
-        .build()
-        .unwrap();
-    let mut start = State::at_rest(&model);
-    start
-        .pos
-        .iter_mut()
-        .for_each(|p| *p -= Vec3::new(0.5, 0.5, 1.995));
-    let run = |threads| common::run_on_threads(&model, &start, 8, threads);
-    let one = run(1);
-    assert!(
-        one.pos.iter().any(|p| p.z < -2.0),
-        "the cube reaches the floor"
-    );
-    assert_eq!(one, run(2));
-    assert_eq!(one, run(3));
+    for integrator in [Integrator::BackwardEuler, Integrator::Sdirk2] {
+        let model = ModelBuilder::new()
+            .lattice(Lattice::new([22, 21, 20], Vec3::new(1.0, 1.0, 1.0)))
+            .integrator(integrator)
+            .dt(0.01)
+            .gravity(Vec3::new(0.0, 0.0, -9.81))
+            .build()
+            .unwrap();
+        let mut start = State::at_rest(&model);
+        start
+            .pos
+            .iter_mut()
+            .for_each(|p| *p -= Vec3::new(0.5, 0.5, 1.995));
+        let run = |threads| common::run_on_threads(&model, &start, 6, threads);
+        let one = run(1);
+        assert!(
+            one.pos.iter().any(|p| p.z < -2.0),
+            "{integrator}: the cube reaches the floor"
+        );
+        assert_eq!(one, run(2), "{integrator}");
+        assert_eq!(one, run(3), "{integrator}");
+    }
 }
 
 /// A step that does not converge within the allowed Newton iterations is reported with its
@@ -374,83 +411,6 @@ fn hard_impacts_converge() {
     }
 }
 
-/// A damped spring moving along its axis is linear, so SDIRK2 is two backward-Euler steps of
-/// size `k = γh` on the stretch and stretching speed, the second from `y₀ + c·(Y₁ − y₀)`; at a
-/// step of 0.05 s, five times the oscillator's period over 2π.
-#[test]
-fn a_damped_spring_follows_the_sdirk2_recurrence() {
-    let (k, d, m, rest, h) = (40.0, 0.3, 0.1, 0.5, 0.05);
-    let material = Material {
-        mass: m,
-        stiffness: [k; 3],
-        damping: [d; 3],
-    };
-    let model = dumbbell(rest, material, h, Integrator::Sdirk2);
-    let mut state = State::new(
-        vec![Vec3::new(0.0, 0.0, 0.0), Vec3::new(rest + 0.1, 0.0, 0.0)],
-        vec![Vec3::new(0.3, 0.0, 0.0), Vec3::new(-0.2, 0.0, 0.0)],
-    );
-    let (w2, gamma) = (2.0 * k / m, 2.0 * d / m);
-    let step_k = SDIRK2_GAMMA * h;
-    let backward_euler = |s: f64, r: f64| {
-        let r1 = (r - step_k * w2 * s) / (1.0 + step_k * gamma + step_k * step_k * w2);
-        (s + step_k * r1, r1)
-    };
-    let (mut s, mut r) = (0.1, -0.5);
-    let centre = |st: &State| (st.pos[0].x + st.pos[1].x) * 0.5;
-    let c0 = centre(&state);
-    let mut scratch = Scratch::new(&model);
-    for n in 1..=100 {
-        step(&model, &mut state, &Control::none(), &mut scratch).unwrap();
-        let (s1, r1) = backward_euler(s, r);
-        (s, r) = backward_euler(s + SDIRK2_C * (s1 - s), r + SDIRK2_C * (r1 - r));
-        let stretch = state.pos[1].x - state.pos[0].x - rest;
-        let speed = state.vel[1].x - state.vel[0].x;
-        assert!(
-            (stretch - s).abs() < 1e-9,
-            "step {n}: stretch {stretch} vs {s}"
-        );
-        assert!((speed - r).abs() < 1e-8, "step {n}: speed {speed} vs {r}");
-        let drift = centre(&state) - (c0 + 0.05 * h * n as f64);
-        assert!(drift.abs() < 1e-12, "step {n}: centre off by {drift}");
-    }
-}
-
-/// A stiff undamped spring at 100 times RK4's stable step stays bounded under SDIRK2, and its
-/// energy never grows (L-stable: the stiff mode is damped, not kept).
-#[test]
-fn sdirk2_keeps_a_stiff_spring_bounded_far_past_the_explicit_limit() {
-    let material = Material {
-        mass: 1e-3,
-        stiffness: [1e6; 3],
-        damping: [0.0; 3],
-    };
-    let limit = stable_dt(
-        &dumbbell(0.5, material, 1e-3, Integrator::Rk4),
-        Integrator::Rk4,
-    );
-    let model = dumbbell(0.5, material, 100.0 * limit, Integrator::Sdirk2);
-    let mut state = State::new(
-        vec![Vec3::new(0.0, 0.0, 0.0), Vec3::new(0.55, 0.0, 0.0)],
-        vec![Vec3::ZERO; 2],
-    );
-    let mut scratch = Scratch::new(&model);
-    let e0 = energy(&model, &state).total();
-    let mut last = e0;
-    for _ in 0..500 {
-        step(&model, &mut state, &Control::none(), &mut scratch).unwrap();
-        let stretch = (state.pos[1].x - state.pos[0].x - 0.5).abs();
-        assert!(stretch <= 0.05 + 1e-12, "stretch {stretch}");
-        let e = energy(&model, &state).total();
-        assert!(e <= last + 1e-12 * e0, "energy rose from {last} to {e}");
-        last = e;
-    }
-    assert!(
-        last < 1e-3 * e0,
-        "the stiff mode is damped away: {last} of {e0}"
-    );
-}
-
 /// SDIRK2 keeps far more of a slow oscillation than backward Euler at a frame-rate step: an
 /// undamped spring of period 1 s after 1 s at dt = 1/60.
 #[test]
@@ -493,48 +453,4 @@ fn sdirk2_damps_a_slow_oscillation_far_less_than_backward_euler() {
             "{integrator}: kept {fraction}, |R|^120 = {predicted}"
         );
     }
-}
-
-/// SDIRK2: internal forces conserve momentum, on any thread count bit for bit, and with no
-/// outside work the tumbling cube's energy ends far below its start.
-#[test]
-fn sdirk2_conserves_momentum_and_is_bit_identical_on_any_thread_count() {
-    let model = ModelBuilder::new()
-        .integrator(Integrator::Sdirk2)
-        .dt(1.0 / 60.0)
-        .bounds(far_walls())
-        .build()
-        .unwrap();
-    let mut rng = Rng(2);
-    let mut state = State::at_rest(&model);
-    for (p, v) in state.pos.iter_mut().zip(state.vel.iter_mut()) {
-        *p += rng.vec3() * 0.05;
-        *v = Vec3::new(0.2, 0.1, -0.1) + rng.vec3() * 0.3;
-    }
-    let p0 = momentum(&model, &state.vel);
-    let mut moved = state.clone();
-    common::run(&model, &mut moved, 120);
-    let p1 = momentum(&model, &moved.vel);
-    assert!((p1 - p0).max_abs() < 1e-12, "{p0:?} → {p1:?}");
-
-    let big = ModelBuilder::new()
-        .lattice(Lattice::new([22, 21, 20], Vec3::new(1.0, 1.0, 1.0)))
-        .integrator(Integrator::Sdirk2)
-        .dt(0.01)
-        .gravity(Vec3::new(0.0, 0.0, -9.81))
-        .build()
-        .unwrap();
-    let mut start = State::at_rest(&big);
-    start
-        .pos
-        .iter_mut()
-        .for_each(|p| *p -= Vec3::new(0.5, 0.5, 1.995));
-    let run = |threads| common::run_on_threads(&big, &start, 6, threads);
-    let one = run(1);
-    assert!(
-        one.pos.iter().any(|p| p.z < -2.0),
-        "the cube reaches the floor"
-    );
-    assert_eq!(one, run(2));
-    assert_eq!(one, run(3));
 }
