@@ -14,6 +14,7 @@ import itertools
 import os
 import time as _time
 from collections.abc import Callable, Iterable, Mapping, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Union
 
@@ -183,30 +184,19 @@ def sweep(
     return pandas.DataFrame(rows)
 
 
+@dataclass(frozen=True)
 class _Job:
     """One case, as sent to a worker (plain data: it pickles)."""
 
-    def __init__(
-        self,
-        index: int,
-        world: str,
-        text: str,
-        format: str,
-        params: dict[str, Any],
-        steps: int | None,
-        time: float | None,
-        metrics: tuple[Metric, ...],
-        keep_state: bool,
-    ) -> None:
-        self.index = index
-        self.world = world
-        self.text = text
-        self.format = format
-        self.params = params
-        self.steps = steps
-        self.time = time
-        self.metrics = metrics
-        self.keep_state = keep_state
+    index: int
+    world: str
+    text: str
+    format: str
+    params: dict[str, Any]
+    steps: int | None
+    time: float | None
+    metrics: tuple[Metric, ...]
+    keep_state: bool
 
 
 def run_case(job: _Job) -> dict[str, Any]:

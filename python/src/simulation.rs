@@ -65,9 +65,9 @@ impl Simulation {
         match &self.source {
             Source::World(_) => self.source.state_text(&self.sim),
             Source::Scene(file) => {
-                let mut file = file.clone();
+                let mut file = file.with_state(&self.sim.model, &self.sim.state);
                 file.record_materials(&self.sim.model, &self.initial_materials);
-                Source::Scene(file).state_text(&self.sim)
+                Ok(file.to_toml())
             }
         }
     }

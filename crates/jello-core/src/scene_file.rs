@@ -759,10 +759,13 @@ impl SceneFile {
         })
     }
 
-    /// This scene with every body's state replaced by `state` (for saving a run's end).
+    /// This scene with every body's state replaced by `state`, and the model's integrator and
+    /// time step (for saving a run's end, which may have changed them).
     pub fn with_state(&self, model: &Model, state: &State) -> SceneFile {
         let mut scene = self.clone();
         scene.simulation.time = state.time;
+        scene.simulation.integrator = model.integrator.name().to_string();
+        scene.simulation.dt = model.dt;
         for (spec, body) in scene.bodies.iter_mut().zip(model.bodies()) {
             let r = body.points();
             spec.state = Some(StateSpec {

@@ -80,12 +80,7 @@ impl Source {
                 .to_world()
                 .map(|w| w.to_text())
                 .map_err(|e| e.to_string()),
-            Source::Scene(scene) => {
-                let mut file = scene.with_state(&sim.model, &sim.state);
-                file.simulation.integrator = sim.model.integrator.name().to_string();
-                file.simulation.dt = sim.model.dt;
-                Ok(file.to_toml())
-            }
+            Source::Scene(scene) => Ok(scene.with_state(&sim.model, &sim.state).to_toml()),
         }
     }
 }

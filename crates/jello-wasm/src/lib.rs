@@ -693,8 +693,6 @@ impl JelloSim {
         };
         let model = &self.sim.model;
         let mut file = file.with_state(model, &self.sim.state);
-        file.simulation.dt = model.dt;
-        file.simulation.integrator = model.integrator.name().to_string();
         let initial: Vec<Material> = self.initial.0.bodies().iter().map(|b| b.material).collect();
         file.record_materials(model, &initial);
         Ok(file.to_toml())
