@@ -512,8 +512,17 @@ def write_md(args, seconds, configs, peers, info, versions, jello_missing, insta
             for p in peers)
         w("| %d | %s | %d | %s | %s |" % (cfg["size"], cfg["integrator"], cfg["threads"], js, ps))
     w("")
-    with open(args.out, "w") as f:
+    # The section scripts/frame-rate.sh writes (Jello's implicit methods against Rapier) is a
+    # separate run: keep it.
+    old = open(args.out).read() if os.path.exists(args.out) else ""
+    begin, end = "<!-- frame-rate: begin", "<!-- frame-rate: end -->"
+    if begin in old and end in old:
+        L.append(old[old.index(begin):old.index(end) + len(end)])
+        w("")
+    tmp = args.out + ".tmp"
+    with open(tmp, "w") as f:
         f.write("\n".join(L))
+    os.replace(tmp, args.out)
 
 
 if __name__ == "__main__":

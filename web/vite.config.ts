@@ -10,4 +10,8 @@ export default defineConfig({
     // three.js alone is ~600 kB minified; one chunk is fine for a local viewer.
     chunkSizeWarningLimit: 1500,
   },
+  // The stepping worker is an ES module (it imports the wasm core's bindings).
+  worker: {
+    format: 'es',
+  },
 });

@@ -2,10 +2,14 @@
 //   1. the classic world (examples/jello.w) in the running viewer at speed 1: frame rate, steps/s
 //      and the real-time factor (simulated seconds per wall second) from the page's readout;
 //   2. raw stepping speed of the wasm core on that world, nothing drawn;
-//   3. n×n×n cubes (JelloSim.cube(n), the panel's "build n³ cube"): real-time factor in the
-//      running viewer, to find the largest n that keeps up with the wall clock;
+//   3. n×n×n cubes (JelloSim.cube(n), the panel's "build n³ cube") with each integrator (RK4 at
+//      the cube's own dt, BackwardEuler and SDIRK2 at 1/60 s): real-time factor in the running
+//      viewer, to find the largest n that keeps up with the wall clock;
 //   4. the example scenes, and a 20 000-point scene (`jello shape blob` voxelised at 39 cells by
-//      `jello create`), lit, in the running viewer, and the large one's core alone.
+//      `jello create`), lit, in the running viewer (with the implicit integrator the viewer picks
+//      for it, then with the file's own), and the large one's core alone.
+// The simulation steps in the page's Web Worker; "core only" rows step a JelloSim on the page's
+// own thread, nothing drawn.
 // Usage: node bench/measure.mjs [SECONDS_PER_RUN]   (after scripts/web.sh and cargo build --release)
 import { launch, openViewer } from '../tests/browser.mjs';
 import { ROOT, startViewer } from '../tests/server.mjs';
@@ -55,7 +59,7 @@ try {
     const app = window.jello;
     app.paused = true;
     const text = await (await fetch('examples/jello.w')).text();
-    const sim = app.sim.constructor.fromWorld(text, 'jello.w');
+    const sim = app.sim.copy.constructor.fromWorld(text, 'jello.w');
     const t0 = performance.now();
     let steps = 0;
     while (performance.now() - t0 < seconds * 1000) steps += sim.step(100);
@@ -66,11 +70,27 @@ try {
   }, Math.min(seconds, 5));
   console.log(`classic jello.w, core only:  ${Math.round(raw)} steps/s = ${(raw * 0.0005).toFixed(2)}× real time`);
 
-  for (const n of [6, 7, 8, 9, 10, 11, 12, 14, 16]) {
-    await page.evaluate((n) => window.jello.loadCube(n), n);
-    const r = await run();
-    console.log(`cube ${String(n).padStart(2)}³ = ${String(n ** 3).padStart(4)} points: ${fmt(r)}`);
+  // The largest cube that keeps up (≥ 0.95× real time), per integrator.
+  const largest = {};
+  for (const [integrator, dt] of [['RK4', undefined], ['BackwardEuler', 1 / 60], ['SDIRK2', 1 / 60]]) {
+    for (const n of [6, 7, 8, 9, 10, 11, 12, 14, 16, 20, 24]) {
+      await page.evaluate(
+        ([n, integrator, dt]) => {
+          const app = window.jello;
+          app.loadCube(n);
+          // The cube's own RK4 step (the viewer would pick the implicit method above 8³).
+          if (integrator === 'RK4') document.querySelector('.banner-integrator button')?.click();
+          else app.setParameters({ ...app.parameters(), integrator, dt });
+        },
+        [n, integrator, dt],
+      );
+      const r = await run();
+      console.log(`cube ${String(n).padStart(2)}³ = ${String(n ** 3).padStart(5)} points, ${integrator.padEnd(13)}: ${fmt(r)}`);
+      if (r.realTime >= 0.95 && !r.blownUp) largest[integrator] = n;
+      if (r.realTime < 0.5) break;
+    }
   }
+  console.log(`largest cube in real time: ${Object.entries(largest).map(([i, n]) => `${i} ${n}³`).join(', ')}`);
 
   for (const name of ['torus.toml', 'blob.toml', 'mould.toml', 'stack.toml']) {
     await page.evaluate((name) => window.jello.loadUrl(`examples/${name}`, name), name);
@@ -88,18 +108,25 @@ try {
   const big = readFileSync(join(dir, 'big.toml'), 'utf8');
   await page.evaluate((text) => window.jello.loadText(text, 'big.toml'), big);
   const points = await page.evaluate(() => window.jello.sim.activePoints().reduce((s, a) => s + a, 0));
-  console.log(`blob at 39 cells, ${points} points, lit:      ${fmt(await run())}`);
+  const integrator = await page.evaluate(() => window.jello.parameters().integrator);
+  console.log(`blob at 39 cells, ${points} points, ${integrator}, lit:      ${fmt(await run())}`);
   await page.keyboard.press('v');
-  console.log(`blob at 39 cells, ${points} points, wireframe: ${fmt(await run())}`);
+  console.log(`blob at 39 cells, ${points} points, ${integrator}, wireframe: ${fmt(await run())}`);
   await page.keyboard.press('v');
-  const bigRaw = await page.evaluate(async (seconds) => {
+  await page.evaluate(() => document.querySelector('.banner-integrator button')?.click());
+  const own = await page.evaluate(() => window.jello.parameters().integrator);
+  console.log(`blob at 39 cells, ${points} points, ${own}, lit:      ${fmt(await run())}`);
+  const bigRaw = await page.evaluate(async ([seconds, text]) => {
     const app = window.jello;
     app.paused = true;
+    const sim = app.sim.copy.constructor.fromScene(text, 'big.toml');
     const t0 = performance.now();
     let steps = 0;
-    while (performance.now() - t0 < seconds * 1000) steps += app.sim.step(5);
+    while (performance.now() - t0 < seconds * 1000) steps += sim.step(5);
+    sim.free();
+    app.paused = false;
     return steps / ((performance.now() - t0) / 1000);
-  }, Math.min(seconds, 5));
+  }, [Math.min(seconds, 5), big]);
   console.log(`blob at 39 cells, core only: ${bigRaw.toFixed(1)} steps/s = ${(bigRaw * 0.0007).toFixed(3)}× real time`);
   if (errors.length) console.log('page errors:', errors);
 } finally {

@@ -4,7 +4,7 @@ import { FrameSequence, SEQUENCE_FPS, SEQUENCE_MAX, VideoRecorder, download, web
 import { Panel, type PanelHost } from './gui';
 import { Interaction, type InteractionSettings } from './interact';
 import { Viewer, type RenderMode } from './render';
-import { JelloSim, Runner, parseWorld, sceneData, type Parameters } from './sim';
+import { JelloSim, Runner, SimView, parseWorld, sceneData, startingParameters, type Parameters, type Source } from './sim';
 import { Banners, Readout, acceptDroppedFiles } from './ui';
 
 /** Largest world or scene file accepted (bytes), as in the command line: a classic file with a
@@ -31,19 +31,24 @@ export class App implements PanelHost {
   private sequence: FrameSequence | undefined;
   private sequenceNeedsFrame = false;
   private readonly video = new VideoRecorder();
+  /** The sequence waits for the worker to take the steps of its next frame. */
+  private sequenceStepping = false;
   private shownBlowUp = false;
-  /** Positions changed since the picture was last updated. */
-  private dirty = true;
-  private lastFrame = performance.now();
+  /** The state last drawn ([`Runner.state`] is replaced by each new one). */
+  private drawnState: object | undefined;
+  /** Parameters the viewer chose for the current world at load (see [`startingParameters`]),
+   *  applied again on reset. */
+  private startParameters: Parameters | undefined;
   private readonly fileInput: HTMLInputElement;
 
   constructor(
     canvas: HTMLCanvasElement,
-    initial: JelloSim,
+    runner: Runner,
     readonly examples: string[],
   ) {
     this.viewer = new Viewer(canvas);
-    this.runner = new Runner(initial);
+    this.runner = runner;
+    this.runner.onError = (message) => this.banners.show('error', `The simulation stopped: ${message}`);
     this.interactionHandler = new Interaction(this.viewer, () => this.runner);
     this.viewer.addOverlay(this.interactionHandler.indicator);
     this.banners = new Banners(document.getElementById('banners')!);
@@ -62,13 +67,20 @@ export class App implements PanelHost {
     document.body.append(this.fileInput);
     acceptDroppedFiles(document.body, (file) => void this.loadFile(file));
 
+    this.applyStartingParameters();
     this.showWorld();
     this.panel = new Panel(this, document.getElementById('panel')!);
     this.viewer.renderer.setAnimationLoop(() => this.frame());
   }
 
-  get sim(): JelloSim {
+  get sim(): SimView {
     return this.runner.sim;
+  }
+
+  /** Resolves once the stepping worker has handled every request made so far, and the state
+   *  shown is from after them (for the tests and the console). */
+  settled(): Promise<void> {
+    return this.runner.settled();
   }
 
   // ---- PanelHost: the state the panel and keys change ----
@@ -134,15 +146,14 @@ export class App implements PanelHost {
   }
 
   reset(): void {
-    this.sim.reset();
+    this.runner.reset(this.startParameters);
     this.afterBlowUpCleared();
-    this.dirty = true;
     this.panel.refresh();
   }
 
   stepOnce(): void {
     this.paused = true;
-    if (this.runner.stepOnce() > 0) this.dirty = true;
+    void this.runner.stepExactly(1);
   }
 
   loadExample(name: string): void {
@@ -155,13 +166,13 @@ export class App implements PanelHost {
 
   /** Downloads the current state: a scene as a scene file (.toml), anything else as a world
    *  file (.w). */
-  save(): void {
+  async save(): Promise<void> {
+    const scene = this.sim.isScene;
+    const base = this.sim.name.replace(/\.(w|toml)$/i, '').replace(/[^\w.-]+/g, '_') || 'jello';
     try {
-      const scene = this.sim.isScene;
-      const text = scene ? this.sim.toSceneText() : this.sim.toWorldText();
-      const base = this.sim.name.replace(/\.(w|toml)$/i, '').replace(/[^\w.-]+/g, '_') || 'jello';
+      const { text, time } = await this.runner.save();
       const extension = scene ? 'toml' : 'w';
-      download(new Blob([text], { type: 'text/plain' }), `${base}-t${this.sim.time.toFixed(3)}.${extension}`);
+      download(new Blob([text], { type: 'text/plain' }), `${base}-t${time.toFixed(3)}.${extension}`);
     } catch (e) {
       this.banners.show('error', `Cannot save: ${errorMessage(e)}`);
     }
@@ -169,7 +180,7 @@ export class App implements PanelHost {
 
   loadCube(n: number): void {
     try {
-      this.replaceSim(JelloSim.cube(n));
+      this.replaceSim(JelloSim.cube(n), { kind: 'cube', n });
     } catch (e) {
       this.banners.show('error', errorMessage(e));
     }
@@ -193,6 +204,8 @@ export class App implements PanelHost {
     }
     this.sequence = new FrameSequence();
     this.sequenceNeedsFrame = true;
+    // The sequence advances by exact frames, not with the wall clock.
+    this.runner.hold = true;
     this.updateRecordingUi();
   }
 
@@ -224,7 +237,7 @@ export class App implements PanelHost {
       this.banners.show('error', `Could not load ${name}: ${errorMessage(e)}. The current world keeps running.`);
       return false;
     }
-    this.replaceSim(sim);
+    this.replaceSim(sim, { kind: 'text', text, name });
     return true;
   }
 
@@ -246,17 +259,46 @@ export class App implements PanelHost {
     }
   }
 
-  private replaceSim(sim: JelloSim): void {
+  private replaceSim(sim: JelloSim, source: Source): void {
     this.interactionHandler.cancel();
-    this.runner.replace(sim);
+    this.runner.replace(sim, source);
     this.banners.clear('error');
+    this.applyStartingParameters();
     this.afterBlowUpCleared();
     this.showWorld();
     this.panel.refresh();
   }
 
+  /** A scene of more than 8³ points stepped by an explicit method starts with the implicit
+   *  integrator at frame-rate steps (see [`startingParameters`]); a banner says so and offers
+   *  the file's own. */
+  private applyStartingParameters(): void {
+    const own = this.runner.parameters();
+    this.startParameters = startingParameters(this.sim.copy);
+    this.banners.clear('integrator');
+    if (!this.startParameters) return;
+    this.runner.setParameters(this.startParameters);
+    const points = this.sim.pointCount;
+    this.banners.show(
+      'integrator',
+      `${this.sim.name} has ${points} points: running ${this.startParameters.integrator} at dt = 1/60 s, which keeps up with the wall clock (its own ${own.integrator} at dt = ${own.dt} s would not).`,
+      [
+        {
+          label: `Use ${own.integrator} at dt = ${own.dt} s`,
+          run: () => {
+            this.startParameters = undefined;
+            this.runner.reset();
+            this.banners.clear('integrator');
+            this.afterBlowUpCleared();
+            this.panel.refresh();
+          },
+        },
+      ],
+    );
+  }
+
   private showWorld(): void {
-    this.viewer.setScene(sceneData(this.sim));
+    this.viewer.setScene(sceneData(this.sim.copy));
     if (!this.viewer.hasField()) this.viewer.showField = false;
     this.viewer.applyVisibility();
     this.draw();
@@ -267,6 +309,7 @@ export class App implements PanelHost {
 
   /** Hands the current positions to the picture. */
   private draw(): void {
+    this.drawnState = this.runner.state;
     this.viewer.updatePositions(this.sim.positions(), this.sim.surfacePositions());
     this.interactionHandler.frame();
   }
@@ -281,17 +324,14 @@ export class App implements PanelHost {
   // ---- The frame loop ----
 
   private frame(): void {
-    const now = performance.now();
-    const wall = (now - this.lastFrame) / 1000;
-    this.lastFrame = now;
     this.viewer.applyVisibility();
-
-    let steps = 0;
+    // The worker steps on its own; a frame draws the latest state it sent.
+    if (this.runner.state !== this.drawnState) this.draw();
+    const steps = this.runner.advance();
     if (this.sequence) {
-      // Recording frames: draw, keep the frame, then advance exactly one frame of simulated time.
-      if (this.dirty) this.draw();
-      this.dirty = false;
-      if (this.sequenceNeedsFrame) {
+      // Recording frames: keep the frame drawn, then have the worker take exactly one frame of
+      // simulated time, and wait for it.
+      if (this.sequenceNeedsFrame && !this.sequenceStepping) {
         this.sequence.add(this.viewer.snapshot()); // renders, then encodes
         this.sequenceNeedsFrame = false;
         this.updateRecordingUi();
@@ -299,18 +339,17 @@ export class App implements PanelHost {
       } else {
         this.viewer.render();
       }
-      if (this.sequence && !this.paused && !this.sim.blownUp) {
-        steps = this.runner.advanceExactly(1 / SEQUENCE_FPS);
-        this.sequenceNeedsFrame = steps > 0;
-        this.dirty = steps > 0;
+      if (this.sequence && !this.sequenceStepping && !this.sequenceNeedsFrame && !this.paused && !this.sim.blownUp) {
+        this.sequenceStepping = true;
+        void this.runner.advanceExactly(1 / SEQUENCE_FPS).then((taken) => {
+          this.sequenceStepping = false;
+          this.sequenceNeedsFrame = taken > 0;
+        });
       }
     } else {
-      steps = this.runner.advance(wall);
-      if (steps > 0) this.dirty = true;
-      if (this.dirty) this.draw();
-      this.dirty = false;
       this.viewer.render();
     }
+    if (!this.sim.blownUp && this.shownBlowUp) this.afterBlowUpCleared();
     this.checkBlowUp();
     this.readout.frame(steps, this.sim.dt, () => this.status());
   }
@@ -341,6 +380,7 @@ export class App implements PanelHost {
   private async finishSequence(): Promise<void> {
     const sequence = this.sequence;
     this.sequence = undefined;
+    this.runner.hold = false;
     this.updateRecordingUi();
     if (!sequence || sequence.count === 0) return;
     try {

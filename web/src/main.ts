@@ -2,7 +2,7 @@
 import './style.css';
 import { App, errorMessage, type ServerConfig } from './app';
 import { bindKeys, KEYS } from './keys';
-import { JelloSim, loadCore } from './sim';
+import { JelloSim, Runner, loadCore, type Source } from './sim';
 
 /** `config.json` from `jello view`; without it (a plain static server, `vite dev`) no examples
  *  and the classic cube. */
@@ -18,7 +18,7 @@ async function serverConfig(): Promise<ServerConfig> {
 
 /** The world to start with: the one given to `jello view`, else the classic example, else the
  *  classic cube at rest under gravity. */
-async function firstWorld(config: ServerConfig): Promise<{ sim: JelloSim; error?: string }> {
+async function firstWorld(config: ServerConfig): Promise<{ sim: JelloSim; source: Source; error?: string }> {
   const candidates = [config.world, config.examples.includes('jello.w') ? { url: 'examples/jello.w', name: 'jello.w' } : undefined];
   let error: string | undefined;
   for (const c of candidates) {
@@ -26,12 +26,13 @@ async function firstWorld(config: ServerConfig): Promise<{ sim: JelloSim; error?
     try {
       const r = await fetch(c.url);
       if (!r.ok) throw new Error(`${r.status} ${r.statusText}`);
-      return { sim: JelloSim.load(await r.text(), c.name), error };
+      const text = await r.text();
+      return { sim: JelloSim.load(text, c.name), source: { kind: 'text', text, name: c.name }, error };
     } catch (e) {
       error = `Could not load ${c.name}: ${errorMessage(e)}`;
     }
   }
-  return { sim: JelloSim.cube(8), error };
+  return { sim: JelloSim.cube(8), source: { kind: 'cube', n: 8 }, error };
 }
 
 function fillHelp(): void {
@@ -50,9 +51,10 @@ async function main(): Promise<void> {
   fillHelp();
   await loadCore();
   const config = await serverConfig();
-  const { sim, error } = await firstWorld(config);
+  const { sim, source, error } = await firstWorld(config);
+  const runner = await Runner.start(sim, source);
   const canvas = document.getElementById('view') as HTMLCanvasElement;
-  const app = new App(canvas, sim, config.examples);
+  const app = new App(canvas, runner, config.examples);
   bindKeys(app);
   if (error) app.banners.show('error', error);
   // A handle for the console and the tests: `jello.sim.time`, `jello.paused`, …

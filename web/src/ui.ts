@@ -1,7 +1,8 @@
 // Page chrome outside the 3-D view: banners (errors, blow-ups, recording), the readout of frame
 // rate and stepping speed, the help overlay, and drag-and-drop of world files.
 
-export type BannerKind = 'error' | 'blowup' | 'info';
+/** `integrator`: the viewer chose the integrator of a large scene (see `startingParameters`). */
+export type BannerKind = 'error' | 'blowup' | 'info' | 'integrator';
 
 export interface BannerAction {
   label: string;
@@ -19,7 +20,7 @@ export class Banners {
     const el = document.createElement('div');
     el.className = `banner banner-${kind}`;
     el.dataset.kind = kind;
-    el.setAttribute('role', kind === 'info' ? 'status' : 'alert');
+    el.setAttribute('role', kind === 'info' || kind === 'integrator' ? 'status' : 'alert');
     const text = document.createElement('span');
     text.className = 'banner-text';
     text.textContent = message;

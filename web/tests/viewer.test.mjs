@@ -102,8 +102,11 @@ describe('jello view', () => {
   test('n single-steps while paused; e resets the camera after zooming', async () => {
     const { page, done } = await open();
     await page.keyboard.press('p');
+    // The worker may be mid-slice when the pause arrives: wait until it has answered.
+    await page.evaluate(() => window.jello.settled());
     const steps = await page.evaluate(() => window.jello.sim.steps);
     await page.keyboard.press('n');
+    await page.evaluate(() => window.jello.settled());
     assert.equal(await page.evaluate(() => window.jello.sim.steps), steps + 1);
     await pause(200);
     const home = await shot(page);
@@ -176,6 +179,49 @@ describe('jello view', () => {
     await banner.getByRole('button', { name: /Use dt/ }).click();
     await page.waitForFunction(() => !window.jello.sim.blownUp && window.jello.sim.time > 0.1);
     assert.equal(await page.locator('.banner-blowup').count(), 0);
+    await done();
+  });
+
+  test('the simulation steps in a worker: time goes on while the page is busy', async () => {
+    const { page, done } = await open();
+    // Block the page's own thread for 1.5 s: no frame is drawn, yet the worker keeps stepping,
+    // and the first state the page sees after is 1.5 s further on.
+    const { before, after } = await page.evaluate(() => {
+      const app = window.jello;
+      const before = app.sim.time;
+      const until = performance.now() + 1500;
+      while (performance.now() < until) {
+        // busy
+      }
+      return new Promise((resolve) =>
+        setTimeout(() => app.settled().then(() => resolve({ before, after: app.sim.time })), 50),
+      );
+    });
+    assert.ok(after - before > 1.2, `simulated time advanced ${(after - before).toFixed(3)} s while the page was blocked for 1.5 s`);
+    await done();
+  });
+
+  test('a cube larger than 8³ starts with the implicit integrator at dt = 1/60 s', async () => {
+    const { page, done, showOverlays } = await open();
+    await page.evaluate(() => window.jello.loadCube(12));
+    const p = await page.evaluate(() => window.jello.parameters());
+    assert.equal(p.integrator, 'BackwardEuler');
+    assert.ok(Math.abs(p.dt - 1 / 60) < 1e-12, `dt ${p.dt}`);
+    const banner = page.locator('.banner-integrator');
+    assert.match(await banner.textContent(), /1728 points: running BackwardEuler at dt = 1\/60 s/);
+    // It runs (how fast is for web/bench/measure.mjs, not a test).
+    const t0 = await simTime(page);
+    await page.waitForFunction((t0) => window.jello.sim.time > t0 + 0.1, t0);
+    assert.equal(await page.evaluate(() => window.jello.sim.blownUp), false);
+    // A reset keeps the choice; the banner's button goes back to the cube's own.
+    await page.evaluate(() => window.jello.reset());
+    assert.equal((await page.evaluate(() => window.jello.parameters())).integrator, 'BackwardEuler');
+    await showOverlays();
+    await banner.getByRole('button', { name: /Use RK4/ }).click();
+    assert.equal((await page.evaluate(() => window.jello.parameters())).integrator, 'RK4');
+    // The classic cube keeps its own integrator.
+    await page.evaluate(() => window.jello.loadCube(8));
+    assert.equal((await page.evaluate(() => window.jello.parameters())).integrator, 'RK4');
     await done();
   });
 

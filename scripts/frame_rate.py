@@ -1,0 +1,269 @@
+#!/usr/bin/env python3
+"""Soft bodies at frame-rate steps: Jello's integrators against Rapier's soft bodies on one job,
+written into BENCHMARKS.md (its "Frame-rate soft bodies" section). Normally started by
+scripts/frame-rate.sh, which sets up the venv (bench/.venv, with `rapier3d`).
+
+The job (issue 9): an N x N x N cube of points, 1 m on a side and 1 kg in all, under gravity
+on a floor, either resting on it or dropped from 0.5 m; the real-time factor (simulated seconds
+per wall-clock second) at N = 8, 16, 32.
+
+    scripts/frame_rate.py [--sizes 8,16,32] [--max-wall 60] [--out BENCHMARKS.md]
+"""
+
+import argparse
+import json
+import os
+import re
+import subprocess
+import sys
+import tempfile
+import time
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from benchmarks import JELLO, ROOT, machine, wait_quiet  # noqa: E402
+
+PEER = os.path.join(ROOT, "bench", "peers", "rapier_peer.py")
+OUT = os.path.join(ROOT, "BENCHMARKS.md")
+BEGIN = "<!-- frame-rate: begin (scripts/frame-rate.sh) -->"
+END = "<!-- frame-rate: end -->"
+
+FRAME = 1.0 / 60.0
+# Simulated seconds per run: long enough to cover the drop's impact (at 0.32 s) and the
+# settling after it.
+SIM_TIME = {8: 3.0, 16: 2.0, 32: 1.0}
+# Jello's material: the same for every N (stiffness and damping per unit length, so a spring
+# of the 8^3 cube has kElastic 200 N/m and dElastic 0.25 N·s/m as in the classic world).
+MODULUS, VISCOSITY = 1400.0, 1.75
+
+
+def log(msg):
+    print(msg, file=sys.stderr, flush=True)
+
+
+def scene(tmp, n, job):
+    """A Jello scene of the job, written with `jello create`."""
+    path = os.path.join(tmp, "cube%d-%s.toml" % (n, job))
+    centre = 0.5 if job == "rest" else 1.0
+    subprocess.run([JELLO, "create", path, "--force", "--cube", str(n), "--total-mass", "1",
+                    "--modulus", str(MODULUS), "--viscosity", str(VISCOSITY),
+                    "--field", "gravity", "--plane", "0,0,1,0", "--at", "0,0,%g" % centre],
+                   check=True, capture_output=True, text=True)
+    return path
+
+
+def stable_dt(path, integrator):
+    """The stable step `jello info` estimates for an explicit integrator."""
+    out = subprocess.run([JELLO, "info", path], check=True, capture_output=True, text=True).stdout
+    m = re.search(r"^\s*\*?\s*%s\s+([0-9.eE+-]+) s" % integrator, out, re.M)
+    if not m:
+        raise RuntimeError("no stable dt for %s in `jello info %s`" % (integrator, path))
+    return float(m.group(1))
+
+
+def outcome(path):
+    """Centre-of-mass height and deepest penetration of a saved state (from `jello info`)."""
+    out = subprocess.run([JELLO, "info", path], check=True, capture_output=True, text=True).stdout
+    centre = re.search(r"centre of mass\s+\(([^,]+), ([^,]+), ([^)]+)\)", out)
+    depth = re.search(r"penetration\s+([0-9.eE+-]+) m", out)
+    return (float(centre.group(3)) if centre else None,
+            float(depth.group(1)) if depth else None)
+
+
+def failure(p):
+    """The message of a failed command: its first line that says error, else its last line."""
+    lines = (p.stderr or p.stdout).strip().splitlines() or ["exit code %d" % p.returncode]
+    return next((ln for ln in lines if "error" in ln.lower()), lines[-1])
+
+
+def run_jello(tmp, path, integrator, dt, threads, sim_time, max_wall):
+    """Steps `path` with `jello run`; returns a result dict (or one with "error")."""
+    env = dict(os.environ, RAYON_NUM_THREADS=str(threads))
+    steps = max(1, round(sim_time / dt))
+    # A short probe first, so that a slow configuration is cut to about `max_wall` seconds
+    # (never below 0.6 s simulated, which covers the drop's impact).
+    probe = min(steps, 5)
+    t0 = time.perf_counter()
+    p = subprocess.run([JELLO, "run", path, "--integrator", integrator, "--dt", repr(dt),
+                        "--steps", str(probe), "-q"], env=env, capture_output=True, text=True)
+    rate = probe / max(time.perf_counter() - t0, 1e-6)
+    if p.returncode != 0:
+        return {"error": failure(p)}
+    capped = steps > rate * max_wall
+    if capped:
+        # At least 0.6 s simulated (the drop's impact) when that takes under 3 × max_wall.
+        least = round(0.6 / dt) if 0.6 / dt < 3 * rate * max_wall else 5
+        steps = min(steps, max(round(rate * max_wall), least))
+    saved = os.path.join(tmp, "out.toml")
+    if os.path.exists(saved):
+        os.remove(saved)
+    wait_quiet()
+    t0 = time.perf_counter()
+    p = subprocess.run([JELLO, "run", path, "--integrator", integrator, "--dt", repr(dt),
+                        "--steps", str(steps), "--save", saved, "-q"],
+                       env=env, capture_output=True, text=True)
+    wall = time.perf_counter() - t0
+    if p.returncode != 0:
+        return {"error": failure(p)}
+    centre, depth = outcome(saved)
+    return {"steps": steps, "sim_time": steps * dt, "wall_s": wall,
+            "realtime": steps * dt / wall, "capped": capped, "centre": centre, "depth": depth}
+
+
+def run_rapier(n, job, solver, sim_time, max_wall):
+    wait_quiet()
+    p = subprocess.run([sys.executable, PEER, "--size", str(n), "--job", job, "--solver", solver,
+                        "--time", str(sim_time), "--max-wall", str(max_wall)],
+                       capture_output=True, text=True)
+    if p.returncode != 0:
+        return {"error": failure(p)}
+    return json.loads(p.stdout.strip().splitlines()[-1])
+
+
+def fmt_rt(r):
+    if "error" in r:
+        return "failed"
+    x = r["realtime"]
+    s = ("%.3g" % x) if x >= 0.01 else ("%.2g" % x)
+    return s + "×" + (" ¹" if r.get("capped") else "")
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--sizes", default="8,16,32")
+    ap.add_argument("--max-wall", type=float, default=60.0,
+                    help="cap on one run's wall-clock seconds (60)")
+    ap.add_argument("--out", default=OUT)
+    args = ap.parse_args()
+    sizes = [int(s) for s in args.sizes.split(",")]
+    if not os.path.exists(JELLO):
+        sys.exit("frame_rate: build target/release/jello first (cargo build --release)")
+
+    # (label, how) per column; Jello's explicit RK4 runs at 90 % of its stable step.
+    columns = [
+        ("Jello BackwardEuler, 1 thread", ("jello", "BackwardEuler", FRAME, 1)),
+        ("Jello BackwardEuler, 2 threads", ("jello", "BackwardEuler", FRAME, 2)),
+        ("Jello SDIRK2, 2 threads", ("jello", "SDIRK2", FRAME, 2)),
+        ("Jello RK4 at 0.9 × its stable dt, 2 threads", ("jello", "RK4", None, 2)),
+        ("Rapier soft body (constraints), 1 thread", ("rapier", "constraints")),
+        ("Rapier soft body (FEM), 1 thread", ("rapier", "fem")),
+    ]
+    rows = []
+    with tempfile.TemporaryDirectory() as tmp:
+        for n in sizes:
+            sim_time = SIM_TIME.get(n, 1.0)
+            for job in ("rest", "drop"):
+                path = scene(tmp, n, job)
+                row = {"n": n, "job": job, "cells": []}
+                for label, how in columns:
+                    log("N=%d %s: %s" % (n, job, label))
+                    if how[0] == "jello":
+                        _, integ, dt, threads = how
+                        if dt is None:
+                            dt = 0.9 * stable_dt(path, integ)
+                        r = run_jello(tmp, path, integ, dt, threads, sim_time, args.max_wall)
+                        r["dt"] = dt
+                    else:
+                        r = run_rapier(n, job, how[1], sim_time, args.max_wall)
+                    log("  " + json.dumps(r))
+                    row["cells"].append(r)
+                rows.append(row)
+
+    info = machine()
+    section = render(args, columns, rows, info)
+    write_section(args.out, section)
+    log("wrote the frame-rate section of " + args.out)
+
+
+def render(args, columns, rows, info):
+    L = [BEGIN, "", "## Frame-rate soft bodies: Jello against Rapier", ""]
+    w = L.append
+    w("Generated by `scripts/frame-rate.sh%s` on %s. Do not edit by hand: run the command again."
+      % ((" " + " ".join(sys.argv[1:])) if sys.argv[1:] else "", info["date"]))
+    w("")
+    w("**Job.** An N×N×N cube of points, 1 m on a side and 1 kg in all, under gravity "
+      "(9.81 m/s²) on a floor: resting on it, or dropped from 0.5 m (its bottom 0.5 m above "
+      "the floor). The number is the **real-time factor**: simulated seconds per wall-clock "
+      "second of stepping (higher is faster; 1× is real time).")
+    w("")
+    w("- **Jello**: a scene from `jello create --cube N --total-mass 1 --modulus %g "
+      "--viscosity %g --field gravity --plane 0,0,1,0` (the same material at every N: the "
+      "8³ cube's springs have the classic kElastic 200 N/m, dElastic 0.25 N·s/m; kCollision "
+      "400 N/m), timed as `jello run SCENE --integrator I --dt DT --steps K` (the process, "
+      "scene loading included), threads set by `RAYON_NUM_THREADS`. The implicit methods "
+      "step at dt = 1/60 s; RK4 at 90 %% of the stable step `jello info` estimates for the "
+      "scene (its dt is in the table below)." % (MODULUS, VISCOSITY))
+    w("- **Rapier** (PyPI `rapier3d`, %s): `SoftBody.cuboid` with N particles per side, "
+      "mass 1 kg, the default material, sleeping off, a half-space floor, dt 1/60 s, its "
+      "default solver iterations, one thread (`bench/peers/rapier_peer.py`). Its particles "
+      "have a radius, so its cube rests higher." % rapier_version(rows))
+    w("- Simulated time per run: %s; ¹ marks a run cut to about %g s of wall clock (the factor "
+      "is measured over the steps done: at least 0.6 s simulated where that takes under three times "
+      "the cap, else at least 5 steps)."
+      % (", ".join("%g s at %d³" % (SIM_TIME.get(r["n"], 1.0), r["n"])
+                   for r in rows if r["job"] == "rest"), args.max_wall))
+    w("- Machine: %s." % "; ".join("%s: %s" % (k, v) for k, v in info.items()
+                                    if k in ("CPU", "AVX-512", "cores (logical CPUs available)",
+                                             "OS", "git commit")))
+    w("")
+    w("| N³, job | " + " | ".join(label for label, _ in columns) + " |")
+    w("| --- |" + " ---: |" * len(columns))
+    for row in rows:
+        w("| %d³, %s | " % (row["n"], row["job"]) + " | ".join(fmt_rt(c) for c in row["cells"])
+          + " |")
+    w("")
+    w("Where each run ended (centre-of-mass height above the floor, m; Jello also the deepest "
+      "penetration into the floor) and RK4's step:")
+    w("")
+    w("| N³, job | " + " | ".join(label for label, _ in columns) + " |")
+    w("| --- |" + " --- |" * len(columns))
+    for row in rows:
+        cells = []
+        for (label, how), c in zip(columns, row["cells"]):
+            if "error" in c:
+                cells.append(c["error"].replace("|", "/"))
+            elif how[0] == "jello":
+                s = "%.3f, %.1e" % (c["centre"], c["depth"])
+                if how[2] is None:
+                    s += ", dt %.2e" % c["dt"]
+                cells.append(s)
+            else:
+                cells.append("%.3f" % c["centre"])
+        w("| %d³, %s | " % (row["n"], row["job"]) + " | ".join(cells) + " |")
+    w("")
+    w("Raw results:")
+    w("")
+    w("```json")
+    w(json.dumps([{"n": r["n"], "job": r["job"],
+                   "runs": {label: c for (label, _), c in zip(columns, r["cells"])}}
+                  for r in rows], indent=1))
+    w("```")
+    w("")
+    w(END)
+    return "\n".join(L) + "\n"
+
+
+def rapier_version(rows):
+    for row in rows:
+        for c in row["cells"]:
+            if c.get("peer") == "rapier":
+                return c.get("version", "?")
+    return "not run"
+
+
+def write_section(out, section):
+    """Replaces the frame-rate section of `out` (or appends it), atomically."""
+    text = open(out).read() if os.path.exists(out) else ""
+    if BEGIN in text and END in text:
+        head, rest = text.split(BEGIN, 1)
+        tail = rest.split(END, 1)[1].lstrip("\n")
+        text = head + section + ("\n" + tail if tail else "")
+    else:
+        text = text.rstrip("\n") + ("\n\n" if text else "") + section
+    tmp = out + ".tmp"
+    with open(tmp, "w") as f:
+        f.write(text)
+    os.replace(tmp, out)
+
+
+if __name__ == "__main__":
+    main()
