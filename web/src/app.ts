@@ -39,6 +39,8 @@ export class App implements PanelHost {
   /** Parameters the viewer chose for the current world at load (see [`startingParameters`]),
    *  applied again on reset. */
   private startParameters: Parameters | undefined;
+  /** The current world's own parameters, as loaded. */
+  private ownParameters: Parameters | undefined;
   private readonly fileInput: HTMLInputElement;
 
   constructor(
@@ -275,26 +277,45 @@ export class App implements PanelHost {
   private applyStartingParameters(): void {
     const own = this.runner.parameters();
     this.startParameters = startingParameters(this.sim.copy);
+    this.ownParameters = own;
     this.banners.clear('integrator');
     if (!this.startParameters) return;
     this.runner.setParameters(this.startParameters);
     const points = this.sim.pointCount;
+    const fewer = Math.round(this.startParameters.dt / own.dt);
     this.banners.show(
       'integrator',
-      `${this.sim.name} has ${points} points: running ${this.startParameters.integrator} at dt = 1/60 s, which keeps up with the wall clock (its own ${own.integrator} at dt = ${own.dt} s would not).`,
-      [
-        {
-          label: `Use ${own.integrator} at dt = ${own.dt} s`,
-          run: () => {
-            this.startParameters = undefined;
-            this.runner.reset();
-            this.banners.clear('integrator');
-            this.afterBlowUpCleared();
-            this.panel.refresh();
-          },
-        },
-      ],
+      `${this.sim.name} has ${points} points: running ${this.startParameters.integrator} at dt = 1/60 s, the viewer's choice above 8³ points (its own ${own.integrator} at dt = ${own.dt} s takes ${fewer}× as many steps).`,
+      [{ label: `Use ${own.integrator} at dt = ${own.dt} s`, run: () => this.useOwnParameters() }],
     );
+  }
+
+  /** Back to the loaded file's own integrator and step, from the start. */
+  private useOwnParameters(): void {
+    this.startParameters = undefined;
+    this.runner.reset();
+    this.banners.clear('integrator');
+    this.afterBlowUpCleared();
+    this.panel.refresh();
+  }
+
+  /** When the integrator the viewer chose stops (a step that does not converge: several bodies
+   *  or friction can do that), the file's own takes over from the last good state, and the
+   *  banner says so. Returns whether it did. */
+  private fallBackToOwnParameters(): boolean {
+    const chosen = this.startParameters;
+    const own = this.ownParameters;
+    const now = this.runner.parameters();
+    if (!chosen || !own || now.integrator !== chosen.integrator || now.dt !== chosen.dt) return false;
+    const why = this.sim.blowUpMessage() ?? 'it stopped';
+    this.startParameters = undefined;
+    this.runner.setParameters({ ...now, integrator: own.integrator, dt: own.dt });
+    this.panel.refresh();
+    this.banners.show(
+      'integrator',
+      `${chosen.integrator} stopped (${why}); the file's own ${own.integrator} at dt = ${own.dt} s carries on from the last good state.`,
+    );
+    return true;
   }
 
   private showWorld(): void {
@@ -361,6 +382,7 @@ export class App implements PanelHost {
 
   private checkBlowUp(): void {
     if (!this.sim.blownUp || this.shownBlowUp) return;
+    if (this.fallBackToOwnParameters()) return;
     this.shownBlowUp = true;
     const suggested = this.sim.suggestedDt();
     const actions = [{ label: 'Reset', run: () => this.reset() }];

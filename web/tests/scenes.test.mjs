@@ -92,6 +92,31 @@ describe('scenes in the viewer', () => {
     await done();
   });
 
+  test("a scene the viewer steps implicitly keeps running: if the method stops, the file's own takes over", async () => {
+    // mould.toml: 1042 points with friction, RK4 in its file; the viewer starts it with
+    // BackwardEuler at 1/60 s.
+    const { page, done } = await open();
+    await page.evaluate(() => window.jello.loadUrl('examples/mould.toml', 'mould.toml'));
+    await loaded(page, 'mould.toml');
+    assert.equal((await page.evaluate(() => window.jello.parameters())).integrator, 'BackwardEuler');
+    const t0 = await page.evaluate(() => window.jello.sim.time);
+    await pause(3000);
+    const after = await page.evaluate(() => ({
+      time: window.jello.sim.time,
+      blownUp: window.jello.sim.blownUp,
+      integrator: window.jello.parameters().integrator,
+      banner: document.querySelector('.banner-integrator')?.textContent ?? '',
+    }));
+    assert.equal(after.blownUp, false, 'not stopped');
+    assert.equal(await page.locator('.banner-blowup').count(), 0);
+    assert.ok(after.time > t0, 'time goes on');
+    if (after.integrator !== 'BackwardEuler') {
+      assert.equal(after.integrator, 'RK4');
+      assert.match(after.banner, /BackwardEuler stopped .*the file's own RK4 at dt = [\d.e-]+ s carries on/);
+    }
+    await done();
+  });
+
   test('a scene loads by the picker and by drag and drop; the wireframe shows the cage', async () => {
     const { page, done } = await open();
     await page.setInputFiles('#world-file', join(ROOT, 'examples', 'mould.toml'));
