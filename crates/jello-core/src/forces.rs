@@ -142,6 +142,11 @@ impl ForceScratch {
         self.anchors.update(model, pos);
     }
 
+    /// Where the points touching obstacles are tied (empty without friction or obstacles).
+    pub(crate) fn anchors(&self) -> &Anchors {
+        &self.anchors
+    }
+
     fn fits(&self, model: &Model) -> bool {
         self.bodies.len() == model.bodies().len()
             && self

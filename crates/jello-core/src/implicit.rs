@@ -24,7 +24,8 @@
 //! Newton's method: each iteration solves `A·Δv = −M·g` with `A = M + h·D₀ + h²·K`, `K` the
 //! stiffness matrix of the springs (with a compressed spring's negative transverse stiffness,
 //! or, when that leaves `A` not positive definite, clamped at zero), of the penalty springs the
-//! point is in at the iterate (with an obstacle's friction ties along its surface), of the
+//! point is in at the iterate (with an obstacle's friction ties along its surface: their full
+//! stiffness while they hold, their sliding stiffness once they slide), of the
 //! pulls and of the field (the symmetric part of minus its gradient, made positive
 //! semi-definite), by conjugate gradients preconditioned with `A`'s 3×3 diagonal blocks. They
 //! stop when their residual has fallen a hundredfold, and a hundredfold further after each
@@ -51,6 +52,7 @@
 
 use crate::field::ForceField;
 use crate::forces::{force_pass, ForceScratch};
+use crate::friction::Anchors;
 use crate::integrator::Integrator;
 use crate::model::Model;
 use crate::soa::Soa;
@@ -405,9 +407,9 @@ fn backward_euler(
         // The springs' true transverse stiffness first (a compressed spring's is negative, and
         // clamping it slows Newton's method down to a crawl on a crushed lattice); clamped at
         // zero when that makes A indefinite.
-        assemble(model, control, s, x0, h, false);
+        assemble(model, control, force.anchors(), s, x0, h, false);
         if !solve(s, reduction) {
-            assemble(model, control, s, x0, h, true);
+            assemble(model, control, force.anchors(), s, x0, h, true);
             solve(s, reduction);
         }
         let before = norm2;
@@ -742,6 +744,7 @@ fn contact_change(model: &Model, xv: Vec3, xt: Vec3, step: Vec3) -> f64 {
 fn assemble(
     model: &Model,
     control: &Control,
+    anchors: &Anchors,
     s: &mut ImplicitScratch,
     x0: &[Vec3],
     h: f64,
@@ -775,11 +778,9 @@ fn assemble(
             }
         };
     }
-    // Penalty springs of walls, plane and obstacles where the iterate is (friction ties act
-    // along an obstacle's surface with the same stiffness), their dampers as at the start, and
-    // pulls.
+    // Penalty springs of walls, plane and obstacles where the iterate is, with the obstacles'
+    // friction ties (see `tie_stiffness`), their dampers as at the start, and pulls.
     let kc = model.k_collision;
-    let tangential = if model.friction > 0.0 { h2 * kc } else { 0.0 };
     for (i, e) in s.extra.iter_mut().enumerate() {
         if s.free[i] == 0.0 {
             continue;
@@ -800,10 +801,19 @@ fn assemble(
         for c in walls {
             add_outer(e, c.normal, h2 * kc);
         }
-        for c in model.obstacles.iter().filter_map(|o| o.contact(p)) {
-            // The normal's stiffness along it, the ties' (`tangential`) across it.
-            add_outer(e, c.normal, h2 * kc - tangential);
-            e[..3].iter_mut().for_each(|e| *e += tangential);
+        for (o, c) in model
+            .obstacles
+            .iter()
+            .enumerate()
+            .filter_map(|(o, ob)| ob.contact(p).map(|c| (o, c)))
+        {
+            add_outer(e, c.normal, h2 * kc);
+            if let Some(&anchor) = anchors.of(o).get(i) {
+                let tie = tie_stiffness(p, c.normal, c.depth, anchor, kc, model.friction);
+                for (e, t) in e.iter_mut().zip(tie) {
+                    *e += h2 * t;
+                }
+            }
         }
     }
     for pull in &control.pulls {
@@ -865,6 +875,35 @@ fn apply(s: &ImplicitScratch, x: &[Vec3], y: &mut [Vec3]) {
         y[a] += f * s.free[a];
         y[c] -= f * s.free[c];
     }
+}
+
+/// The stiffness (N/m, a symmetric 3×3 block) of an obstacle's friction tie on a point at `p`
+/// touching it at `depth` along the unit normal `n`, tied to `anchor` (NaN: not yet), as the
+/// implicit solve evaluates it (at zero velocity, see [`crate::friction::obstacle`]): the tie
+/// `f = −kc·Δt` across the normal while `|f|` is within the Coulomb limit `μ·kc·depth`; beyond
+/// it the force keeps the limit's size and turns with `Δt`, so its stiffness is
+/// `(limit/|f|)·kc` across both the normal and the force (nothing along the force: a sliding
+/// point's friction does not grow as it slides on). A point without an anchor feels no friction
+/// at zero velocity. (The limit's growth with depth is left out: it would make `A` unsymmetric.)
+///
+/// With the tie's full stiffness in `A` while it slides, Newton's steps along the sliding were
+/// cut by `m/(m + h²·kc)`, a few percent, and a scene resting with friction crept to its
+/// tolerance and stopped there.
+fn tie_stiffness(p: Vec3, n: Vec3, depth: f64, anchor: Vec3, kc: f64, mu: f64) -> Sym {
+    if mu <= 0.0 || anchor.x.is_nan() {
+        return [0.0; 6];
+    }
+    let offset = p - anchor;
+    let f = (offset - n * offset.dot(n)) * -kc;
+    let (size, limit) = (f.length(), mu * kc * depth);
+    let mut block = [kc, kc, kc, 0.0, 0.0, 0.0];
+    add_outer(&mut block, n, -kc);
+    if size > limit {
+        let scale = limit / size;
+        block.iter_mut().for_each(|b| *b *= scale);
+        add_outer(&mut block, f * (1.0 / size), -kc * scale);
+    }
+    block
 }
 
 fn dot(a: &[Vec3], b: &[Vec3]) -> f64 {
