@@ -96,7 +96,14 @@ try {
     await page.evaluate((name) => window.jello.loadUrl(`examples/${name}`, name), name);
     const r = await run();
     const points = await page.evaluate(() => window.jello.sim.activePoints().reduce((s, a) => s + a, 0));
-    console.log(`${name.padEnd(11)} ${String(points).padStart(5)} points: ${fmt(r)}`);
+    const chosen = await page.evaluate(() => window.jello.parameters().integrator);
+    console.log(`${name.padEnd(11)} ${String(points).padStart(5)} points, ${chosen}: ${fmt(r)}`);
+    // Where the viewer chose the implicit method, the file's own too.
+    if (await page.evaluate(() => document.querySelector('.banner-integrator button') !== null)) {
+      await page.evaluate(() => document.querySelector('.banner-integrator button').click());
+      const own = await page.evaluate(() => window.jello.parameters().integrator);
+      console.log(`${name.padEnd(11)} ${String(points).padStart(5)} points, ${own}: ${fmt(await run())}`);
+    }
   }
 
   // The large scene: made here, loaded as a dropped file would be.
