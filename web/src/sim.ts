@@ -160,6 +160,7 @@ export class Runner {
     this._sim = new SimView(copy, this);
     this.state = snapshotOf(copy, 0);
     worker.onmessage = (e: MessageEvent<FromWorker>) => this.receive(e.data);
+    worker.onerror = (e) => this.onError(e.message || 'the stepping worker failed');
     this.send({ type: 'load', epoch: ++this.epoch, source, parameters });
   }
 

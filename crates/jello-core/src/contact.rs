@@ -140,51 +140,108 @@ impl Contacts {
         let (kc, dc, mu) = (model.k_collision, model.d_collision, model.friction);
         let (vx, vy, vz) = (v.x(), v.y(), v.z());
         let [fx, fy, fz] = forces.parts_mut();
+        let grid = Grid {
+            starts: &starts[..],
+            entries: &entries[..],
+            entry_cells: &entry_cells[..],
+            entry_body: &entry_body[..],
+        };
         for (b, body) in bodies.iter().enumerate() {
-            let others = body.points();
             for a in active_points(body) {
-                let c = point_cells[a];
                 let (pa, va) = (
                     Vec3::new(px[a], py[a], pz[a]),
                     Vec3::new(vx[a], vy[a], vz[a]),
                 );
                 let mut f = Vec3::ZERO;
-                for n in 0..27 {
-                    let d = [n / 9 - 1, n / 3 % 3 - 1, n % 3 - 1];
-                    let near = [
-                        c[0].wrapping_add(d[0]),
-                        c[1].wrapping_add(d[1]),
-                        c[2].wrapping_add(d[2]),
-                    ];
-                    let bucket = hash(near) & mask;
-                    let range = starts[bucket] as usize..starts[bucket + 1] as usize;
-                    let near_entries = entries[range.clone()]
-                        .iter()
-                        .zip(&entry_cells[range.clone()])
-                        .zip(&entry_body[range]);
-                    for ((&e, &ec), &eb) in near_entries {
-                        // Another cell hashed to the same bucket, or the same body: skip.
-                        let e = e as usize;
-                        if ec != near || others.contains(&e) {
-                            continue;
-                        }
-                        let (pb, vb) = (
-                            Vec3::new(px[e], py[e], pz[e]),
-                            Vec3::new(vx[e], vy[e], vz[e]),
-                        );
-                        let eb = eb as usize;
-                        let reach = radius[b] + radius[eb];
-                        // The friction's cap: the pair's reduced mass over the step (none
-                        // needed without friction, so no division per candidate pair then).
-                        let c_max = if mu > 0.0 {
-                            mass[b] * mass[eb] / ((mass[b] + mass[eb]) * model.dt)
-                        } else {
-                            0.0
-                        };
-                        f += pair_force(pa - pb, va - vb, reach, [kc, dc, mu, c_max]);
-                    }
-                }
+                grid.for_each_near(body, point_cells[a], |e, eb| {
+                    let (pb, vb) = (
+                        Vec3::new(px[e], py[e], pz[e]),
+                        Vec3::new(vx[e], vy[e], vz[e]),
+                    );
+                    let reach = radius[b] + radius[eb];
+                    // The friction's cap: the pair's reduced mass over the step (none needed
+                    // without friction, so no division per candidate pair then).
+                    let c_max = if mu > 0.0 {
+                        mass[b] * mass[eb] / ((mass[b] + mass[eb]) * model.dt)
+                    } else {
+                        0.0
+                    };
+                    f += pair_force(pa - pb, va - vb, reach, [kc, dc, mu, c_max]);
+                });
                 (fx[a], fy[a], fz[a]) = (f.x, f.y, f.z);
+            }
+        }
+    }
+
+    /// After [`Contacts::compute`] at positions `p`: every pair of balls of different bodies
+    /// that overlap, once each (`a < b`), with the sum of their radii. In a fixed order.
+    pub(crate) fn for_each_pair(
+        &self,
+        model: &Model,
+        p: &Soa,
+        mut pair: impl FnMut(usize, usize, f64),
+    ) {
+        let bodies = model.bodies();
+        if bodies.len() < 2 {
+            return;
+        }
+        let grid = Grid {
+            starts: &self.starts,
+            entries: &self.entries,
+            entry_cells: &self.entry_cells,
+            entry_body: &self.entry_body,
+        };
+        let (px, py, pz) = (p.x(), p.y(), p.z());
+        for (b, body) in bodies.iter().enumerate() {
+            for a in active_points(body) {
+                let pa = Vec3::new(px[a], py[a], pz[a]);
+                grid.for_each_near(body, self.point_cells[a], |e, eb| {
+                    let reach = self.radius[b] + self.radius[eb];
+                    let d = pa - Vec3::new(px[e], py[e], pz[e]);
+                    if a < e && d.length_squared() < reach * reach {
+                        pair(a, e, reach);
+                    }
+                });
+            }
+        }
+    }
+}
+
+/// The hashed grid of the active points, as [`Contacts::compute`] sorted them.
+struct Grid<'a> {
+    starts: &'a [u32],
+    entries: &'a [u32],
+    entry_cells: &'a [[i32; 3]],
+    entry_body: &'a [u32],
+}
+
+impl Grid<'_> {
+    /// Calls `near(e, body of e)` for every active point `e` of a body other than `body` in the
+    /// 27 grid cells around `cell`, in a fixed order.
+    #[inline]
+    fn for_each_near(&self, body: &Body, cell: [i32; 3], mut near: impl FnMut(usize, usize)) {
+        let mask = self.starts.len() - 2;
+        let own = body.points();
+        for n in 0..27 {
+            let d = [n / 9 - 1, n / 3 % 3 - 1, n % 3 - 1];
+            let around = [
+                cell[0].wrapping_add(d[0]),
+                cell[1].wrapping_add(d[1]),
+                cell[2].wrapping_add(d[2]),
+            ];
+            let bucket = hash(around) & mask;
+            let range = self.starts[bucket] as usize..self.starts[bucket + 1] as usize;
+            let candidates = self.entries[range.clone()]
+                .iter()
+                .zip(&self.entry_cells[range.clone()])
+                .zip(&self.entry_body[range]);
+            for ((&e, &ec), &eb) in candidates {
+                // Another cell hashed to the same bucket, or the same body: skip.
+                let e = e as usize;
+                if ec != around || own.contains(&e) {
+                    continue;
+                }
+                near(e, eb as usize);
             }
         }
     }

@@ -25,7 +25,8 @@
 //! stiffness matrix of the springs (with a compressed spring's negative transverse stiffness,
 //! or, when that leaves `A` not positive definite, clamped at zero), of the penalty springs the
 //! point is in at the iterate (with an obstacle's friction ties along its surface: their full
-//! stiffness while they hold, their sliding stiffness once they slide), of the
+//! stiffness while they hold, their sliding stiffness once they slide), of the contacts between
+//! bodies at the iterate (each pair of overlapping balls a pushing spring), of the
 //! pulls and of the field (the symmetric part of minus its gradient, made positive
 //! semi-definite), by conjugate gradients preconditioned with `A`'s 3×3 diagonal blocks. They
 //! stop when their residual has fallen a hundredfold, and a hundredfold further after each
@@ -50,6 +51,7 @@
 //! bit-identical on any thread count), so results do not depend on the thread count; the buffers
 //! are sized on the first implicit step and reused, so later steps do not allocate.
 
+use crate::contact::Contacts;
 use crate::field::ForceField;
 use crate::forces::{force_pass, ForceScratch};
 use crate::friction::Anchors;
@@ -214,6 +216,12 @@ pub struct ImplicitScratch {
     x_soa: Soa,
     v_soa: Soa,
     acc: Soa,
+    /// Contacts between bodies at the iterate, for `A`: the pairs of points in contact and
+    /// their blocks (a penalty spring's, as [`Block`] has it), found through a contact pass of
+    /// their own.
+    contacts: Contacts,
+    pair_rows: Vec<[u32; 2]>,
+    pair_blocks: Vec<Block>,
 }
 
 impl ImplicitScratch {
@@ -232,7 +240,7 @@ impl ImplicitScratch {
     }
 
     fn fits(&self, model: &Model) -> bool {
-        self.mass.len() == model.point_count()
+        self.mass.len() == model.point_count() && self.contacts.fits(model)
     }
 
     fn new(model: &Model) -> Self {
@@ -263,6 +271,11 @@ impl ImplicitScratch {
             x_soa: Soa::zeros(n),
             v_soa: Soa::zeros(n),
             acc: Soa::zeros(n),
+            contacts: Contacts::new(model),
+            // Room for 8 contacts a point (two lattices of the same spacing touch at most 8
+            // points of the other), so stepping does not allocate.
+            pair_rows: Vec::with_capacity(if model.bodies().len() > 1 { 8 * n } else { 0 }),
+            pair_blocks: Vec::with_capacity(if model.bodies().len() > 1 { 8 * n } else { 0 }),
         }
     }
 
@@ -821,13 +834,47 @@ fn assemble(
         let c = h * pull.damping + h2 * pull.stiffness;
         e[..3].iter_mut().for_each(|e| *e += c);
     }
-    // The diagonal blocks: the point's own part plus each spring's block at both ends.
+    // Contacts between bodies: each pair of balls that overlap at the iterate is a penalty
+    // spring of rest length the sum of their radii, pushing only (undamped here, as in `f`).
+    s.pair_rows.clear();
+    s.pair_blocks.clear();
+    if model.bodies().len() > 1 {
+        {
+            let [xx, xy, xz] = s.x_soa.parts_mut();
+            for i in 0..s.v.len() {
+                let p = at(i, &s.v);
+                (xx[i], xy[i], xz[i]) = (p.x, p.y, p.z);
+            }
+        }
+        s.contacts.compute(model, &s.x_soa, &s.v_soa);
+        let (rows, blocks, v) = (&mut s.pair_rows, &mut s.pair_blocks, &s.v);
+        s.contacts.for_each_pair(model, &s.x_soa, |a, b, reach| {
+            let d = at(a, v) - at(b, v);
+            let l = d.length();
+            if l > 0.0 {
+                let transverse = if clamp {
+                    0.0
+                } else {
+                    h2 * kc * (1.0 - reach / l)
+                };
+                rows.push([a as u32, b as u32]);
+                blocks.push(Block {
+                    u: d / l,
+                    axial: h2 * kc,
+                    transverse,
+                    ..Block::default()
+                });
+            }
+        });
+    }
+    // The diagonal blocks: the point's own part plus each spring's and contact's block at both
+    // ends.
     s.diag_inv.copy_from_slice(&s.extra);
-    for (row, b) in s.rows.iter().zip(&s.blocks) {
+    for ([a, c], b) in couplings(&s.rows, &s.blocks, &s.pair_rows, &s.pair_blocks) {
         let mut m = [b.transverse, b.transverse, b.transverse, 0.0, 0.0, 0.0];
         add_outer(&mut m, b.u, b.axial - b.transverse);
         add_outer(&mut m, b.u0, b.damping);
-        for p in [row.a as usize, row.b as usize] {
+        for p in [a, c] {
             for (d, m) in s.diag_inv[p].iter_mut().zip(&m) {
                 *d += m;
             }
@@ -862,13 +909,25 @@ fn field_stiffness(field: &ForceField, p: Vec3) -> Sym {
     k
 }
 
+/// The blocks of `A` that couple two points, with the points: the springs', then the contacts'
+/// between bodies.
+fn couplings<'a>(
+    rows: &'a [Row],
+    blocks: &'a [Block],
+    pairs: &'a [[u32; 2]],
+    pair_blocks: &'a [Block],
+) -> impl Iterator<Item = ([usize; 2], &'a Block)> {
+    let springs = rows.iter().map(|r| [r.a as usize, r.b as usize]);
+    let contacts = pairs.iter().map(|&[a, b]| [a as usize, b as usize]);
+    springs.zip(blocks).chain(contacts.zip(pair_blocks))
+}
+
 /// `y = A·x` over the free points (others give 0).
 fn apply(s: &ImplicitScratch, x: &[Vec3], y: &mut [Vec3]) {
     for ((y, e), (&x, &f)) in y.iter_mut().zip(&s.extra).zip(x.iter().zip(&s.free)) {
         *y = sym_mul(e, x) * f;
     }
-    for (row, b) in s.rows.iter().zip(&s.blocks) {
-        let (a, c) = (row.a as usize, row.b as usize);
+    for ([a, c], b) in couplings(&s.rows, &s.blocks, &s.pair_rows, &s.pair_blocks) {
         let dx = x[a] - x[c];
         let along = b.u * b.u.dot(dx);
         let f = along * b.axial + (dx - along) * b.transverse + b.u0 * (b.damping * b.u0.dot(dx));
