@@ -7,7 +7,7 @@ mod common;
 #[path = "common/meshes.rs"]
 mod meshes;
 
-use common::{max_diff, Lcg as Rng};
+use common::{cube, jelly, max_diff, stacked_cubes, Lcg as Rng};
 use jello_core::contact::pair_force;
 use jello_core::diagnostics::{body_centre_of_mass, momentum};
 use jello_core::forces::accelerations;
@@ -199,19 +199,6 @@ fn a_shape_at_rest_stays_at_rest() {
 }
 
 /// A cube body of `n` points per side and side `side`, resting with its lower corner at `at`.
-fn cube(n: usize, side: f64, at: Vec3, material: Material) -> Body {
-    Body::lattice_box(Lattice::new([n; 3], Vec3::new(side, side, side)), material)
-        .placed(at, jello_core::body::IDENTITY)
-}
-
-fn jelly(mass: f64) -> Material {
-    Material {
-        mass,
-        stiffness: [400.0; 3],
-        damping: [1.0; 3],
-    }
-}
-
 /// The pair force is exactly antisymmetric, so contacts conserve momentum to rounding.
 #[test]
 fn the_contact_force_is_equal_and_opposite() {
@@ -275,18 +262,7 @@ fn colliding_bodies_bounce_and_conserve_momentum() {
 /// bodies come to rest without sinking into each other.
 #[test]
 fn stacked_bodies_stay_stacked() {
-    let floor = Aabb::new(Vec3::new(-2.0, 0.0, -2.0), Vec3::new(2.0, 4.0, 2.0)).unwrap();
-    let lower = cube(5, 0.5, Vec3::new(-0.25, 0.0, -0.25), jelly(0.02));
-    let upper = cube(5, 0.4, Vec3::new(-0.2, 0.65, -0.2), jelly(0.015));
-    let model = ModelBuilder::new()
-        .bodies(vec![lower, upper])
-        .bounds(floor)
-        .collision(2000.0, 2.0)
-        .friction(0.5)
-        .gravity(Vec3::new(0.0, -9.81, 0.0))
-        .dt(0.0002)
-        .build()
-        .unwrap();
+    let model = stacked_cubes().dt(0.0002).build().unwrap();
     let mut state = State::at_rest(&model);
     let mut scratch = Scratch::new(&model);
     let (rl, ru) = (model.body(0).points(), model.body(1).points());

@@ -4,7 +4,7 @@
 
 mod common;
 
-use common::{max_diff, Lcg as Rng};
+use common::{max_diff, stacked_cubes, Lcg as Rng};
 use jello_core::diagnostics::{energy, momentum};
 use jello_core::implicit::{Newton, SDIRK2_C, SDIRK2_GAMMA};
 use jello_core::stability::stable_dt;
@@ -471,26 +471,9 @@ fn a_cube_landing_on_a_slope_with_friction_converges() {
 /// second.
 #[test]
 fn a_cube_dropped_on_another_converges() {
-    let floor = Aabb::new(Vec3::new(-2.0, 0.0, -2.0), Vec3::new(2.0, 4.0, 2.0)).unwrap();
-    let jelly = |mass| Material {
-        mass,
-        stiffness: [400.0; 3],
-        damping: [1.0; 3],
-    };
-    let cube = |n, side: f64, at: Vec3, material| {
-        Body::lattice_box(Lattice::new([n; 3], Vec3::new(side, side, side)), material)
-            .placed(at, jello_core::body::IDENTITY)
-    };
     for integrator in [Integrator::BackwardEuler, Integrator::Sdirk2] {
         for dt in [0.01, 1.0 / 60.0] {
-            let lower = cube(5, 0.5, Vec3::new(-0.25, 0.0, -0.25), jelly(0.02));
-            let upper = cube(5, 0.4, Vec3::new(-0.2, 0.65, -0.2), jelly(0.015));
-            let model = ModelBuilder::new()
-                .bodies(vec![lower, upper])
-                .bounds(floor)
-                .collision(2000.0, 2.0)
-                .friction(0.5)
-                .gravity(Vec3::new(0.0, -9.81, 0.0))
+            let model = stacked_cubes()
                 .integrator(integrator)
                 .dt(dt)
                 .build()

@@ -3,7 +3,9 @@
 
 use std::path::PathBuf;
 
-use jello_core::{Aabb, Control, ForceField, Model, Scratch, State, Vec3};
+use jello_core::{
+    Aabb, Body, Control, ForceField, Lattice, Material, Model, ModelBuilder, Scratch, State, Vec3,
+};
 
 /// The world files collected from the wild, beside the project; `None` (with a message) when
 /// `../shared` is absent.
@@ -85,4 +87,34 @@ pub fn max_diff(a: &[Vec3], b: &[Vec3]) -> f64 {
         .zip(b)
         .map(|(p, q)| (*p - *q).max_abs())
         .fold(0.0, f64::max)
+}
+
+/// A full `n³` lattice body of side `side`, its corner at `at`.
+pub fn cube(n: usize, side: f64, at: Vec3, material: Material) -> Body {
+    Body::lattice_box(Lattice::new([n; 3], Vec3::new(side, side, side)), material)
+        .placed(at, jello_core::body::IDENTITY)
+}
+
+/// A soft material of `mass` per point (stiffness 400 N/m, damping 1 N·s/m on every spring).
+pub fn jelly(mass: f64) -> Material {
+    Material {
+        mass,
+        stiffness: [400.0; 3],
+        damping: [1.0; 3],
+    }
+}
+
+/// One cube above another on the floor (y up, the floor at y = 0), under gravity, with friction
+/// 0.5 and collision 2000 N/m, 2 N·s/m: the upper one 0.15 m above the lower. Add the step and
+/// integrator.
+pub fn stacked_cubes() -> ModelBuilder {
+    let floor = Aabb::new(Vec3::new(-2.0, 0.0, -2.0), Vec3::new(2.0, 4.0, 2.0)).unwrap();
+    let lower = cube(5, 0.5, Vec3::new(-0.25, 0.0, -0.25), jelly(0.02));
+    let upper = cube(5, 0.4, Vec3::new(-0.2, 0.65, -0.2), jelly(0.015));
+    ModelBuilder::new()
+        .bodies(vec![lower, upper])
+        .bounds(floor)
+        .collision(2000.0, 2.0)
+        .friction(0.5)
+        .gravity(Vec3::new(0.0, -9.81, 0.0))
 }
