@@ -22,8 +22,10 @@
 //! undamped.) The scheme is first order; as `h → 0` it agrees with the explicit integrators.
 //!
 //! Newton's method: each iteration solves `A·Δv = −M·g` with `A = M + h·D₀ + h²·K`, `K` the
-//! stiffness matrix of the springs (with a compressed spring's negative transverse stiffness,
-//! or, when that leaves `A` not positive definite, clamped at zero), of the penalty springs the
+//! stiffness matrix of the springs (with a compressed spring's negative transverse stiffness;
+//! when that leaves `A` not positive definite, the masses in `A` are scaled up by a
+//! Levenberg–Marquardt shift until it is, and only when no shift up to ~40 will do is that
+//! stiffness clamped at zero), of the penalty springs the
 //! point is in at the iterate (with an obstacle's friction ties along its surface: their full
 //! stiffness while they hold, their sliding stiffness once they slide), of the contacts between
 //! bodies at the iterate (each pair of overlapping balls a pushing spring), of the
@@ -408,6 +410,7 @@ fn backward_euler(
     let mut norm2 = residual(model, control, force, s, x0, v0, h, false);
     let mut iterations = 0;
     let mut reduction = CG_REDUCTION;
+    let mut shift = 0.0;
     loop {
         let (norm, vmax) = max_norms(&s.g, &s.v);
         if norm <= model.newton.tolerance * vmax.max(1.0) {
@@ -417,13 +420,48 @@ fn backward_euler(
             return Err(not_converged(&s.g, iterations));
         }
         iterations += 1;
-        // The springs' true transverse stiffness first (a compressed spring's is negative, and
-        // clamping it slows Newton's method down to a crawl on a crushed lattice); clamped at
-        // zero when that makes A indefinite.
-        assemble(model, control, force.anchors(), s, x0, h, false);
-        if !solve(s, reduction) {
-            assemble(model, control, force.anchors(), s, x0, h, true);
-            solve(s, reduction);
+        // The springs' true transverse stiffness (a compressed spring's is negative, and
+        // clamping it slows Newton's method down to a crawl on a crushed lattice). When that
+        // makes A indefinite, the masses are scaled up by a shift until it is not (a
+        // Levenberg–Marquardt step, which keeps the true curvature where it is positive and so
+        // becomes Newton's method again as the shift decays near the solution); clamped only
+        // when no shift up to ~40 times the masses will do.
+        assemble(
+            model,
+            control,
+            force.anchors(),
+            s,
+            x0,
+            h,
+            Curvature::True { shift },
+        );
+        if solve(s, reduction) {
+            shift = if shift < 1e-3 { 0.0 } else { shift * 0.25 };
+        } else {
+            let mut tried = if shift == 0.0 { 1e-2 } else { shift * 4.0 };
+            let mut solved = false;
+            for _ in 0..5 {
+                let curvature = Curvature::True { shift: tried };
+                assemble(model, control, force.anchors(), s, x0, h, curvature);
+                if solve(s, reduction) {
+                    shift = tried;
+                    solved = true;
+                    break;
+                }
+                tried *= 8.0;
+            }
+            if !solved {
+                assemble(
+                    model,
+                    control,
+                    force.anchors(),
+                    s,
+                    x0,
+                    h,
+                    Curvature::Clamped,
+                );
+                solve(s, reduction);
+            }
         }
         let before = norm2;
         match line_search(model, control, force, s, x0, v0, h, norm2) {
@@ -753,6 +791,16 @@ fn contact_change(model: &Model, xv: Vec3, xt: Vec3, step: Vec3) -> f64 {
     whole_t - whole_v
 }
 
+/// Which stiffness [`assemble`] puts in `A`.
+#[derive(Clone, Copy, Debug)]
+enum Curvature {
+    /// The true one (a compressed spring's transverse stiffness is negative), with the masses
+    /// scaled by `1 + shift` (a Levenberg–Marquardt shift, 0 for Newton's method itself).
+    True { shift: f64 },
+    /// Negative transverse stiffnesses clamped at zero: `A` is positive definite.
+    Clamped,
+}
+
 /// The blocks of `A` at the iterate, the contact and pull parts, and the inverted diagonal.
 fn assemble(
     model: &Model,
@@ -761,13 +809,17 @@ fn assemble(
     s: &mut ImplicitScratch,
     x0: &[Vec3],
     h: f64,
-    clamp: bool,
+    curvature: Curvature,
 ) {
     let h2 = h * h;
+    let (clamp, shift) = match curvature {
+        Curvature::True { shift } => (false, shift),
+        Curvature::Clamped => (true, 0.0),
+    };
     let at = |p: usize, v: &[Vec3]| x0[p] + v[p] * h;
     for (i, e) in s.extra.iter_mut().enumerate() {
         *e = [0.0; 6];
-        e[..3].fill(s.mass[i]);
+        e[..3].fill(s.mass[i] * (1.0 + shift));
     }
     for ((row, block), &u0) in s.rows.iter().zip(s.blocks.iter_mut()).zip(&s.start_dir) {
         let d = at(row.a as usize, &s.v) - at(row.b as usize, &s.v);
