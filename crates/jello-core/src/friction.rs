@@ -67,15 +67,44 @@ pub fn obstacle(
     if anchor.x.is_nan() {
         return sliding(n, v, limit, c_max);
     }
-    let offset = p - anchor;
-    let offset_t = offset - n * offset.dot(n);
-    let vt = v - n * v.dot(n);
-    let f = offset_t * -kc - vt * dc;
+    let f = across(p - anchor, n) * -kc - across(v, n) * dc;
     let size = f.length();
     if size > limit {
         f * (limit / size)
     } else {
         f
+    }
+}
+
+/// The part of `a` across the unit normal `n`.
+#[inline(always)]
+fn across(a: Vec3, n: Vec3) -> Vec3 {
+    a - n * a.dot(n)
+}
+
+/// The stiffness of [`obstacle`]'s tie at zero velocity (minus its derivative with respect to
+/// `p`), as the implicit integrators take it: `k` (N/m) across the normal `n`, except along the
+/// unit direction returned with it, where there is none. While the tie holds
+/// (`|f| ≤ μ·kc·depth`) that is `kc` and no direction; once it slides, the force keeps the
+/// limit's size and turns with the offset, so `(limit/|f|)·kc` and nothing along the force. No
+/// anchor, or no friction: no tie (`k` = 0). The limit's growth with depth is left out (it would
+/// make the stiffness unsymmetric).
+pub(crate) fn obstacle_stiffness(
+    p: Vec3,
+    depth: f64,
+    n: Vec3,
+    anchor: Vec3,
+    [kc, mu]: [f64; 2],
+) -> (f64, Option<Vec3>) {
+    if mu <= 0.0 || anchor.x.is_nan() {
+        return (0.0, None);
+    }
+    let f = across(p - anchor, n) * -kc;
+    let (size, limit) = (f.length(), mu * kc * depth);
+    if size > limit {
+        (kc * limit / size, Some(f * (1.0 / size)))
+    } else {
+        (kc, None)
     }
 }
 

@@ -56,7 +56,7 @@
 use crate::contact::Contacts;
 use crate::field::ForceField;
 use crate::forces::{force_pass, ForceScratch};
-use crate::friction::Anchors;
+use crate::friction::{self, Anchors};
 use crate::integrator::Integrator;
 use crate::model::Model;
 use crate::soa::Soa;
@@ -420,49 +420,16 @@ fn backward_euler(
             return Err(not_converged(&s.g, iterations));
         }
         iterations += 1;
-        // The springs' true transverse stiffness (a compressed spring's is negative, and
-        // clamping it slows Newton's method down to a crawl on a crushed lattice). When that
-        // makes A indefinite, the masses are scaled up by a shift until it is not (a
-        // Levenberg–Marquardt step, which keeps the true curvature where it is positive and so
-        // becomes Newton's method again as the shift decays near the solution); clamped only
-        // when no shift up to ~40 times the masses will do.
-        assemble(
+        newton_direction(
             model,
             control,
             force.anchors(),
             s,
             x0,
             h,
-            Curvature::True { shift },
+            reduction,
+            &mut shift,
         );
-        if solve(s, reduction) {
-            shift = if shift < 1e-3 { 0.0 } else { shift * 0.25 };
-        } else {
-            let mut tried = if shift == 0.0 { 1e-2 } else { shift * 4.0 };
-            let mut solved = false;
-            for _ in 0..5 {
-                let curvature = Curvature::True { shift: tried };
-                assemble(model, control, force.anchors(), s, x0, h, curvature);
-                if solve(s, reduction) {
-                    shift = tried;
-                    solved = true;
-                    break;
-                }
-                tried *= 8.0;
-            }
-            if !solved {
-                assemble(
-                    model,
-                    control,
-                    force.anchors(),
-                    s,
-                    x0,
-                    h,
-                    Curvature::Clamped,
-                );
-                solve(s, reduction);
-            }
-        }
         let before = norm2;
         match line_search(model, control, force, s, x0, v0, h, norm2) {
             Some(reached) => norm2 = reached,
@@ -791,6 +758,43 @@ fn contact_change(model: &Model, xv: Vec3, xt: Vec3, step: Vec3) -> f64 {
     whole_t - whole_v
 }
 
+/// Solves for the Newton direction at the iterate into `s.dv`, with the springs' true transverse
+/// stiffness (a compressed spring's is negative; clamping it slows Newton's method down to a
+/// crawl on a crushed lattice). When that makes `A` indefinite, the masses in it are scaled up
+/// by a shift until it is not: a Levenberg–Marquardt step, which keeps the true curvature where
+/// it is positive, and becomes Newton's method again as the shift decays (a quarter per solve
+/// that needs none larger) near the solution. Only when no shift up to ~40 will do are the
+/// negative stiffnesses clamped at zero. `shift` carries over between iterations of a step.
+#[allow(clippy::too_many_arguments)]
+fn newton_direction(
+    model: &Model,
+    control: &Control,
+    anchors: &Anchors,
+    s: &mut ImplicitScratch,
+    x0: &[Vec3],
+    h: f64,
+    reduction: f64,
+    shift: &mut f64,
+) {
+    let mut solve_with = |curvature| {
+        assemble(model, control, anchors, s, x0, h, curvature);
+        solve(s, reduction)
+    };
+    if solve_with(Curvature::True { shift: *shift }) {
+        *shift = if *shift < 1e-3 { 0.0 } else { *shift * 0.25 };
+        return;
+    }
+    let mut tried = if *shift == 0.0 { 1e-2 } else { *shift * 4.0 };
+    for _ in 0..5 {
+        if solve_with(Curvature::True { shift: tried }) {
+            *shift = tried;
+            return;
+        }
+        tried *= 8.0;
+    }
+    solve_with(Curvature::Clamped);
+}
+
 /// Which stiffness [`assemble`] puts in `A`.
 #[derive(Clone, Copy, Debug)]
 enum Curvature {
@@ -844,7 +848,7 @@ fn assemble(
         };
     }
     // Penalty springs of walls, plane and obstacles where the iterate is, with the obstacles'
-    // friction ties (see `tie_stiffness`), their dampers as at the start, and pulls.
+    // friction ties, their dampers as at the start, and pulls.
     let kc = model.k_collision;
     for (i, e) in s.extra.iter_mut().enumerate() {
         if s.free[i] == 0.0 {
@@ -873,10 +877,16 @@ fn assemble(
             .filter_map(|(o, ob)| ob.contact(p).map(|c| (o, c)))
         {
             add_outer(e, c.normal, h2 * kc);
+            // The friction tie: its holding stiffness, or its sliding one (a tie that slides
+            // with its holding stiffness in `A` cut Newton's steps along the slide to
+            // `m/(m + h²·kc)`, and scenes with friction crept to a standstill).
             if let Some(&anchor) = anchors.of(o).get(i) {
-                let tie = tie_stiffness(p, c.normal, c.depth, anchor, kc, model.friction);
-                for (e, t) in e.iter_mut().zip(tie) {
-                    *e += h2 * t;
+                let law = [kc, model.friction];
+                let (k, sliding) = friction::obstacle_stiffness(p, c.depth, c.normal, anchor, law);
+                e[..3].iter_mut().for_each(|e| *e += h2 * k);
+                add_outer(e, c.normal, -h2 * k);
+                if let Some(along) = sliding {
+                    add_outer(e, along, -h2 * k);
                 }
             }
         }
@@ -986,35 +996,6 @@ fn apply(s: &ImplicitScratch, x: &[Vec3], y: &mut [Vec3]) {
         y[a] += f * s.free[a];
         y[c] -= f * s.free[c];
     }
-}
-
-/// The stiffness (N/m, a symmetric 3×3 block) of an obstacle's friction tie on a point at `p`
-/// touching it at `depth` along the unit normal `n`, tied to `anchor` (NaN: not yet), as the
-/// implicit solve evaluates it (at zero velocity, see [`crate::friction::obstacle`]): the tie
-/// `f = −kc·Δt` across the normal while `|f|` is within the Coulomb limit `μ·kc·depth`; beyond
-/// it the force keeps the limit's size and turns with `Δt`, so its stiffness is
-/// `(limit/|f|)·kc` across both the normal and the force (nothing along the force: a sliding
-/// point's friction does not grow as it slides on). A point without an anchor feels no friction
-/// at zero velocity. (The limit's growth with depth is left out: it would make `A` unsymmetric.)
-///
-/// With the tie's full stiffness in `A` while it slides, Newton's steps along the sliding were
-/// cut by `m/(m + h²·kc)`, a few percent, and a scene resting with friction crept to its
-/// tolerance and stopped there.
-fn tie_stiffness(p: Vec3, n: Vec3, depth: f64, anchor: Vec3, kc: f64, mu: f64) -> Sym {
-    if mu <= 0.0 || anchor.x.is_nan() {
-        return [0.0; 6];
-    }
-    let offset = p - anchor;
-    let f = (offset - n * offset.dot(n)) * -kc;
-    let (size, limit) = (f.length(), mu * kc * depth);
-    let mut block = [kc, kc, kc, 0.0, 0.0, 0.0];
-    add_outer(&mut block, n, -kc);
-    if size > limit {
-        let scale = limit / size;
-        block.iter_mut().for_each(|b| *b *= scale);
-        add_outer(&mut block, f * (1.0 / size), -kc * scale);
-    }
-    block
 }
 
 fn dot(a: &[Vec3], b: &[Vec3]) -> f64 {
