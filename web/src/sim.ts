@@ -355,7 +355,6 @@ export function parseWorld(text: string, name: string): JelloSim {
  *  scene of more than [`IMPLICIT_ABOVE_POINTS`] points stepped by an explicit method starts with
  *  the implicit default. `undefined` when its own stand. */
 export function startingParameters(sim: JelloSim): Parameters | undefined {
-  const explicit = !['BackwardEuler', 'SDIRK2'].includes(sim.integrator);
-  if (sim.pointCount <= IMPLICIT_ABOVE_POINTS || !explicit) return undefined;
+  if (sim.pointCount <= IMPLICIT_ABOVE_POINTS || sim.isImplicit) return undefined;
   return { integrator: IMPLICIT_DEFAULT.integrator, dt: IMPLICIT_DEFAULT.dt, stiffness: sim.stiffness, damping: sim.damping, mass: sim.mass };
 }

@@ -371,10 +371,16 @@ impl JelloSim {
         out
     }
 
-    /// Integrator name (`Euler`, `RK2`, `RK4`, `SymplecticEuler`).
+    /// Integrator name (one of [`JelloSim::integrator_names`]).
     #[wasm_bindgen(getter)]
     pub fn integrator(&self) -> String {
         self.sim.model.integrator.name().to_string()
+    }
+
+    /// True when the integrator in use is implicit (no stability limit on dt).
+    #[wasm_bindgen(getter, js_name = isImplicit)]
+    pub fn is_implicit(&self) -> bool {
+        self.sim.model.integrator.is_implicit()
     }
 
     /// Every integrator name, in the order to list them.
