@@ -14,6 +14,11 @@
 //! chunk's springs, fused with the caller's update ([`force_pass`]), while the chunk is in cache.
 //! Threads take contiguous ranges of chunks; the chunking does not depend on the thread count, so
 //! neither does any sum: results are bit for bit the same on 1 thread or many.
+//!
+//! A range that does not start at the first chunk computes the halo of the chunk before it
+//! itself (the springs reaching across, in the same order, so the same bits) rather than waiting
+//! for the thread that owns that chunk. So ranges share nothing and never wait for each other:
+//! a pass costs its longest range, plus at most two planes of springs.
 
 use std::ops::Range;
 
@@ -59,10 +64,12 @@ pub struct ForceScratch {
 /// The buffers of one body's spring pass.
 #[derive(Clone, Debug, Default)]
 struct BodyScratch {
-    /// Spring forces (N) on the points of a chunk: two buffers per range of chunks a thread
-    /// takes, one for its first chunk (kept until the chunk before it is done) and one for the
-    /// others in turn, so they stay in cache.
+    /// Spring forces (N) on the points of a chunk: one buffer per range of chunks a thread takes,
+    /// reused chunk after chunk, so it stays in cache.
     owns: Vec<Soa>,
+    /// Per range of chunks: the halo of the chunk before the range (forces on the range's first
+    /// [`HALO_PLANES`] planes from the springs reaching back), computed by the range itself.
+    entry_halos: Vec<Soa>,
     /// Per chunk: forces on the [`HALO_PLANES`] planes after the chunk.
     halos: Vec<Soa>,
     /// Per chunk: the forces of one block of springs.
@@ -167,9 +174,11 @@ impl BodyScratch {
         let row_len = RUN_BLOCK.min(CHUNK_PLANES.min(nx) * plane);
         let masks = Masks::new(ny, nz, row_len);
         let chunk_len = CHUNK_PLANES.min(nx) * plane;
+        let ranges = range_count(body);
         BodyScratch {
-            owns: vec![Soa::with_color(chunk_len, 2); 2 * range_count(body)],
-            halos: vec![Soa::with_color(HALO_PLANES * ny * nz, 1); chunks],
+            owns: vec![Soa::with_color(chunk_len, 2); ranges],
+            entry_halos: vec![Soa::with_color(HALO_PLANES * plane, 1); ranges],
+            halos: vec![Soa::with_color(HALO_PLANES * plane, 1); chunks],
             rows: vec![Soa::with_color(row_len, 3); chunks],
             masks,
             spans: link_spans(body.links(), chunks, chunk_len, row_len),
@@ -180,8 +189,10 @@ impl BodyScratch {
         let [nx, ny, nz] = body.lattice().counts;
         let chunk_len = CHUNK_PLANES.min(nx) * ny * nz;
         let row_len = RUN_BLOCK.min(chunk_len);
-        self.owns.len() >= 2
+        !self.owns.is_empty()
             && self.owns[0].len() == chunk_len
+            && self.entry_halos.len() == self.owns.len()
+            && self.entry_halos[0].len() == HALO_PLANES * ny * nz
             && self.halos.len() == nx.div_ceil(CHUNK_PLANES)
             && self
                 .halos
@@ -229,12 +240,17 @@ fn link_spans(links: &[u16], chunks: usize, chunk_len: usize, block: usize) -> V
     spans
 }
 
-/// Contiguous ranges of chunks a body's spring pass is split into for threads: two per thread of
-/// the rayon pool, for balance, on lattices large enough to be worth it; else one.
+/// Contiguous ranges of chunks a body's spring pass is split into for threads, on lattices large
+/// enough to be worth it (else one): one per thread of the rayon pool, or two where each still
+/// gets two chunks (spare ranges balance the threads that run slower), never more than the
+/// chunks. Each range but the first also computes the halo of the chunk before it (a fraction of
+/// a chunk), which is why small ranges are avoided.
 fn range_count(body: &Body) -> usize {
     #[cfg(feature = "parallel")]
     if body.len() >= PARALLEL_MIN_POINTS {
-        return 2 * rayon::current_num_threads();
+        let chunks = body.lattice().counts[0].div_ceil(CHUNK_PLANES);
+        let threads = rayon::current_num_threads();
+        return (2 * threads).min(chunks / 2).max(threads).clamp(1, chunks);
     }
     let _ = body;
     1
@@ -386,6 +402,7 @@ where
         body,
         BodyScratch {
             owns,
+            entry_halos,
             halos,
             rows,
             masks,
@@ -412,10 +429,14 @@ where
         };
         // As many ranges as the buffers allow (the pool may have grown since they were sized;
         // the ranges only decide which thread computes what, never the results).
-        let ranges = range_count(body).min(owns.len() / 2);
-        all &= pass
-            .chunks(0..chunks, owns, halos, rows, body_outs, false, ranges)
-            .0;
+        let ranges = range_count(body).min(owns.len());
+        let buffers = ChunkBuffers {
+            owns,
+            entry_halos,
+            halos,
+            rows,
+        };
+        all &= pass.chunks(0..chunks, buffers, body_outs, ranges);
     }
     all
 }
@@ -435,6 +456,40 @@ struct Pass<'a, U> {
     update: &'a U,
 }
 
+/// The buffers of a body's spring pass that ranges of chunks take for their own: per range, a
+/// spring-force buffer and an entry halo; per chunk, its halo and row buffer.
+struct ChunkBuffers<'a> {
+    owns: &'a mut [Soa],
+    entry_halos: &'a mut [Soa],
+    halos: &'a mut [Soa],
+    rows: &'a mut [Soa],
+}
+
+impl<'a> ChunkBuffers<'a> {
+    /// The buffers of the first `ranges` ranges and `chunks` chunks, and the rest.
+    #[cfg(feature = "parallel")]
+    fn split(self, ranges: usize, chunks: usize) -> (Self, Self) {
+        let (owns_left, owns_right) = self.owns.split_at_mut(ranges);
+        let (entry_left, entry_right) = self.entry_halos.split_at_mut(ranges);
+        let (halos_left, halos_right) = self.halos.split_at_mut(chunks);
+        let (rows_left, rows_right) = self.rows.split_at_mut(chunks);
+        (
+            ChunkBuffers {
+                owns: owns_left,
+                entry_halos: entry_left,
+                halos: halos_left,
+                rows: rows_left,
+            },
+            ChunkBuffers {
+                owns: owns_right,
+                entry_halos: entry_right,
+                halos: halos_right,
+                rows: rows_right,
+            },
+        )
+    }
+}
+
 impl<U> Pass<'_, U> {
     /// Points per chunk (the last chunk may have fewer).
     fn chunk_len(&self) -> usize {
@@ -447,92 +502,90 @@ impl<U> Pass<'_, U> {
         self.chunk_len().min(nx * ny * nz - c * self.chunk_len())
     }
 
-    /// The chunks `range`, split into `ranges` contiguous ranges run on the rayon pool.
+    /// The chunks `range`, split into `ranges` contiguous ranges run on the rayon pool, with
+    /// `outs` the outputs of their points. Returns whether every update returned true.
     ///
-    /// `owns` are two spring-force buffers per range, `halos` and `rows` the chunks' buffers,
-    /// and `outs` the outputs of the chunks' points, except those of the first chunk when
-    /// `defer_first`: the halo that chunk needs comes from a chunk another thread computes, so
-    /// the caller completes it once both are done. Returns whether every update returned true,
-    /// and the buffer holding the spring forces of the first chunk.
-    #[allow(clippy::too_many_arguments)]
-    fn chunks<'o, T>(
+    /// Each range is whole in itself: it computes the halo of the chunk before it (unless it
+    /// starts at chunk 0), then its chunks in order, completing each right after its springs.
+    fn chunks<T>(
         &self,
         range: Range<usize>,
-        owns: &'o mut [Soa],
-        halos: &mut [Soa],
-        rows: &mut [Soa],
+        buffers: ChunkBuffers<'_>,
         outs: T,
-        defer_first: bool,
         ranges: usize,
-    ) -> (bool, &'o mut Soa)
+    ) -> bool
     where
         T: Split,
         U: Fn(usize, T, [&[f64]; 3]) -> bool + Sync,
     {
         #[cfg(feature = "parallel")]
         if ranges > 1 && range.len() >= 2 {
-            let chunk_len = self.chunk_len();
-            let mid = range.start + range.len() / 2;
-            let left = mid - range.start;
-            let (owns_left, owns_right) = owns.split_at_mut(2 * (ranges / 2));
-            let (halos_left, halos_right) = halos.split_at_mut(left);
-            let (rows_left, rows_right) = rows.split_at_mut(left);
-            let deferred = if defer_first { chunk_len } else { 0 };
-            let (outs_left, outs_right) = outs.split_at(left * chunk_len - deferred);
-            let (outs_mid, outs_right) = outs_right.split_at(self.chunk_points(mid));
-            let ((ok_left, first), (ok_right, own_mid)) = rayon::join(
+            // Chunks in proportion to the ranges on each side, so the leaves are even.
+            let left_ranges = ranges / 2;
+            let left = (range.len() * left_ranges / ranges).clamp(1, range.len() - 1);
+            let mid = range.start + left;
+            let (buffers_left, buffers_right) = buffers.split(left_ranges, left);
+            // Only the last chunk may be short, and it is on the right.
+            let (outs_left, outs_right) = outs.split_at(left * self.chunk_len());
+            let (ok_left, ok_right) = rayon::join(
+                || self.chunks(range.start..mid, buffers_left, outs_left, left_ranges),
                 || {
-                    let r = range.start..mid;
-                    let (o, h, w) = (owns_left, halos_left, rows_left);
-                    self.chunks(r, o, h, w, outs_left, defer_first, ranges / 2)
-                },
-                || {
-                    let r = mid..range.end;
-                    let (o, h, w) = (owns_right, halos_right, rows_right);
-                    self.chunks(r, o, h, w, outs_right, true, ranges - ranges / 2)
+                    self.chunks(
+                        mid..range.end,
+                        buffers_right,
+                        outs_right,
+                        ranges - left_ranges,
+                    )
                 },
             );
-            let own_mid = own_mid.range_mut(0..self.chunk_points(mid));
-            let halo_before = Some(&halos[left - 1]);
-            let ok_mid = self.complete(mid, own_mid, halo_before, &mut rows[left], outs_mid);
-            return (ok_left & ok_right & ok_mid, first);
+            return ok_left & ok_right;
         }
         let _ = ranges;
-        // One chunk after the other, the first in its own buffer and the others in turn in the
-        // second: a chunk's halo is ready when the next one is completed.
-        let [first, rolling, ..] = owns else {
-            unreachable!("two buffers per range")
-        };
+        let ChunkBuffers {
+            owns,
+            entry_halos,
+            halos,
+            rows,
+        } = buffers;
+        let (g, masks, p, v) = (&self.grid, self.masks, self.p, self.v);
+        // The halo of the chunk before the range, into the range's own buffer (the row buffer
+        // of the range's first chunk is free until its springs).
+        let entry_halo = &mut entry_halos[0];
+        if range.start > 0 {
+            let before = self.placement(range.start - 1);
+            chunk_springs(g, masks, p, v, before, None, entry_halo, &mut rows[0]);
+        }
+        let own = &mut owns[0];
         let mut outs_rest = outs;
         let mut all = true;
         for c in range.clone() {
             let i = c - range.start;
-            let buffer = if i == 0 { &mut *first } else { &mut *rolling };
-            let [fx, fy, fz] = buffer.range_mut(0..self.chunk_points(c));
+            let [fx, fy, fz] = own.range_mut(0..self.chunk_points(c));
             let (halo, row) = (&mut halos[i], &mut rows[i]);
-            let (g, masks, p, v) = (&self.grid, self.masks, self.p, self.v);
-            let per_chunk = self.spans.len() / self.grid.nx.div_ceil(CHUNK_PLANES).max(1);
-            let at = Placement {
-                first: self.body.points().start,
-                i0: c * CHUNK_PLANES,
-                links: self.body.links(),
-                spans: &self.spans[c * per_chunk..(c + 1) * per_chunk],
-                table: self.body.spring_table(),
+            let at = self.placement(c);
+            chunk_springs(g, masks, p, v, at, Some([fx, fy, fz]), halo, row);
+            let halo_before = match i {
+                0 => (c > 0).then_some(&*entry_halo),
+                _ => Some(&halos[i - 1]),
             };
-            chunk_springs(g, masks, p, v, at, [fx, fy, fz], halo, row);
-            if i == 0 && defer_first {
-                continue;
-            }
-            debug_assert!(
-                i > 0 || c == 0,
-                "only a range from chunk 0 completes its first chunk"
-            );
-            let halo_before = (i > 0).then(|| &halos[i - 1]);
             let (outs_c, rest) = outs_rest.split_at(fx.len());
             outs_rest = rest;
             all &= self.complete(c, [fx, fy, fz], halo_before, row, outs_c);
         }
-        (all, first)
+        all
+    }
+
+    /// Where chunk `c`'s springs are.
+    fn placement(&self, c: usize) -> Placement<'_> {
+        let per_chunk = self.spans.len() / self.grid.nx.div_ceil(CHUNK_PLANES).max(1);
+        Placement {
+            first: self.body.points().start,
+            i0: c * CHUNK_PLANES,
+            planes: CHUNK_PLANES.min(self.grid.nx - c * CHUNK_PLANES),
+            links: self.body.links(),
+            spans: &self.spans[c * per_chunk..(c + 1) * per_chunk],
+            table: self.body.spring_table(),
+        }
     }
 
     /// Completes chunk `c`: adds the halo of the chunk before to its spring forces `own`, then
@@ -640,11 +693,12 @@ impl Grid {
 }
 
 /// Where a chunk's springs are: the body's first point in the model's arrays, the chunk's first
-/// plane, and the body's link bits (empty for a full box).
+/// plane and its number of planes, and the body's link bits (empty for a full box).
 #[derive(Clone, Copy)]
 struct Placement<'a> {
     first: usize,
     i0: usize,
+    planes: usize,
     links: &'a [u16],
     /// The chunk's spans of set link bits, per block and stencil entry (empty for a full box).
     spans: &'a [[u32; 2]],
@@ -653,16 +707,18 @@ struct Placement<'a> {
 }
 
 crate::simd::multiversion! {
-    /// The springs whose first point lies in planes `i0 .. i0 + CHUNK_PLANES` of a body, into
-    /// `own` (forces on those planes, zeroed here) and `halo` (forces on the two planes after
-    /// them).
+    /// The springs whose first point lies in the chunk's planes `i0 .. i0 + planes` of a body,
+    /// into `own` (forces on those planes, zeroed here) and `halo` (forces on the two planes after
+    /// them, zeroed here). With no `own`, only the springs reaching into the halo are evaluated:
+    /// the halo gets the same bits as with it.
+    #[allow(clippy::too_many_arguments)]
     fn chunk_springs(
         grid: &Grid,
         masks: &Masks,
         p: &Soa,
         v: &Soa,
         at: Placement<'_>,
-        own: [&mut [f64]; 3],
+        own: Option<[&mut [f64]; 3]>,
         halo: &mut Soa,
         row: &mut Soa,
     ) {
@@ -677,6 +733,10 @@ crate::simd::multiversion! {
 /// from the end of a row or plane into the next, and their force is multiplied by 0 (the masks);
 /// in a body with holes, every pair whose link bit is clear. That keeps the loop branch-free and
 /// vectorised.
+///
+/// Every spring's force is computed from its own ends alone, and each point's sums are taken in
+/// the order of the walk (block, then entry), so a walk over the halo's springs only, in the same
+/// order, gives its halo the same bits.
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
 fn chunk_springs_impl(
@@ -685,18 +745,20 @@ fn chunk_springs_impl(
     p: &Soa,
     v: &Soa,
     at: Placement<'_>,
-    own: [&mut [f64]; 3],
+    mut own: Option<[&mut [f64]; 3]>,
     halo: &mut Soa,
     row: &mut Soa,
 ) {
     let Grid { nx, ny, nz, .. } = *grid;
     let i0 = at.i0;
     let plane = ny * nz;
-    let [ox, oy, oz] = own;
-    let own_planes = ox.len() / plane;
+    let own_planes = at.planes;
     let (base, halo_base) = (at.first + i0 * plane, at.first + (i0 + own_planes) * plane);
-    for f in [&mut *ox, &mut *oy, &mut *oz] {
-        f.fill(0.0);
+    if let Some(own) = &mut own {
+        debug_assert!(own.iter().all(|f| f.len() == own_planes * plane));
+        for f in own {
+            f.fill(0.0);
+        }
     }
     halo.fill_zero();
     let block = row.len();
@@ -742,6 +804,10 @@ fn chunk_springs_impl(
                 // A body with holes: only the stretch where this entry has springs.
                 (t, e) = (t.max(lo as usize), e.min(hi as usize));
             }
+            if own.is_none() {
+                // The halo only: the springs whose second ends lie past the chunk.
+                t = t.max((halo_base - base).saturating_sub(shift));
+            }
             if t >= e {
                 continue;
             }
@@ -769,22 +835,12 @@ fn chunk_springs_impl(
                     Some(f) => spring_run(p, v, a, b, len, spring.scaled(f), link, row),
                 }
             }
-            add_run(
-                [&mut *ox, &mut *oy, &mut *oz],
-                t,
-                row.range(0..len),
-                len,
-                1.0,
-            );
             let cut = halo_base.saturating_sub(b).min(len);
-            if cut > 0 {
-                add_run(
-                    [&mut *ox, &mut *oy, &mut *oz],
-                    b - base,
-                    row.range(0..len),
-                    cut,
-                    -1.0,
-                );
+            if let Some([ox, oy, oz]) = &mut own {
+                add_run([ox, oy, oz], t, row.range(0..len), len, 1.0);
+                if cut > 0 {
+                    add_run([ox, oy, oz], b - base, row.range(0..len), cut, -1.0);
+                }
             }
             if cut < len {
                 let h = halo.parts_mut();
