@@ -2,7 +2,8 @@
 #   make run    build everything (binary, wasm, web bundle), then serve the viewer on the default
 #               world: `jello view examples/jello.w` prints the URL to open
 #   make test   everything CI runs: format, lints, docs, the aarch64 build (type-checked, and run
-#               under qemu against the native one), all tests, examples up to date, and the
+#               under qemu against the native one), all tests (the GPU backend's on any Vulkan
+#               adapter: Mesa's lavapipe where there is no GPU), examples up to date, and the
 #               Python package's tests (its own venv, pytest), and the viewer's browser tests
 #               (Playwright + Chromium)
 #   make fuzz   fuzz the world-file, OBJ and STL parsers in turn, FUZZ_SECONDS each (one with
@@ -30,11 +31,13 @@ run: build web
 test:
 	cargo fmt --all --check
 	cargo clippy --workspace --all-targets -- -D warnings
+	cargo clippy -p jello-cli --all-targets --features gpu -- -D warnings
 	RUSTDOCFLAGS="-D warnings" cargo doc --workspace --no-deps --quiet
 	scripts/aarch64-check.sh
 	cargo build --release
 	scripts/make-examples.sh --check
 	cargo test --workspace
+	cargo test -p jello-cli --features gpu --test gpu
 	scripts/python-test.sh
 	scripts/web-test.sh
 

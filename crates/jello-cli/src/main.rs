@@ -4,6 +4,7 @@ mod commands;
 mod error;
 mod export;
 mod frames;
+mod gpu;
 mod progress;
 
 use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};

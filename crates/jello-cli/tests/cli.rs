@@ -519,3 +519,21 @@ fn a_closed_pipe_stops_quietly() {
     assert_eq!(out.status.code(), Some(141), "{err}");
     assert!(!err.contains("panicked"), "{err}");
 }
+
+/// A build without the GPU backend says how to get one.
+#[cfg(not(feature = "gpu"))]
+#[test]
+fn device_gpu_without_the_backend_says_how_to_build_it() {
+    let dir = TempDir::new("no-gpu");
+    let world = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples/jello.w");
+    for command in ["run", "bench"] {
+        let mut args = vec![command, "--device", "gpu"];
+        if command == "run" {
+            args.insert(1, world.to_str().unwrap());
+        }
+        let out = dir.run(&args);
+        assert_eq!(out.status.code(), Some(2), "{command}");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(err.contains("--features gpu"), "{command}: {err}");
+    }
+}

@@ -36,9 +36,10 @@ impl SpringKind {
     }
 }
 
-/// Index offsets of the half stencil: every offset whose first non-zero component is positive,
-/// so that each unordered pair of points is visited exactly once.
-pub(crate) const STENCIL: [([isize; 3], SpringKind); 16] = [
+/// Index offsets `(di, dj, dk)` of the half stencil, with the kind of spring each joins (SPEC.md):
+/// every offset whose first non-zero component is positive, so that each unordered pair of
+/// points is visited exactly once. Its order is the order of the kernel's walk.
+pub const STENCIL: [([isize; 3], SpringKind); 16] = [
     ([1, 0, 0], SpringKind::Structural),
     ([0, 1, 0], SpringKind::Structural),
     ([0, 0, 1], SpringKind::Structural),

@@ -5,8 +5,9 @@ use std::time::{Duration, Instant};
 use clap::Args;
 use jello_core::{scenes, simd, Integrator, Simulation};
 
-use super::{parse_integrator, parse_positive};
+use super::{parse_integrator, parse_positive, Device};
 use crate::error::CliError;
+use crate::gpu::Gpu;
 
 /// Arguments of `jello bench`.
 #[derive(Args, Debug)]
@@ -29,6 +30,10 @@ pub struct BenchArgs {
     /// Print one JSON object instead of text.
     #[arg(long)]
     pub json: bool,
+    /// Where to step: the f64 core on the CPU (`--threads` threads), or the f32 shaders on a
+    /// GPU (the output names the adapter).
+    #[arg(long, value_enum, default_value_t = Device::Cpu)]
+    pub device: Device,
 }
 
 /// What one benchmark run measured.
@@ -48,7 +53,18 @@ pub fn bench(args: BenchArgs) -> Result<(), CliError> {
         .num_threads(threads)
         .build()
         .map_err(|e| CliError::input(format!("cannot start {threads} threads: {e}")))?;
-    let m = pool.install(|| measure(args.size as usize, args.integrator, args.dt, args.seconds))?;
+    let (m, adapter) = match args.device {
+        Device::Cpu => {
+            let m = pool
+                .install(|| measure(args.size as usize, args.integrator, args.dt, args.seconds))?;
+            (m, None)
+        }
+        Device::Gpu => {
+            let (m, adapter) =
+                measure_gpu(args.size as usize, args.integrator, args.dt, args.seconds)?;
+            (m, Some(adapter))
+        }
+    };
 
     let steps_per_s = m.steps as f64 / m.wall;
     let real_time = steps_per_s * m.dt;
@@ -59,9 +75,17 @@ pub fn bench(args: BenchArgs) -> Result<(), CliError> {
         .map(|k| (m.springs * k) as f64 * steps_per_s);
     let peak = peak_rss_mib();
     let tier = simd::active_tier();
+    let (device, precision) = match args.device {
+        Device::Cpu => ("cpu", "f64"),
+        Device::Gpu => ("gpu", "f32"),
+    };
     if args.json {
+        let adapter_json = adapter.as_ref().map_or("null".to_string(), |a| {
+            format!("\"{}\"", a.replace('\\', "\\\\").replace('"', "\\\""))
+        });
         println!(
             "{{\"impl\": \"jello\", \"size\": {}, \"points\": {}, \"springs\": {}, \"integrator\": \"{}\", \
+             \"device\": \"{device}\", \"adapter\": {adapter_json}, \"precision\": \"{precision}\", \
              \"threads\": {threads}, \"simd\": \"{tier}\", \"dt\": {}, \"steps\": {}, \"seconds\": {:.3}, \"steps_per_s\": {:.1}, \
              \"real_time\": {:.4}, \"spring_evals_per_s\": {}, \"peak_rss_mib\": {}, \"version\": \"{}\"}}",
             args.size,
@@ -78,8 +102,12 @@ pub fn bench(args: BenchArgs) -> Result<(), CliError> {
             env!("CARGO_PKG_VERSION")
         );
     } else {
+        let on = match &adapter {
+            None => format!("{threads} thread(s), {tier}"),
+            Some(a) => format!("GPU {a}, f32"),
+        };
         println!(
-            "{n}³ lattice ({} points, {} springs), {}, dt {} s, {threads} thread(s), {tier}: {:.0} steps/s, {:.3}× real time{} \
+            "{n}³ lattice ({} points, {} springs), {}, dt {} s, {on}: {:.0} steps/s, {:.3}× real time{} \
              ({} steps in {:.2} s{})",
             m.points,
             m.springs,
@@ -159,6 +187,58 @@ fn measure(
         steps,
         wall: start.elapsed().as_secs_f64(),
     })
+}
+
+/// [`measure`] on the GPU: after the warm-up (which also compiles the shaders' pipelines), the
+/// measured run goes on from the warmed-up state. Returns the measurement and the adapter.
+fn measure_gpu(
+    n: usize,
+    integrator: Integrator,
+    dt: Option<f64>,
+    seconds: f64,
+) -> Result<(Measurement, String), CliError> {
+    let (model, state) =
+        scenes::benchmark(n, integrator).map_err(|e| CliError::input(e.to_string()))?;
+    let model = match dt {
+        Some(dt) => model
+            .to_builder()
+            .dt(dt)
+            .build()
+            .map_err(|e| CliError::usage(format!("--dt: {e}")))?,
+        None => model,
+    };
+    let (points, springs) = (model.point_count(), model.spring_count());
+    let name = format!("the {n}³ benchmark scene");
+    let mut gpu = Gpu::open(&model, &state, &Default::default(), &name)?;
+    let blown = |e| CliError::blow_up(format!("benchmark scene blew up: {e}"));
+    let warm = Duration::from_secs_f64((seconds * 0.1).clamp(0.05, 1.0));
+    let start = Instant::now();
+    let mut warm_steps = 0u64;
+    let mut batch = 1u64;
+    while start.elapsed() < warm || warm_steps < 3 {
+        gpu.step(batch).map_err(blown)?;
+        warm_steps += batch;
+        batch = (batch * 2).min(4096);
+    }
+    let per_step = start.elapsed().as_secs_f64() / warm_steps as f64;
+    let batch = ((0.05 / per_step) as u64).max(1);
+    let start = Instant::now();
+    let mut steps = 0u64;
+    while start.elapsed().as_secs_f64() < seconds {
+        gpu.step(batch).map_err(blown)?;
+        steps += batch;
+    }
+    let wall = start.elapsed().as_secs_f64();
+    Ok((
+        Measurement {
+            points,
+            springs,
+            dt: model.dt,
+            steps,
+            wall,
+        },
+        gpu.adapter(),
+    ))
 }
 
 /// Peak resident memory of this process (MiB), from /proc on Linux.

@@ -10,6 +10,15 @@ pub mod view;
 
 use jello_core::Integrator;
 
+/// Where `jello run` and `jello bench` step.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum Device {
+    /// The f64 core on the CPU (the reference).
+    Cpu,
+    /// The f32 WGSL shaders on a GPU through wgpu (a build with `--features gpu`).
+    Gpu,
+}
+
 /// Parses an integrator name for clap, listing the known names on failure.
 pub fn parse_integrator(s: &str) -> Result<Integrator, String> {
     s.parse::<Integrator>().map_err(|e| e.to_string())

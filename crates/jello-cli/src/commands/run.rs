@@ -7,15 +7,20 @@ use clap::Args;
 use jello_core::diagnostics::{energy, max_penetration};
 use jello_core::Integrator;
 
-use super::{parse_integrator, parse_positive};
+use super::{parse_integrator, parse_positive, Device};
 use crate::error::CliError;
 use crate::export::GlbExport;
 use crate::frames::{FrameFormat, FrameWriter};
+use crate::gpu::Gpu;
 use crate::progress::Progress;
 use jello_io::{check_writable_target, is_scene, load, write_atomic, Source};
 
 /// Simulated time run when neither `--steps` nor `--time` is given (s).
 const DEFAULT_TIME: f64 = 1.0;
+
+/// Steps on the GPU between two readbacks of the state when no frame falls due sooner (the
+/// progress bar is updated there).
+const GPU_READBACK_STEPS: u64 = 2000;
 
 /// Arguments of `jello run`.
 #[derive(Args, Debug)]
@@ -56,6 +61,10 @@ pub struct RunArgs {
     /// Frames per simulated second in the --export file (a frame every round(1/(fps·dt)) steps).
     #[arg(long, value_name = "F", default_value_t = 30.0, requires = "export", value_parser = parse_positive)]
     pub fps: f64,
+    /// Where to step: the f64 core on the CPU, or the f32 shaders on a GPU (explicit
+    /// integrators, one body without obstacles).
+    #[arg(long, value_enum, default_value_t = Device::Cpu)]
+    pub device: Device,
     /// No progress bar.
     #[arg(long, short)]
     pub quiet: bool,
@@ -84,6 +93,11 @@ pub fn run(args: RunArgs) -> Result<(), CliError> {
         (None, t) => steps_for(t.unwrap_or(DEFAULT_TIME), dt),
     };
     let every = args.every.unwrap_or(u64::from(sim.model.steps_per_frame));
+    // On a GPU the state lives there; it is read back when a frame is due, and now and then.
+    let mut gpu = match args.device {
+        Device::Gpu => Some(Gpu::open(&sim.model, &sim.state, &sim.control, &name)?),
+        Device::Cpu => None,
+    };
     let mut frames = match &args.frames {
         Some(dir) => Some(FrameWriter::new(dir, args.format, &sim.model)?),
         None => None,
@@ -94,7 +108,8 @@ pub fn run(args: RunArgs) -> Result<(), CliError> {
         None => None,
     };
 
-    // Step, reading the penetration off each new state and writing frames as due.
+    // Step, reading the penetration off each new state (on a GPU, the shader tracks it) and
+    // writing frames as due.
     let mut progress = Progress::new(total, args.quiet);
     let mut deepest = max_penetration(&sim.model, &sim.state.pos);
     if let Some(f) = frames.as_mut() {
@@ -104,12 +119,35 @@ pub fn run(args: RunArgs) -> Result<(), CliError> {
         x.record(&sim.model, &sim.state)?;
     }
     let start = Instant::now();
-    for done in 1..=total {
-        if let Err(blow_up) = sim.step() {
-            progress.finish();
-            return Err(CliError::blow_up(format!("{name}: {blow_up}")));
+    let mut done = 0;
+    while done < total {
+        let stepped = match gpu.as_mut() {
+            None => sim.step().map(|()| 1),
+            Some(gpu) => {
+                // Up to the next step where a frame or an export frame is due.
+                let mut next = (done + GPU_READBACK_STEPS).min(total);
+                if frames.is_some() {
+                    next = next.min((done / every + 1) * every);
+                }
+                if let Some(x) = &export {
+                    next = next.min((done / x.every() + 1) * x.every());
+                }
+                let result = gpu.step(next - done);
+                sim.state = gpu.read_state();
+                result.map(|()| next - done)
+            }
+        };
+        match stepped {
+            Ok(k) => done += k,
+            Err(blow_up) => {
+                progress.finish();
+                return Err(CliError::blow_up(format!("{name}: {blow_up}")));
+            }
         }
-        deepest = deepest.max(max_penetration(&sim.model, &sim.state.pos));
+        deepest = match &gpu {
+            None => deepest.max(max_penetration(&sim.model, &sim.state.pos)),
+            Some(gpu) => deepest.max(gpu.max_penetration()),
+        };
         if let Some(f) = frames.as_mut() {
             if done % every == 0 {
                 f.write(&sim.model, &sim.state)?;
@@ -154,6 +192,9 @@ pub fn run(args: RunArgs) -> Result<(), CliError> {
     }
 
     let e = energy(&sim.model, &sim.state);
+    if let Some(gpu) = &gpu {
+        print!("GPU {}, f32: ", gpu.adapter());
+    }
     let mut summary = format!(
         "{total} steps, t = {:.6} s, wall {:.3} s, {:.0} steps/s, max penetration {:.3e} m, \
          energy {:.6e} J (kinetic {:.3e}, spring {:.3e}, collision {:.3e})",

@@ -1,0 +1,123 @@
+//! `--device gpu` of `jello run` and `jello bench`, in a build with the GPU backend
+//! (`cargo test -p jello-cli --features gpu --test gpu`; `make test` runs it). They need a Vulkan
+//! adapter: on machines without a GPU, Mesa's lavapipe, which scripts/setup.sh installs.
+#![cfg(feature = "gpu")]
+
+mod common;
+
+use std::path::{Path, PathBuf};
+
+use common::TempDir;
+
+fn example(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../examples")
+        .join(name)
+}
+
+/// The number after `label` in a run's summary line.
+fn number_after(summary: &str, label: &str) -> f64 {
+    let rest = &summary[summary.find(label).expect(label) + label.len()..];
+    rest.split_whitespace().next().unwrap().parse().unwrap()
+}
+
+#[test]
+fn a_world_runs_on_the_gpu_and_ends_where_the_core_does() {
+    let dir = TempDir::new("gpu-run");
+    let world = example("jello.w");
+    let world = world.to_str().unwrap();
+    let gpu = dir.succeeds(&[
+        "run", world, "--device", "gpu", "--steps", "2000", "-q", "--save", "gpu.w",
+    ]);
+    let cpu = dir.succeeds(&["run", world, "--steps", "2000", "-q"]);
+    assert!(gpu.starts_with("GPU "), "{gpu}");
+    assert!(gpu.contains("f32"), "{gpu}");
+    // The same outcome: energy within 1 %, the same deepest penetration to a millimetre.
+    let (e_gpu, e_cpu) = (number_after(&gpu, "energy"), number_after(&cpu, "energy"));
+    assert!((e_gpu - e_cpu).abs() <= 0.01 * e_cpu, "{gpu}\n{cpu}");
+    let (d_gpu, d_cpu) = (
+        number_after(&gpu, "max penetration"),
+        number_after(&cpu, "max penetration"),
+    );
+    assert!((d_gpu - d_cpu).abs() < 1e-3, "{gpu}\n{cpu}");
+    // The saved state is a world the CPU reads and goes on from.
+    dir.succeeds(&["run", "gpu.w", "--steps", "10", "-q"]);
+}
+
+#[test]
+fn bench_on_the_gpu_names_its_adapter() {
+    let dir = TempDir::new("gpu-bench");
+    let out = dir.succeeds(&[
+        "bench",
+        "--device",
+        "gpu",
+        "--size",
+        "8",
+        "--seconds",
+        "0.3",
+        "--json",
+    ]);
+    for key in [
+        "\"device\": \"gpu\"",
+        "\"precision\": \"f32\"",
+        "\"adapter\": \"",
+    ] {
+        assert!(out.contains(key), "{key} missing: {out}");
+    }
+}
+
+#[test]
+fn what_the_gpu_does_not_cover_is_refused_with_a_reason() {
+    let dir = TempDir::new("gpu-refused");
+    let stack = example("stack.toml");
+    let out = dir.run(&[
+        "run",
+        stack.to_str().unwrap(),
+        "--device",
+        "gpu",
+        "--steps",
+        "5",
+    ]);
+    assert_eq!(out.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("stack.toml") && err.contains("several bodies"),
+        "{err}"
+    );
+    let world = example("jello.w");
+    let out = dir.run(&[
+        "run",
+        world.to_str().unwrap(),
+        "--device",
+        "gpu",
+        "--integrator",
+        "BackwardEuler",
+    ]);
+    assert_eq!(out.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("implicit"));
+}
+
+#[test]
+fn a_blow_up_on_the_gpu_is_reported_like_the_cores() {
+    let dir = TempDir::new("gpu-blow-up");
+    let world = example("jello.w");
+    let out = dir.run(&[
+        "run",
+        world.to_str().unwrap(),
+        "--device",
+        "gpu",
+        "--integrator",
+        "Euler",
+        "--dt",
+        "0.01",
+        "--steps",
+        "5000",
+        "-q",
+        "--save",
+        "never.w",
+    ]);
+    assert_eq!(out.status.code(), Some(3));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("blew up at step"), "{err}");
+    assert!(!dir.path("never.w").exists(), "no file from a failed run");
+}
