@@ -12,7 +12,7 @@
 //!
 //! The f64 CPU core stays the reference; results here agree with it to f32 rounding (tests in
 //! `tests/agreement.rs`). Models the shader does not cover yet (several bodies, obstacles, pulls,
-//! pins on paths, per-spring factors, the implicit integrators) are refused by
+//! pins on paths, the implicit integrators) are refused by
 //! [`GpuSimulation::new`] with a message that names what is missing.
 
 use std::fmt;
@@ -104,8 +104,6 @@ pub fn unsupported(model: &Model, control: &Control) -> Option<String> {
         "pins that move on paths"
     } else if !control.pulls.is_empty() {
         "pulls on points"
-    } else if bodies[0].spring_table().is_some() {
-        "per-spring rest lengths, stiffnesses or dampings (regions)"
     } else if model.integrator.is_implicit() {
         return Some(format!(
             "the implicit integrator {} (the GPU steps Euler, SymplecticEuler, RK2 and RK4)",
@@ -265,16 +263,18 @@ impl GpuSimulation {
             }
         }
         let has_field = model.field.as_ref().is_some_and(|f| f.uniform().is_none());
+        let own_values = body.spring_table().is_some();
         params.flags = [
             model.escape_margin as f32,
             if has_field { 1.0 } else { 0.0 },
             if model.plane.is_some() { 1.0 } else { 0.0 },
-            0.0,
+            if own_values { 1.0 } else { 0.0 },
         ];
 
-        // Per point: the springs it has (forward and backward bits), and its control force with
-        // whether it moves.
+        // Per point: the springs it has (forward and backward bits), with their own values when
+        // the body has them (regions), and its control force with whether it moves.
         let mut links = vec![0u32; n];
+        let mut values = vec![[0.0f32; 4]; if own_values { 16 * n } else { 1 }];
         let index = |p: usize| [p / (ny * nz), (p / nz) % ny, p % nz];
         body.for_each_spring(|spring| {
             let (ia, ib) = (index(spring.a), index(spring.b));
@@ -285,6 +285,14 @@ impl GpuSimulation {
                 .expect("a lattice spring joins stencil neighbours");
             links[spring.a] |= 1 << s;
             links[spring.b] |= 1 << (16 + s);
+            if own_values {
+                values[16 * spring.a + s] = [
+                    spring.rest as f32,
+                    spring.stiffness as f32,
+                    spring.damping as f32,
+                    0.0,
+                ];
+            }
         });
         let mut extra: Vec<[f32; 4]> = (0..n)
             .map(|p| {
@@ -321,6 +329,7 @@ impl GpuSimulation {
         let links = init("links", bytemuck::cast_slice(&links), storage);
         let extra = init("extra", bytemuck::cast_slice(&extra), storage);
         let field = init("field", bytemuck::cast_slice(&nodes), storage);
+        let springs = init("spring values", bytemuck::cast_slice(&values), storage);
         let status = init("status", bytemuck::cast_slice(&STATUS_START), storage);
         let uniform_buffer = init(
             "params",
@@ -357,7 +366,7 @@ impl GpuSimulation {
                 binding: 0,
                 resource: uniform_buffer.as_entire_binding(),
             }];
-            let shared = [(5, &links), (6, &extra), (7, &field)];
+            let shared = [(5, &links), (6, &extra), (7, &field), (9, &springs)];
             for &(binding, buffer) in bindings.iter().chain(&shared) {
                 entries.push(wgpu::BindGroupEntry {
                     binding,

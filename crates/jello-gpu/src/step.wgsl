@@ -18,7 +18,7 @@ struct Params {
     damp: array<vec4<f32>, 4>,
     // mass (kg), dt (s), kCollision, dCollision
     material: vec4<f32>,
-    // escape margin (m), field present, plane present, 0
+    // escape margin (m), field present, plane present, per-spring values present
     flags: vec4<f32>,
     box_lo: vec4<f32>,
     box_hi: vec4<f32>,
@@ -45,6 +45,10 @@ struct Params {
 @group(0) @binding(6) var<storage, read> extra: array<vec4<f32>>;
 // res³ node forces (N), i outermost, k innermost; one unused node when there is no field.
 @group(0) @binding(7) var<storage, read> field: array<vec4<f32>>;
+// A body with per-spring values: for point p and stencil entry s, at 16 p + s, the rest length,
+// stiffness and damping of the spring from p to its neighbour at +offset[s] (one unused element
+// otherwise).
+@group(0) @binding(9) var<storage, read> springs: array<vec4<f32>>;
 // [0]: 1 once a step ended unsound; [1]: the lowest point found at fault; [2]: the deepest
 // penetration into a wall or the plane at a step's end (m, the bits of a non-negative f32).
 @group(0) @binding(8) var<storage, read_write> status: array<atomic<u32>>;
@@ -117,18 +121,24 @@ fn acceleration(i: u32) -> vec3<f32> {
     let v = state_in[2u * i + 1u].xyz;
     let bits = links[i];
     var f = vec3<f32>(0.0);
+    let own_values = P.flags.w != 0.0;
     for (var s = 0u; s < 16u; s = s + 1u) {
         let e = s / 4u;
         let c = s % 4u;
         let off = P.offsets[e][c];
-        let rest = P.rest[e][c];
-        let k = P.stiff[e][c];
-        let d = P.damp[e][c];
+        var values = vec3<f32>(P.rest[e][c], P.stiff[e][c], P.damp[e][c]);
         if (((bits >> s) & 1u) != 0u) {
-            f = f + spring(p, v, u32(i32(i) + off), rest, k, d);
+            if (own_values) {
+                values = springs[16u * i + s].xyz;
+            }
+            f = f + spring(p, v, u32(i32(i) + off), values.x, values.y, values.z);
         }
         if (((bits >> (s + 16u)) & 1u) != 0u) {
-            f = f + spring(p, v, u32(i32(i) - off), rest, k, d);
+            let j = u32(i32(i) - off);
+            if (own_values) {
+                values = springs[16u * j + s].xyz;
+            }
+            f = f + spring(p, v, j, values.x, values.y, values.z);
         }
     }
     if (P.flags.y != 0.0) {

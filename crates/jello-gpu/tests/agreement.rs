@@ -5,7 +5,7 @@
 use jello_core::diagnostics::energy;
 use jello_core::{
     Aabb, Body, Control, ForceField, Integrator, Lattice, Material, Model, ModelBuilder, Plane,
-    Simulation, SpringKind, State, Vec3,
+    Simulation, SpringKind, SpringScale, State, Vec3,
 };
 use jello_gpu::{GpuError, GpuSimulation};
 
@@ -116,6 +116,38 @@ fn a_lattice_with_holes_agrees_with_the_core() {
     let mut state = State::at_rest(&model);
     for (i, v) in state.vel.iter_mut().enumerate() {
         *v = Vec3::new(0.5, -0.2, 0.1) + Vec3::new(0.1 * (i % 3) as f64, 0.0, 0.2 * (i % 5) as f64);
+    }
+    let control = Control::default();
+    let mut sim = gpu(&model, &state, &control);
+    sim.step(200).unwrap();
+    let gap = largest_gap(&sim.read_state(), &cpu(&model, &state, &control, 200));
+    assert!(gap < 1e-4, "{gap:.3e} m from the core");
+}
+
+#[test]
+fn per_spring_values_agree_with_the_core() {
+    // Regions: springs of their own rest length, stiffness and damping, varying along the body.
+    let lattice = Lattice::new([9, 8, 7], Vec3::new(0.5, 0.45, 0.4));
+    let mut body = Body::lattice_box(lattice, Material::classic());
+    body.scale_springs(|s| SpringScale {
+        rest: if s.kind == SpringKind::Shear {
+            0.95
+        } else {
+            1.0
+        },
+        stiffness: 1.0 + 0.3 * (s.a % 5) as f64,
+        damping: 1.0 + 0.5 * (s.b % 3) as f64,
+    })
+    .unwrap();
+    let model = ModelBuilder::new()
+        .bodies(vec![body])
+        .dt(0.0005)
+        .integrator(Integrator::Rk4)
+        .build()
+        .unwrap();
+    let mut state = State::at_rest(&model);
+    for (i, v) in state.vel.iter_mut().enumerate() {
+        *v = Vec3::new(0.2 * (i % 3) as f64, -0.1, 0.1 * (i % 4) as f64);
     }
     let control = Control::default();
     let mut sim = gpu(&model, &state, &control);

@@ -3,7 +3,7 @@
 use std::time::{Duration, Instant};
 
 use clap::Args;
-use jello_core::{scenes, simd, Integrator, Simulation};
+use jello_core::{scenes, simd, Integrator, Model, Simulation, State};
 
 use super::{parse_integrator, parse_positive, Device};
 use crate::error::CliError;
@@ -125,15 +125,8 @@ pub fn bench(args: BenchArgs) -> Result<(), CliError> {
     Ok(())
 }
 
-/// Warms up for a tenth of the time (at least a few steps), then steps for about `seconds`.
-/// The measured run starts again from the initial state. A blow-up (the scene never blows up at
-/// its dt) is an error.
-fn measure(
-    n: usize,
-    integrator: Integrator,
-    dt: Option<f64>,
-    seconds: f64,
-) -> Result<Measurement, CliError> {
+/// The benchmark scene (see [`scenes::benchmark`]) of `n³` points, at `dt` if given.
+fn scene(n: usize, integrator: Integrator, dt: Option<f64>) -> Result<(Model, State), CliError> {
     let (model, state) =
         scenes::benchmark(n, integrator).map_err(|e| CliError::input(e.to_string()))?;
     let model = match dt {
@@ -144,6 +137,19 @@ fn measure(
             .map_err(|e| CliError::usage(format!("--dt: {e}")))?,
         None => model,
     };
+    Ok((model, state))
+}
+
+/// Warms up for a tenth of the time (at least a few steps), then steps for about `seconds`.
+/// The measured run starts again from the initial state. A blow-up (the scene never blows up at
+/// its dt) is an error.
+fn measure(
+    n: usize,
+    integrator: Integrator,
+    dt: Option<f64>,
+    seconds: f64,
+) -> Result<Measurement, CliError> {
+    let (model, state) = scene(n, integrator, dt)?;
     let dt = model.dt;
     let (points, springs) = (model.point_count(), model.spring_count());
     let mut sim = Simulation::new(model, state);
@@ -197,16 +203,7 @@ fn measure_gpu(
     dt: Option<f64>,
     seconds: f64,
 ) -> Result<(Measurement, String), CliError> {
-    let (model, state) =
-        scenes::benchmark(n, integrator).map_err(|e| CliError::input(e.to_string()))?;
-    let model = match dt {
-        Some(dt) => model
-            .to_builder()
-            .dt(dt)
-            .build()
-            .map_err(|e| CliError::usage(format!("--dt: {e}")))?,
-        None => model,
-    };
+    let (model, state) = scene(n, integrator, dt)?;
     let (points, springs) = (model.point_count(), model.spring_count());
     let name = format!("the {n}³ benchmark scene");
     let mut gpu = Gpu::open(&model, &state, &Default::default(), &name)?;
