@@ -162,6 +162,18 @@ fn acceleration(i: u32) -> vec3<f32> {
     return (f / P.material.x + P.gravity.xyz) * x.w;
 }
 
+// Point i's position and velocity into the stage written.
+fn write_out(i: u32, p: vec3<f32>, v: vec3<f32>) {
+    state_out[2u * i] = vec4<f32>(p, 0.0);
+    state_out[2u * i + 1u] = vec4<f32>(v, 0.0);
+}
+
+// Point i's position and velocity at the step's end, over its start.
+fn write_base(i: u32, p: vec3<f32>, v: vec3<f32>) {
+    base[2u * i] = vec4<f32>(p, 0.0);
+    base[2u * i + 1u] = vec4<f32>(v, 0.0);
+}
+
 fn not_finite(x: f32) -> bool {
     return (bitcast<u32>(x) & 0x7f800000u) == 0x7f800000u;
 }
@@ -208,8 +220,7 @@ fn rk4_1(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups)
     let h = 0.5 * P.material.y;
     sums[2u * i] = vec4<f32>(v, 0.0);
     sums[2u * i + 1u] = vec4<f32>(a, 0.0);
-    state_out[2u * i] = vec4<f32>(p + v * h, 0.0);
-    state_out[2u * i + 1u] = vec4<f32>(v + a * h, 0.0);
+    write_out(i, p + v * h, v + a * h);
 }
 
 // RK4 stages 2 and 3: k at the stage in `state_in`, added twice to the sums; `state_out` gets
@@ -219,8 +230,7 @@ fn rk4_middle(i: u32, h: f32) {
     let sv = state_in[2u * i + 1u].xyz;
     sums[2u * i] = vec4<f32>(sums[2u * i].xyz + sv * 2.0, 0.0);
     sums[2u * i + 1u] = vec4<f32>(sums[2u * i + 1u].xyz + a * 2.0, 0.0);
-    state_out[2u * i] = vec4<f32>(base[2u * i].xyz + sv * h, 0.0);
-    state_out[2u * i + 1u] = vec4<f32>(base[2u * i + 1u].xyz + a * h, 0.0);
+    write_out(i, base[2u * i].xyz + sv * h, base[2u * i + 1u].xyz + a * h);
 }
 
 @compute @workgroup_size(64)
@@ -254,8 +264,7 @@ fn rk4_4(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups)
     let w = P.material.y / 6.0;
     let p = base[2u * i].xyz + (sums[2u * i].xyz + sv) * w;
     let v = base[2u * i + 1u].xyz + (sums[2u * i + 1u].xyz + a) * w;
-    base[2u * i] = vec4<f32>(p, 0.0);
-    base[2u * i + 1u] = vec4<f32>(v, 0.0);
+    write_base(i, p, v);
     check(i, p, v);
 }
 
@@ -270,8 +279,7 @@ fn rk2_1(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups)
     let p = state_in[2u * i].xyz;
     let v = state_in[2u * i + 1u].xyz;
     let h = 0.5 * P.material.y;
-    state_out[2u * i] = vec4<f32>(p + v * h, 0.0);
-    state_out[2u * i + 1u] = vec4<f32>(v + a * h, 0.0);
+    write_out(i, p + v * h, v + a * h);
 }
 
 // RK2, second stage: the slope at the midpoint in `state_in` moves the start in `base` by dt.
@@ -286,8 +294,7 @@ fn rk2_2(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups)
     let dt = P.material.y;
     let p = base[2u * i].xyz + sv * dt;
     let v = base[2u * i + 1u].xyz + a * dt;
-    base[2u * i] = vec4<f32>(p, 0.0);
-    base[2u * i + 1u] = vec4<f32>(v, 0.0);
+    write_base(i, p, v);
     check(i, p, v);
 }
 
@@ -303,8 +310,7 @@ fn euler(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups)
     let dt = P.material.y;
     let p = state_in[2u * i].xyz + state_in[2u * i + 1u].xyz * dt;
     let v = state_in[2u * i + 1u].xyz + a * dt;
-    state_out[2u * i] = vec4<f32>(p, 0.0);
-    state_out[2u * i + 1u] = vec4<f32>(v, 0.0);
+    write_out(i, p, v);
     check(i, p, v);
 }
 
@@ -319,7 +325,6 @@ fn symplectic(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgr
     let dt = P.material.y;
     let v = state_in[2u * i + 1u].xyz + a * dt;
     let p = state_in[2u * i].xyz + v * dt;
-    state_out[2u * i] = vec4<f32>(p, 0.0);
-    state_out[2u * i + 1u] = vec4<f32>(v, 0.0);
+    write_out(i, p, v);
     check(i, p, v);
 }
