@@ -16,7 +16,7 @@ fi
 
 # A Vulkan driver: any (a GPU's), else lavapipe.
 icds=$(ls /usr/share/vulkan/icd.d/*.json /etc/vulkan/icd.d/*.json 2>/dev/null || true)
-if [ -z "$icds" ] || ! ldconfig -p 2>/dev/null | grep -q 'libvulkan\.so\.1'; then
+if [ -z "$icds" ] || ! ldconfig -p 2>/dev/null | grep 'libvulkan\.so\.1' >/dev/null; then
   if [ "$(id -u)" = 0 ] && command -v apt-get >/dev/null 2>&1; then
     echo "setup: installing Mesa's lavapipe (mesa-vulkan-drivers) for the GPU backend's tests"
     apt-get update -qq
