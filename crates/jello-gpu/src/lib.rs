@@ -451,16 +451,6 @@ impl GpuSimulation {
         format!("{} ({:?})", self.adapter.name, self.adapter.backend)
     }
 
-    /// Whether the adapter is a CPU (Mesa's lavapipe, SwiftShader, WARP) rather than a GPU.
-    pub fn adapter_is_cpu(&self) -> bool {
-        self.adapter.device_type == wgpu::DeviceType::Cpu
-    }
-
-    /// The model being stepped.
-    pub fn model(&self) -> &Model {
-        &self.model
-    }
-
     /// The buffer holding the state now.
     fn live(&self) -> &wgpu::Buffer {
         if self.in_a {
