@@ -1,7 +1,7 @@
 //! `--device gpu`: the GPU backend (crate `jello-gpu`) when this build has it (feature `gpu`);
 //! in a build without it, the same calls, and opening one says how to get it.
 
-use jello_core::{BlowUp, Control, Model, State};
+use jello_core::{Control, Model, State};
 
 use crate::error::CliError;
 
@@ -28,14 +28,20 @@ impl Gpu {
             .map_err(|e| CliError::input(format!("{name}: --device gpu: {e}")))
     }
 
-    /// Takes `steps` steps (the state stays at the last good one on a blow-up).
-    pub fn step(&mut self, steps: u64) -> Result<(), BlowUp> {
-        self.0.step(steps)
+    /// Takes `steps` steps: a blow-up (the state stays at the last good step) is exit 3, a
+    /// failed device exit 1; `name` labels the message.
+    pub fn step(&mut self, steps: u64, name: &str) -> Result<(), CliError> {
+        self.0.step(steps).map_err(|e| match e {
+            jello_gpu::StepError::BlowUp(b) => CliError::blow_up(format!("{name}: {b}")),
+            jello_gpu::StepError::Device(e) => CliError::input(format!("{name}: {e}")),
+        })
     }
 
-    /// The state now, in f64.
-    pub fn read_state(&self) -> State {
-        self.0.read_state()
+    /// The state now, in f64; `name` labels the error of a failed device.
+    pub fn read_state(&self, name: &str) -> Result<State, CliError> {
+        self.0
+            .read_state()
+            .map_err(|e| CliError::input(format!("{name}: {e}")))
     }
 
     /// The adapter's name and backend.
@@ -60,12 +66,12 @@ impl Gpu {
     }
 
     /// Never called: no `Gpu` exists in this build.
-    pub fn step(&mut self, _: u64) -> Result<(), BlowUp> {
+    pub fn step(&mut self, _: u64, _: &str) -> Result<(), CliError> {
         match *self {}
     }
 
     /// Never called: no `Gpu` exists in this build.
-    pub fn read_state(&self) -> State {
+    pub fn read_state(&self, _: &str) -> Result<State, CliError> {
         match *self {}
     }
 

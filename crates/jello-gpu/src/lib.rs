@@ -68,6 +68,32 @@ impl fmt::Display for GpuError {
 
 impl std::error::Error for GpuError {}
 
+/// Why [`GpuSimulation::step`] stopped.
+#[derive(Clone, Debug, PartialEq)]
+pub enum StepError {
+    /// The simulation blew up; the state is at the last good step.
+    BlowUp(BlowUp),
+    /// The device failed (lost, out of memory); the state on it is not to be trusted.
+    Device(GpuError),
+}
+
+impl fmt::Display for StepError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            StepError::BlowUp(b) => b.fmt(f),
+            StepError::Device(e) => e.fmt(f),
+        }
+    }
+}
+
+impl std::error::Error for StepError {}
+
+impl From<GpuError> for StepError {
+    fn from(e: GpuError) -> Self {
+        StepError::Device(e)
+    }
+}
+
 /// The shader's uniform block (see `Params` in `step.wgsl`): every field 16 bytes, no padding.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, bytemuck::Pod, bytemuck::Zeroable)]
@@ -462,19 +488,19 @@ impl GpuSimulation {
 
     /// Takes `steps` steps. On a blow-up the state is left at the last good step and the error
     /// says which step failed, at which point, and why, as the CPU core says it.
-    pub fn step(&mut self, steps: u64) -> Result<(), BlowUp> {
+    pub fn step(&mut self, steps: u64) -> Result<(), StepError> {
         let mut left = steps;
         while left > 0 {
             let batch = left.min(BATCH);
-            if !self.run_batch(batch) {
+            if !self.run_batch(batch)? {
                 // Back to the batch's start, then step by step to the one that fails (the
                 // shader is deterministic, so one does).
                 self.restore();
                 for _ in 0..batch {
-                    if !self.run_batch(1) {
-                        let blow_up = self.blow_up();
+                    if !self.run_batch(1)? {
+                        let blow_up = self.blow_up()?;
                         self.restore();
-                        return Err(blow_up);
+                        return Err(StepError::BlowUp(blow_up));
                     }
                 }
             }
@@ -485,7 +511,7 @@ impl GpuSimulation {
 
     /// Encodes `steps` steps after saving the state as the checkpoint, runs them and reads the
     /// status: whether every step ended sound. The time and step count advance either way.
-    fn run_batch(&mut self, steps: u64) -> bool {
+    fn run_batch(&mut self, steps: u64) -> Result<bool, GpuError> {
         let size = self.points as u64 * 32;
         self.checkpoint_at = (self.in_a, self.time, self.steps);
         self.queue
@@ -516,11 +542,11 @@ impl GpuSimulation {
             self.time += self.model.dt;
         }
         self.steps += steps;
-        let [unsound, _, deepest] = self.read_status();
+        let [unsound, _, deepest] = self.read_status()?;
         if unsound == 0 {
             self.deepest = self.deepest.max(f32::from_bits(deepest) as f64);
         }
-        unsound == 0
+        Ok(unsound == 0)
     }
 
     /// The deepest any point has been into a wall or the plane at the end of a step taken here
@@ -541,23 +567,23 @@ impl GpuSimulation {
 
     /// The status words: whether a step ended unsound, the lowest point at fault, and the
     /// deepest penetration's bits.
-    fn read_status(&self) -> [u32; 3] {
+    fn read_status(&self) -> Result<[u32; 3], GpuError> {
         let mut encoder = self.device.create_command_encoder(&Default::default());
         encoder.copy_buffer_to_buffer(&self.status, 0, &self.status_read, 0, STATUS_BYTES);
         self.queue.submit([encoder.finish()]);
-        let bytes = self.read(&self.status_read, STATUS_BYTES);
+        let bytes = self.read(&self.status_read, STATUS_BYTES)?;
         let words: &[u32] = bytemuck::cast_slice(&bytes);
-        [words[0], words[1], words[2]]
+        Ok([words[0], words[1], words[2]])
     }
 
     /// The report of the single step just taken, which failed (its state still in the buffers).
-    fn blow_up(&self) -> BlowUp {
-        let point = self.read_status()[1] as usize;
-        let state = self.read_state();
+    fn blow_up(&self) -> Result<BlowUp, GpuError> {
+        let point = self.read_status()?[1] as usize;
+        let state = self.read_state()?;
         let (p, v) = (state.pos[point], state.vel[point]);
         let finite = [p.x, p.y, p.z, v.x, v.y, v.z].iter().all(|c| c.is_finite());
         let (body, point_ijk) = self.model.locate(point);
-        BlowUp {
+        Ok(BlowUp {
             step: self.steps,
             time: self.checkpoint_at.1,
             point,
@@ -572,31 +598,29 @@ impl GpuSimulation {
             dt: self.model.dt,
             suggested_dt: stability::suggest_dt(&self.model),
             escape_margin: self.model.escape_margin,
-        }
+        })
     }
 
     /// Maps a readback buffer after the work submitted so far, and copies it out.
-    fn read(&self, buffer: &wgpu::Buffer, size: u64) -> Vec<u8> {
+    fn read(&self, buffer: &wgpu::Buffer, size: u64) -> Result<Vec<u8>, GpuError> {
         let slice = buffer.slice(..size);
         slice.map_async(wgpu::MapMode::Read, |_| {});
+        let device = |e: &dyn fmt::Display| GpuError::Device(format!("reading back: {e}"));
         self.device
             .poll(wgpu::PollType::wait_indefinitely())
-            .expect("the GPU finished the submitted work");
-        let out = slice
-            .get_mapped_range()
-            .expect("a mapped readback buffer")
-            .to_vec();
+            .map_err(|e| device(&e))?;
+        let out = slice.get_mapped_range().map_err(|e| device(&e))?.to_vec();
         buffer.unmap();
-        out
+        Ok(out)
     }
 
     /// The state now, in f64 (positions and velocities as the GPU holds them, in f32).
-    pub fn read_state(&self) -> State {
+    pub fn read_state(&self) -> Result<State, GpuError> {
         let size = self.points as u64 * 32;
         let mut encoder = self.device.create_command_encoder(&Default::default());
         encoder.copy_buffer_to_buffer(self.live(), 0, &self.state_read, 0, size);
         self.queue.submit([encoder.finish()]);
-        let bytes = self.read(&self.state_read, size);
+        let bytes = self.read(&self.state_read, size)?;
         let data: &[[f32; 4]] = bytemuck::cast_slice(&bytes);
         let v3 = |c: &[f32; 4]| Vec3::new(c[0] as f64, c[1] as f64, c[2] as f64);
         let pos = data.iter().step_by(2).map(v3).collect();
@@ -604,7 +628,7 @@ impl GpuSimulation {
         let mut state = State::new(pos, vel);
         state.time = self.time;
         state.steps = self.steps;
-        state
+        Ok(state)
     }
 }
 

@@ -207,13 +207,12 @@ fn measure_gpu(
     let (points, springs) = (model.point_count(), model.spring_count());
     let name = format!("the {n}³ benchmark scene");
     let mut gpu = Gpu::open(&model, &state, &Default::default(), &name)?;
-    let blown = |e| CliError::blow_up(format!("benchmark scene blew up: {e}"));
     let warm = Duration::from_secs_f64((seconds * 0.1).clamp(0.05, 1.0));
     let start = Instant::now();
     let mut warm_steps = 0u64;
     let mut batch = 1u64;
     while start.elapsed() < warm || warm_steps < 3 {
-        gpu.step(batch).map_err(blown)?;
+        gpu.step(batch, &name)?;
         warm_steps += batch;
         batch = (batch * 2).min(4096);
     }
@@ -222,7 +221,7 @@ fn measure_gpu(
     let start = Instant::now();
     let mut steps = 0u64;
     while start.elapsed().as_secs_f64() < seconds {
-        gpu.step(batch).map_err(blown)?;
+        gpu.step(batch, &name)?;
         steps += batch;
     }
     let wall = start.elapsed().as_secs_f64();

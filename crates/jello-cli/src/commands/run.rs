@@ -122,7 +122,10 @@ pub fn run(args: RunArgs) -> Result<(), CliError> {
     let mut done = 0;
     while done < total {
         let stepped = match gpu.as_mut() {
-            None => sim.step().map(|()| 1),
+            None => sim
+                .step()
+                .map(|()| 1)
+                .map_err(|blow_up| CliError::blow_up(format!("{name}: {blow_up}"))),
             Some(gpu) => {
                 // Up to the next step where a frame or an export frame is due.
                 let mut next = (done + GPU_READBACK_STEPS).min(total);
@@ -132,16 +135,19 @@ pub fn run(args: RunArgs) -> Result<(), CliError> {
                 if let Some(x) = &export {
                     next = next.min((done / x.every() + 1) * x.every());
                 }
-                let result = gpu.step(next - done);
-                sim.state = gpu.read_state();
-                result.map(|()| next - done)
+                gpu.step(next - done, &name)
+                    .and_then(|()| gpu.read_state(&name))
+                    .map(|state| {
+                        sim.state = state;
+                        next - done
+                    })
             }
         };
         match stepped {
             Ok(k) => done += k,
-            Err(blow_up) => {
+            Err(e) => {
                 progress.finish();
-                return Err(CliError::blow_up(format!("{name}: {blow_up}")));
+                return Err(e);
             }
         }
         deepest = match &gpu {
