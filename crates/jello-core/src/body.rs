@@ -362,8 +362,9 @@ impl Body {
         self.for_each_spring_entry(|spring, _| f(spring));
     }
 
-    /// [`Body::for_each_spring`], also passing each spring's stencil entry.
-    fn for_each_spring_entry(&self, mut f: impl FnMut(&Spring, usize)) {
+    /// [`Body::for_each_spring`], also passing each spring's stencil entry (its index in
+    /// [`crate::lattice::STENCIL`]).
+    pub fn for_each_spring_entry(&self, mut f: impl FnMut(&Spring, usize)) {
         let m = &self.material;
         let n = self.len();
         self.for_each_lattice_spring(|a, b, rest, kind, entry| {

@@ -301,14 +301,7 @@ impl GpuSimulation {
         // the body has them (regions), and its control force with whether it moves.
         let mut links = vec![0u32; n];
         let mut values = vec![[0.0f32; 4]; if own_values { 16 * n } else { 1 }];
-        let index = |p: usize| [p / (ny * nz), (p / nz) % ny, p % nz];
-        body.for_each_spring(|spring| {
-            let (ia, ib) = (index(spring.a), index(spring.b));
-            let d = [0, 1, 2].map(|c| ib[c] as isize - ia[c] as isize);
-            let s = STENCIL
-                .iter()
-                .position(|(o, _)| *o == d)
-                .expect("a lattice spring joins stencil neighbours");
+        body.for_each_spring_entry(|spring, s| {
             links[spring.a] |= 1 << s;
             links[spring.b] |= 1 << (16 + s);
             if own_values {
