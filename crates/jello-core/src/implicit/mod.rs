@@ -30,7 +30,8 @@
 //! stiffness while they hold, their sliding stiffness once they slide), of the contacts between
 //! bodies at the iterate (each pair of overlapping balls a pushing spring), of the
 //! pulls and of the field (the symmetric part of minus its gradient, made positive
-//! semi-definite), by conjugate gradients preconditioned with `A`'s 3×3 diagonal blocks. They
+//! semi-definite), by conjugate gradients preconditioned with a multigrid cycle over aggregates
+//! of the lattice (`multigrid.rs`; `A·x` itself runs in stencil order, `stencil.rs`). They
 //! stop when their residual has fallen a hundredfold, and a hundredfold further after each
 //! Newton iteration that does not cut `|g|` tenfold (an inexact solve barely reaches soft
 //! modes, and Newton's method then creeps along them). Then a backtracking line search on the
@@ -49,9 +50,10 @@
 //! converge within [`MAX_NEWTON`] iterations (by default) is reported (the state stays at the
 //! last good step) with the residual reached.
 //!
-//! Every loop here runs in a fixed order on the calling thread (the force evaluations are
-//! bit-identical on any thread count), so results do not depend on the thread count; the buffers
-//! are sized on the first implicit step and reused, so later steps do not allocate.
+//! Every loop here runs in a fixed order on the calling thread, but for the force evaluations
+//! and `A·x`, which are split over threads so that each result is summed in the same order
+//! whatever their number; so results do not depend on the thread count. The buffers are sized
+//! on the first implicit step and reused, so later steps do not allocate.
 
 use crate::contact::Contacts;
 use crate::field::ForceField;
@@ -62,6 +64,30 @@ use crate::model::Model;
 use crate::soa::Soa;
 use crate::state::{Control, State};
 use crate::vec3::Vec3;
+
+mod multigrid;
+mod stencil;
+mod sym;
+
+use multigrid::{Multigrid, Operator};
+use stencil::SpringMatrix;
+use sym::{add_outer, sym_mul, Sym};
+
+/// `A` itself, the finest level of the multigrid (its held points have zero rows), borrowed
+/// field by field from an [`ImplicitScratch`] so that its other buffers stay free to change.
+macro_rules! fine_operator {
+    ($s:expr) => {
+        Operator {
+            own: &$s.extra,
+            pairs: &$s.spring_pairs,
+            blocks: &$s.spring_blocks,
+            more_pairs: &$s.pair_rows,
+            more_blocks: &$s.pair_blocks,
+            diag_inv: &$s.diag_inv,
+            free: Some(&$s.free),
+        }
+    };
+}
 
 /// Converged when `max |g| ≤ TOLERANCE · max(1, max |v₁|)` (m/s), by default.
 pub const TOLERANCE: f64 = 1e-9;
@@ -105,44 +131,6 @@ const MAX_HALVINGS: u32 = 30;
 /// Doublings of a Newton step that falls faster than its model, at most.
 const MAX_EXPANSIONS: u32 = 10;
 
-/// A symmetric 3×3 matrix: `[xx, yy, zz, xy, xz, yz]`.
-type Sym = [f64; 6];
-
-fn sym_mul(m: &Sym, v: Vec3) -> Vec3 {
-    Vec3::new(
-        m[0] * v.x + m[3] * v.y + m[4] * v.z,
-        m[3] * v.x + m[1] * v.y + m[5] * v.z,
-        m[4] * v.x + m[5] * v.y + m[2] * v.z,
-    )
-}
-
-/// `m += c·n·nᵀ`.
-fn add_outer(m: &mut Sym, n: Vec3, c: f64) {
-    m[0] += c * n.x * n.x;
-    m[1] += c * n.y * n.y;
-    m[2] += c * n.z * n.z;
-    m[3] += c * n.x * n.y;
-    m[4] += c * n.x * n.z;
-    m[5] += c * n.y * n.z;
-}
-
-/// The inverse of a symmetric positive definite 3×3 matrix.
-fn sym_inverse(m: &Sym) -> Sym {
-    let [a, d, f, b, c, e] = *m;
-    // [[a b c] [b d e] [c e f]]
-    let (c00, c01, c02) = (d * f - e * e, c * e - b * f, b * e - c * d);
-    let det = a * c00 + b * c01 + c * c02;
-    let inv = 1.0 / det;
-    [
-        c00 * inv,
-        (a * f - c * c) * inv,
-        (a * d - b * b) * inv,
-        c01 * inv,
-        c02 * inv,
-        (b * c - a * e) * inv,
-    ]
-}
-
 /// One spring as the solver needs it: its ends (flat indices of the model), rest length,
 /// stiffness and damping.
 #[derive(Clone, Copy, Debug, Default)]
@@ -152,17 +140,6 @@ struct Row {
     rest: f64,
     k: f64,
     d: f64,
-}
-
-/// One spring's block of `A` at the current iterate: `axial·ûûᵀ + transverse·(I − ûûᵀ)` of its
-/// stiffness, plus `damping·û₀û₀ᵀ` of its damper along its direction at the step's start.
-#[derive(Clone, Copy, Debug, Default)]
-struct Block {
-    u: Vec3,
-    axial: f64,
-    transverse: f64,
-    u0: Vec3,
-    damping: f64,
 }
 
 /// Why a step did not converge: the residual reached (m/s), where, and the Newton iterations
@@ -181,7 +158,15 @@ pub struct NotConverged {
 #[derive(Clone, Debug, Default)]
 pub struct ImplicitScratch {
     rows: Vec<Row>,
-    blocks: Vec<Block>,
+    /// The springs as the bodies list them, before they are put in slot order.
+    listed_rows: Vec<Row>,
+    /// The springs' ends, and each spring's block of `A` at the iterate (see [`Operator`]):
+    /// `axial·ûûᵀ + transverse·(I − ûûᵀ)` of its stiffness plus `damping·û₀û₀ᵀ` of its damper
+    /// along its direction at the step's start.
+    spring_pairs: Vec<[u32; 2]>,
+    spring_blocks: Vec<Sym>,
+    /// The same blocks by stencil slot, for `A·x`.
+    springs: SpringMatrix,
     /// Each spring's direction at the step's start (zero for a spring of zero length).
     start_dir: Vec<Vec3>,
     /// The field's force on each point at the iterate's and the trial's end positions (for the
@@ -219,11 +204,13 @@ pub struct ImplicitScratch {
     v_soa: Soa,
     acc: Soa,
     /// Contacts between bodies at the iterate, for `A`: the pairs of points in contact and
-    /// their blocks (a penalty spring's, as [`Block`] has it), found through a contact pass of
+    /// their blocks (a penalty spring's, as a spring's block is), found through a contact pass of
     /// their own.
     contacts: Contacts,
     pair_rows: Vec<[u32; 2]>,
-    pair_blocks: Vec<Block>,
+    pair_blocks: Vec<Sym>,
+    /// The coarse levels of `A` for the conjugate gradients' preconditioner.
+    multigrid: Multigrid,
 }
 
 impl ImplicitScratch {
@@ -242,7 +229,9 @@ impl ImplicitScratch {
     }
 
     fn fits(&self, model: &Model) -> bool {
-        self.mass.len() == model.point_count() && self.contacts.fits(model)
+        self.mass.len() == model.point_count()
+            && self.contacts.fits(model)
+            && self.springs.fits(model)
     }
 
     fn new(model: &Model) -> Self {
@@ -250,7 +239,10 @@ impl ImplicitScratch {
         let zeros = vec![Vec3::ZERO; n];
         ImplicitScratch {
             rows: Vec::with_capacity(model.spring_count()),
-            blocks: Vec::with_capacity(model.spring_count()),
+            listed_rows: Vec::with_capacity(model.spring_count()),
+            spring_pairs: Vec::with_capacity(model.spring_count()),
+            spring_blocks: Vec::with_capacity(model.spring_count()),
+            springs: SpringMatrix::new(model),
             start_dir: Vec::with_capacity(model.spring_count()),
             field: zeros.clone(),
             field_trial: zeros.clone(),
@@ -278,6 +270,7 @@ impl ImplicitScratch {
             // points of the other), so stepping does not allocate.
             pair_rows: Vec::with_capacity(if model.bodies().len() > 1 { 8 * n } else { 0 }),
             pair_blocks: Vec::with_capacity(if model.bodies().len() > 1 { 8 * n } else { 0 }),
+            multigrid: Multigrid::default(),
         }
     }
 
@@ -285,9 +278,11 @@ impl ImplicitScratch {
     /// between steps without changing its size).
     fn load(&mut self, model: &Model) {
         self.rows.clear();
+        self.springs.begin();
         for body in model.bodies() {
             let first = body.points().start;
-            body.for_each_spring(|s| {
+            body.for_each_spring_entry(|s, entry| {
+                self.springs.push(first + s.a, entry);
                 self.rows.push(Row {
                     a: (first + s.a) as u32,
                     b: (first + s.b) as u32,
@@ -304,8 +299,19 @@ impl ImplicitScratch {
         for &p in &model.pins {
             self.free[p as usize] = 0.0;
         }
-        self.blocks.resize(self.rows.len(), Block::default());
+        self.springs.finish();
+        // Into the springs' slot order (see `SpringMatrix`).
+        self.listed_rows.clone_from(&self.rows);
+        for (j, row) in self.listed_rows.iter().enumerate() {
+            self.rows[self.springs.rank(j)] = *row;
+        }
+        self.spring_pairs.clear();
+        self.spring_pairs
+            .extend(self.rows.iter().map(|r| [r.a, r.b]));
+        self.spring_blocks.resize(self.rows.len(), [0.0; 6]);
         self.start_dir.resize(self.rows.len(), Vec3::ZERO);
+        self.multigrid
+            .build(model, &self.spring_pairs, self.pair_rows.capacity());
     }
 
     /// The dampers at `x0` (the step's start): the springs' directions and the contacts each
@@ -825,27 +831,24 @@ fn assemble(
         *e = [0.0; 6];
         e[..3].fill(s.mass[i] * (1.0 + shift));
     }
-    for ((row, block), &u0) in s.rows.iter().zip(s.blocks.iter_mut()).zip(&s.start_dir) {
+    for ((row, block), &u0) in s
+        .rows
+        .iter()
+        .zip(s.spring_blocks.iter_mut())
+        .zip(&s.start_dir)
+    {
         let d = at(row.a as usize, &s.v) - at(row.b as usize, &s.v);
         let l = d.length();
-        let damping = h * row.d;
-        *block = if l > 0.0 {
-            Block {
-                u: d / l,
-                axial: h2 * row.k,
-                transverse: h2
-                    * row.k
-                    * (1.0 - row.rest / l).max(if clamp { 0.0 } else { f64::MIN }),
-                u0,
-                damping,
-            }
-        } else {
-            Block {
-                u0,
-                damping,
-                ..Block::default()
-            }
-        };
+        *block = [0.0; 6];
+        if l > 0.0 {
+            let transverse =
+                h2 * row.k * (1.0 - row.rest / l).max(if clamp { 0.0 } else { f64::MIN });
+            *block = spring_block(d / l, h2 * row.k, transverse);
+        }
+        add_outer(block, u0, h * row.d);
+    }
+    for (i, block) in s.spring_blocks.iter().enumerate() {
+        s.springs.set(i, block);
     }
     // Penalty springs of walls, plane and obstacles where the iterate is, with the obstacles'
     // friction ties, their dampers as at the start, and pulls.
@@ -920,31 +923,31 @@ fn assemble(
                     h2 * kc * (1.0 - reach / l)
                 };
                 rows.push([a as u32, b as u32]);
-                blocks.push(Block {
-                    u: d / l,
-                    axial: h2 * kc,
-                    transverse,
-                    ..Block::default()
-                });
+                blocks.push(spring_block(d / l, h2 * kc, transverse));
             }
         });
     }
     // The diagonal blocks: the point's own part plus each spring's and contact's block at both
-    // ends.
-    s.diag_inv.copy_from_slice(&s.extra);
-    for ([a, c], b) in couplings(&s.rows, &s.blocks, &s.pair_rows, &s.pair_blocks) {
-        let mut m = [b.transverse, b.transverse, b.transverse, 0.0, 0.0, 0.0];
-        add_outer(&mut m, b.u, b.axial - b.transverse);
-        add_outer(&mut m, b.u0, b.damping);
-        for p in [a, c] {
-            for (d, m) in s.diag_inv[p].iter_mut().zip(&m) {
-                *d += m;
-            }
-        }
-    }
-    for d in s.diag_inv.iter_mut() {
-        *d = sym_inverse(d);
-    }
+    // ends; then the coarse levels.
+    let springs = s
+        .spring_pairs
+        .iter()
+        .copied()
+        .zip(s.spring_blocks.iter().copied());
+    let contacts = s
+        .pair_rows
+        .iter()
+        .copied()
+        .zip(s.pair_blocks.iter().copied());
+    Operator::invert_diagonal(&s.extra, springs.chain(contacts), &mut s.diag_inv);
+    s.multigrid.assemble(&fine_operator!(s));
+}
+
+/// A spring's block of `A` (without its damper): `axial·uuᵀ + transverse·(I − uuᵀ)`.
+fn spring_block(u: Vec3, axial: f64, transverse: f64) -> Sym {
+    let mut m = [transverse, transverse, transverse, 0.0, 0.0, 0.0];
+    add_outer(&mut m, u, axial - transverse);
+    m
 }
 
 /// The field's stiffness at `p` for `A`: minus the symmetric part of its gradient (a field has
@@ -971,28 +974,13 @@ fn field_stiffness(field: &ForceField, p: Vec3) -> Sym {
     k
 }
 
-/// The blocks of `A` that couple two points, with the points: the springs', then the contacts'
-/// between bodies.
-fn couplings<'a>(
-    rows: &'a [Row],
-    blocks: &'a [Block],
-    pairs: &'a [[u32; 2]],
-    pair_blocks: &'a [Block],
-) -> impl Iterator<Item = ([usize; 2], &'a Block)> {
-    let springs = rows.iter().map(|r| [r.a as usize, r.b as usize]);
-    let contacts = pairs.iter().map(|&[a, b]| [a as usize, b as usize]);
-    springs.zip(blocks).chain(contacts.zip(pair_blocks))
-}
-
-/// `y = A·x` over the free points (others give 0).
-fn apply(s: &ImplicitScratch, x: &[Vec3], y: &mut [Vec3]) {
-    for ((y, e), (&x, &f)) in y.iter_mut().zip(&s.extra).zip(x.iter().zip(&s.free)) {
-        *y = sym_mul(e, x) * f;
-    }
-    for ([a, c], b) in couplings(&s.rows, &s.blocks, &s.pair_rows, &s.pair_blocks) {
-        let dx = x[a] - x[c];
-        let along = b.u * b.u.dot(dx);
-        let f = along * b.axial + (dx - along) * b.transverse + b.u0 * (b.damping * b.u0.dot(dx));
+/// `s.ap = A·s.p` over the free points (others give 0).
+fn apply(s: &mut ImplicitScratch) {
+    s.springs.apply(&s.extra, &s.free, &s.p, &mut s.ap);
+    let (x, y) = (&s.p, &mut s.ap);
+    for (&[a, c], b) in s.pair_rows.iter().zip(&s.pair_blocks) {
+        let (a, c) = (a as usize, c as usize);
+        let f = sym_mul(b, x[a] - x[c]);
         y[a] += f * s.free[a];
         y[c] -= f * s.free[c];
     }
@@ -1009,9 +997,9 @@ fn solve(s: &mut ImplicitScratch, reduction: f64) -> bool {
     for i in 0..s.dv.len() {
         s.dv[i] = Vec3::ZERO;
         s.r[i] = s.g[i] * (-s.mass[i] * s.free[i]);
-        s.z[i] = sym_mul(&s.diag_inv[i], s.r[i]) * s.free[i];
-        s.p[i] = s.z[i];
     }
+    s.multigrid.precondition(&fine_operator!(s), &s.r, &mut s.z);
+    s.p.copy_from_slice(&s.z);
     let target = dot(&s.r, &s.r) * reduction * reduction;
     let mut rz = dot(&s.r, &s.z);
     if rz < 0.0 || !rz.is_finite() {
@@ -1021,9 +1009,7 @@ fn solve(s: &mut ImplicitScratch, reduction: f64) -> bool {
         if dot(&s.r, &s.r) <= target || rz == 0.0 {
             break;
         }
-        let mut ap = std::mem::take(&mut s.ap);
-        apply(s, &s.p, &mut ap);
-        s.ap = ap;
+        apply(s);
         let pap = dot(&s.p, &s.ap);
         if pap <= 0.0 || !pap.is_finite() {
             return false;
@@ -1032,8 +1018,8 @@ fn solve(s: &mut ImplicitScratch, reduction: f64) -> bool {
         for i in 0..s.dv.len() {
             s.dv[i] += s.p[i] * alpha;
             s.r[i] -= s.ap[i] * alpha;
-            s.z[i] = sym_mul(&s.diag_inv[i], s.r[i]) * s.free[i];
         }
+        s.multigrid.precondition(&fine_operator!(s), &s.r, &mut s.z);
         let rz_next = dot(&s.r, &s.z);
         if rz_next < 0.0 {
             return false;
@@ -1047,17 +1033,43 @@ fn solve(s: &mut ImplicitScratch, reduction: f64) -> bool {
     true
 }
 
+/// Models and values for the unit tests of the solver's parts.
 #[cfg(test)]
-mod tests {
-    use super::*;
+mod test_models {
+    use crate::body::{rotation_xyz, Body, Material};
+    use crate::lattice::Lattice;
+    use crate::model::{Model, ModelBuilder};
+    use crate::vec3::Vec3;
 
-    #[test]
-    fn the_inverse_of_a_symmetric_matrix() {
-        let m: Sym = [4.0, 5.0, 6.0, 1.0, 0.5, -0.7];
-        let inv = sym_inverse(&m);
-        for v in [Vec3::new(1.0, 0.0, 0.0), Vec3::new(0.3, -2.0, 1.5)] {
-            let back = sym_mul(&m, sym_mul(&inv, v));
-            assert!((back - v).max_abs() < 1e-14, "{back:?}");
+    /// A small deterministic generator of test values in [−1, 1).
+    pub fn values(seed: u64) -> impl FnMut() -> f64 {
+        let mut x = seed;
+        move || {
+            x = x
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (x >> 11) as f64 / (1u64 << 52) as f64 - 1.0
         }
+    }
+
+    /// Two bodies, one with holes, one with an axis of a single point.
+    pub fn two_bodies() -> Model {
+        let mut next = values(7);
+        let cells = (0..5 * 4 * 6).map(|_| next() > -0.6).collect();
+        let holes = Body::from_cells(
+            Lattice::new([6, 5, 7], Vec3::new(1.0, 1.0, 1.0)),
+            cells,
+            Material::classic(),
+        )
+        .unwrap();
+        let flat = Body::lattice_box(
+            Lattice::new([4, 1, 5], Vec3::new(1.0, 1.0, 1.0)),
+            Material::classic(),
+        )
+        .placed(Vec3::new(3.0, 0.0, 0.0), rotation_xyz([0.0; 3]));
+        ModelBuilder::new()
+            .bodies(vec![holes, flat])
+            .build()
+            .unwrap()
     }
 }

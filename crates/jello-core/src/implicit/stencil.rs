@@ -1,0 +1,346 @@
+//! The springs' part of the Newton matrix `A` in stencil order, for a fast `A·x`.
+//!
+//! Every spring of a lattice joins a point `p` to `p + offset(e)` for one of the 16 stencil
+//! entries `e` ([`STENCIL`]), so its block can live at slot `e·n + p` of an array with a slot
+//! for every point and entry (zero where there is no spring: across a hole, past the lattice's
+//! edge). Then point `p`'s row of `A·x` is
+//!
+//! ```text
+//! own[p]·x[p] + Σₑ Bₑ[p]·(x[p] − x[p + oₑ]) + Σₑ Bₑ[p − oₑ]·(x[p] − x[p − oₑ])
+//! ```
+//!
+//! a sum of loops over contiguous arrays (the blocks and `x` stored as structure of arrays) that
+//! vectorise on every SIMD tier, and each point's row is summed in the same order whoever
+//! computes it: the points are split into ranges over threads and the result does not depend
+//! on their number. Each block is read twice (once from each end), which costs less than the
+//! scattered writes of a loop over springs.
+
+use super::sym::{sym_mul, Sym};
+use crate::body::Body;
+use crate::lattice::STENCIL;
+use crate::model::Model;
+use crate::vec3::Vec3;
+
+/// Points per range below which a product is not split over threads.
+#[cfg(feature = "parallel")]
+const MIN_POINTS_PER_RANGE: usize = 2048;
+
+/// One body's place in the model's arrays and its stencil offsets (flat index differences; 0
+/// for an entry that needs an axis the lattice does not have).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+struct Span {
+    first: usize,
+    len: usize,
+    offset: [usize; 16],
+}
+
+impl Span {
+    fn of(body: &Body) -> Span {
+        let [_, ny, nz] = body.lattice().counts;
+        let mut offset = [0; 16];
+        for (o, (d, _)) in offset.iter_mut().zip(STENCIL) {
+            let flat = (d[0] * ny as isize + d[1]) * nz as isize + d[2];
+            *o = flat.max(0) as usize;
+        }
+        Span {
+            first: body.points().start,
+            len: body.len(),
+            offset,
+        }
+    }
+}
+
+/// The springs' blocks of `A` by stencil slot (see the module documentation), with the buffers
+/// of the product.
+#[derive(Clone, Debug, Default)]
+pub(super) struct SpringMatrix {
+    n: usize,
+    spans: Vec<Span>,
+    /// Each spring's slot in the order the springs were listed ([`SpringMatrix::push`]); while
+    /// a list is made, how far it has come and whether it differs from the last.
+    listed: Vec<u32>,
+    cursor: usize,
+    changed: bool,
+    /// Each listed spring's place in slot order, and the slots in that order: the solver keeps
+    /// its springs in slot order, so that setting their blocks writes each array in order.
+    rank: Vec<u32>,
+    slot: Vec<u32>,
+    /// The blocks' six components (`[xx, yy, zz, xy, xz, yz]`), each `16·n` long.
+    blocks: [Vec<f64>; 6],
+    /// `x` and `A·x` as structure of arrays.
+    x: [Vec<f64>; 3],
+    y: [Vec<f64>; 3],
+}
+
+impl SpringMatrix {
+    /// Sized for `model`, every block zero.
+    pub fn new(model: &Model) -> Self {
+        let n = model.point_count();
+        SpringMatrix {
+            n,
+            spans: SpringMatrix::spans_of(model),
+            listed: Vec::with_capacity(model.spring_count()),
+            cursor: 0,
+            changed: false,
+            rank: Vec::with_capacity(model.spring_count()),
+            slot: Vec::with_capacity(model.spring_count()),
+            blocks: std::array::from_fn(|_| vec![0.0; 16 * n]),
+            x: std::array::from_fn(|_| vec![0.0; n]),
+            y: std::array::from_fn(|_| vec![0.0; n]),
+        }
+    }
+
+    fn spans_of(model: &Model) -> Vec<Span> {
+        model.bodies().iter().map(Span::of).collect()
+    }
+
+    /// True when sized for `model`'s bodies.
+    pub fn fits(&self, model: &Model) -> bool {
+        self.spans.len() == model.bodies().len()
+            && self
+                .spans
+                .iter()
+                .zip(model.bodies())
+                .all(|(s, b)| *s == Span::of(b))
+    }
+
+    /// Starts the list of springs again (see [`SpringMatrix::push`] and
+    /// [`SpringMatrix::finish`]).
+    pub fn begin(&mut self) {
+        self.cursor = 0;
+        self.changed = false;
+    }
+
+    /// The next spring of the list: from flat point `a` along stencil entry `entry`.
+    pub fn push(&mut self, a: usize, entry: usize) {
+        let slot = (entry * self.n + a) as u32;
+        match self.listed.get_mut(self.cursor) {
+            Some(s) if *s == slot => {}
+            Some(s) => (*s, self.changed) = (slot, true),
+            None => (_, self.changed) = (self.listed.push(slot), true),
+        }
+        self.cursor += 1;
+    }
+
+    /// Ends the list. When it differs from the last one, every block is zeroed (so that no slot
+    /// keeps the block of a spring no longer there) and the slot order is found again.
+    pub fn finish(&mut self) {
+        if self.cursor != self.listed.len() {
+            self.listed.truncate(self.cursor);
+            self.changed = true;
+        }
+        if !self.changed {
+            return;
+        }
+        self.blocks.iter_mut().for_each(|b| b.fill(0.0));
+        // The slots are distinct: mark each with its spring, then read them in order.
+        let mut spring_at = vec![u32::MAX; 16 * self.n];
+        for (j, &slot) in self.listed.iter().enumerate() {
+            spring_at[slot as usize] = j as u32;
+        }
+        self.rank.resize(self.listed.len(), 0);
+        self.slot.clear();
+        for (slot, &j) in spring_at.iter().enumerate().filter(|(_, &j)| j != u32::MAX) {
+            self.rank[j as usize] = self.slot.len() as u32;
+            self.slot.push(slot as u32);
+        }
+    }
+
+    /// The place in slot order of the `j`-th listed spring: the solver keeps its springs in
+    /// that order, and [`SpringMatrix::set`] takes it.
+    pub fn rank(&self, j: usize) -> usize {
+        self.rank[j] as usize
+    }
+
+    /// Sets the block of spring `s` (its place in slot order).
+    pub fn set(&mut self, s: usize, block: &Sym) {
+        let slot = self.slot[s] as usize;
+        for (c, &v) in self.blocks.iter_mut().zip(block) {
+            c[slot] = v;
+        }
+    }
+
+    /// `y = (own·x + springs·x)`, then scaled by `free` per point.
+    pub fn apply(&mut self, own: &[Sym], free: &[f64], x: &[Vec3], y: &mut [Vec3]) {
+        {
+            let [x0, x1, x2] = &mut self.x;
+            for (i, v) in x.iter().enumerate() {
+                (x0[i], x1[i], x2[i]) = (v.x, v.y, v.z);
+            }
+        }
+        let (blocks, xs, spans, n) = (&self.blocks, &self.x, &self.spans[..], self.n);
+        let [y0, y1, y2] = &mut self.y;
+        let rows = |start: usize, out: [&mut [f64]; 3]| {
+            rows(spans, n, blocks, own, xs, start, out);
+        };
+        #[cfg(feature = "parallel")]
+        {
+            let ranges = rayon::current_num_threads().min(n / MIN_POINTS_PER_RANGE);
+            if ranges > 1 {
+                use rayon::prelude::*;
+                let size = n.div_ceil(ranges);
+                y0.par_chunks_mut(size)
+                    .zip(y1.par_chunks_mut(size))
+                    .zip(y2.par_chunks_mut(size))
+                    .enumerate()
+                    .for_each(|(r, ((a, b), c))| rows(r * size, [a, b, c]));
+            } else {
+                rows(0, [y0, y1, y2]);
+            }
+        }
+        #[cfg(not(feature = "parallel"))]
+        rows(0, [y0, y1, y2]);
+        let [y0, y1, y2] = &self.y;
+        for (i, (y, &f)) in y.iter_mut().zip(free).enumerate() {
+            *y = Vec3::new(y0[i], y1[i], y2[i]) * f;
+        }
+    }
+}
+
+/// Rows `start .. start + out.len()` of `own·x + springs·x` into `out` (see the module
+/// documentation for the order of the sum).
+fn rows(
+    spans: &[Span],
+    n: usize,
+    blocks: &[Vec<f64>; 6],
+    own: &[Sym],
+    x: &[Vec<f64>; 3],
+    start: usize,
+    out: [&mut [f64]; 3],
+) {
+    let end = start + out[0].len();
+    let [o0, o1, o2] = out;
+    for p in start..end {
+        let v = sym_mul(&own[p], Vec3::new(x[0][p], x[1][p], x[2][p]));
+        (o0[p - start], o1[p - start], o2[p - start]) = (v.x, v.y, v.z);
+    }
+    let block = |at: usize, len: usize| -> [&[f64]; 6] {
+        std::array::from_fn(|c| &blocks[c][at..at + len])
+    };
+    let xs =
+        |at: usize, len: usize| -> [&[f64]; 3] { std::array::from_fn(|c| &x[c][at..at + len]) };
+    for span in spans {
+        // This range's rows within the body.
+        let (lo, hi) = (start.max(span.first), end.min(span.first + span.len));
+        if lo >= hi {
+            continue;
+        }
+        for (e, &o) in span.offset.iter().enumerate() {
+            if o == 0 || o >= span.len {
+                continue;
+            }
+            // Springs from p to p + o: p below the body's end minus o.
+            let f_hi = hi.min(span.first + span.len - o);
+            if lo < f_hi {
+                let len = f_hi - lo;
+                let y = [
+                    &mut o0[lo - start..f_hi - start],
+                    &mut o1[lo - start..f_hi - start],
+                    &mut o2[lo - start..f_hi - start],
+                ];
+                accumulate(y, xs(lo, len), xs(lo + o, len), block(e * n + lo, len));
+            }
+            // Springs from p − o to p: p at least the body's first point plus o.
+            let b_lo = lo.max(span.first + o);
+            if b_lo < hi {
+                let len = hi - b_lo;
+                let y = [
+                    &mut o0[b_lo - start..hi - start],
+                    &mut o1[b_lo - start..hi - start],
+                    &mut o2[b_lo - start..hi - start],
+                ];
+                accumulate(
+                    y,
+                    xs(b_lo, len),
+                    xs(b_lo - o, len),
+                    block(e * n + b_lo - o, len),
+                );
+            }
+        }
+    }
+}
+
+crate::simd::multiversion! {
+    /// `y += B·(x − xn)` element by element, `B` a symmetric block per element.
+    fn accumulate(y: [&mut [f64]; 3], x: [&[f64]; 3], xn: [&[f64]; 3], b: [&[f64]; 6]) {
+        let [y0, y1, y2] = y;
+        let n = y0.len();
+        let (y1, y2) = (&mut y1[..n], &mut y2[..n]);
+        let (x0, x1, x2) = (&x[0][..n], &x[1][..n], &x[2][..n]);
+        let (n0, n1, n2) = (&xn[0][..n], &xn[1][..n], &xn[2][..n]);
+        let (bxx, byy, bzz) = (&b[0][..n], &b[1][..n], &b[2][..n]);
+        let (bxy, bxz, byz) = (&b[3][..n], &b[4][..n], &b[5][..n]);
+        for i in 0..n {
+            let (dx, dy, dz) = (x0[i] - n0[i], x1[i] - n1[i], x2[i] - n2[i]);
+            y0[i] += bxx[i] * dx + bxy[i] * dy + bxz[i] * dz;
+            y1[i] += bxy[i] * dx + byy[i] * dy + byz[i] * dz;
+            y2[i] += bxz[i] * dx + byz[i] * dy + bzz[i] * dz;
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::test_models::{two_bodies, values};
+    use super::*;
+
+    #[test]
+    fn the_stencil_product_is_the_product_over_springs() {
+        let model = two_bodies();
+        let n = model.point_count();
+        let mut next = values(11);
+        let mut sym = || -> Sym { std::array::from_fn(|_| next()) };
+        let mut matrix = SpringMatrix::new(&model);
+        let mut springs = Vec::new();
+        matrix.begin();
+        for body in model.bodies() {
+            let first = body.points().start;
+            body.for_each_spring_entry(|s, entry| {
+                matrix.push(first + s.a, entry);
+                springs.push([first + s.a, first + s.b]);
+            });
+        }
+        matrix.finish();
+        let blocks: Vec<Sym> = springs.iter().map(|_| sym()).collect();
+        for (i, b) in blocks.iter().enumerate() {
+            matrix.set(matrix.rank(i), b);
+        }
+        let own: Vec<Sym> = (0..n).map(|_| sym()).collect();
+        let free: Vec<f64> = (0..n).map(|i| if i % 7 == 3 { 0.0 } else { 1.0 }).collect();
+        let mut next = values(13);
+        let x: Vec<Vec3> = (0..n).map(|_| Vec3::new(next(), next(), next())).collect();
+
+        let mut expected: Vec<Vec3> = own.iter().zip(&x).map(|(m, &x)| sym_mul(m, x)).collect();
+        for (&[a, b], m) in springs.iter().zip(&blocks) {
+            let f = sym_mul(m, x[a] - x[b]);
+            expected[a] += f;
+            expected[b] -= f;
+        }
+        let mut y = vec![Vec3::ZERO; n];
+        matrix.apply(&own, &free, &x, &mut y);
+        for p in 0..n {
+            let want = expected[p] * free[p];
+            assert!(
+                (y[p] - want).max_abs() < 1e-12,
+                "point {p}: {:?} ≠ {want:?}",
+                y[p]
+            );
+        }
+
+        // A spring list that changes leaves no stale block behind.
+        matrix.begin();
+        matrix.push(0, 2);
+        matrix.finish();
+        matrix.set(0, &[1.0, 1.0, 1.0, 0.0, 0.0, 0.0]);
+        let zero = vec![[0.0; 6]; n];
+        matrix.apply(&zero, &free, &x, &mut y);
+        let mut want = vec![Vec3::ZERO; n];
+        let lattice = model.body(0).lattice();
+        let b = lattice.index(0, 0, 1);
+        want[0] = x[0] - x[b];
+        want[b] = x[b] - x[0];
+        for p in 0..n {
+            assert!((y[p] - want[p] * free[p]).max_abs() < 1e-15, "point {p}");
+        }
+    }
+}
