@@ -185,7 +185,9 @@ describe('jello view', () => {
   test('the simulation steps in a worker: time goes on while the page is busy', async () => {
     const { page, done } = await open();
     // Block the page's own thread for 1.5 s: no frame is drawn, yet the worker keeps stepping,
-    // and the first state the page sees after is 1.5 s further on.
+    // and the first state the page sees after is well on. (Stepping on the page's thread would
+    // have advanced nothing; how near it gets to 1.5 s depends on the CPU the worker is left,
+    // which a test does not assert: on a loaded 2-core machine it reached 1.05 s.)
     const { before, after } = await page.evaluate(() => {
       const app = window.jello;
       const before = app.sim.time;
@@ -197,7 +199,7 @@ describe('jello view', () => {
         setTimeout(() => app.settled().then(() => resolve({ before, after: app.sim.time })), 50),
       );
     });
-    assert.ok(after - before > 1.2, `simulated time advanced ${(after - before).toFixed(3)} s while the page was blocked for 1.5 s`);
+    assert.ok(after - before > 0.5, `simulated time advanced ${(after - before).toFixed(3)} s while the page was blocked for 1.5 s`);
     await done();
   });
 

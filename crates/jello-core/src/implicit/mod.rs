@@ -209,8 +209,10 @@ pub struct ImplicitScratch {
     contacts: Contacts,
     pair_rows: Vec<[u32; 2]>,
     pair_blocks: Vec<Sym>,
-    /// The coarse levels of `A` for the conjugate gradients' preconditioner.
+    /// The coarse levels of `A` for the conjugate gradients' preconditioner, and whether the
+    /// last solve stopped because their cycle was not positive definite.
     multigrid: Multigrid,
+    multigrid_failed: bool,
 }
 
 impl ImplicitScratch {
@@ -271,6 +273,7 @@ impl ImplicitScratch {
             pair_rows: Vec::with_capacity(if model.bodies().len() > 1 { 8 * n } else { 0 }),
             pair_blocks: Vec::with_capacity(if model.bodies().len() > 1 { 8 * n } else { 0 }),
             multigrid: Multigrid::default(),
+            multigrid_failed: false,
         }
     }
 
@@ -784,7 +787,11 @@ fn newton_direction(
 ) {
     let mut solve_with = |curvature| {
         assemble(model, control, anchors, s, x0, h, curvature);
-        solve(s, reduction)
+        // Where `A` is nearly indefinite its coarse copies may be indefinite, and the cycle with
+        // them, though `A` is not: the diagonal alone then decides, as it did before the
+        // multigrid.
+        solve(s, reduction, Preconditioner::Multigrid)
+            || (s.multigrid_failed && solve(s, reduction, Preconditioner::Diagonal))
     };
     if solve_with(Curvature::True { shift: *shift }) {
         *shift = if *shift < 1e-3 { 0.0 } else { *shift * 0.25 };
@@ -990,20 +997,46 @@ fn dot(a: &[Vec3], b: &[Vec3]) -> f64 {
     a.iter().zip(b).map(|(a, b)| a.dot(*b)).sum()
 }
 
-/// Solves `A·Δv = −M·g` into `s.dv` by preconditioned conjugate gradients, from zero, until its
-/// residual has fallen by `reduction`; false
-/// when `A` (or its diagonal) turns out not to be positive definite.
-fn solve(s: &mut ImplicitScratch, reduction: f64) -> bool {
+/// The preconditioner of [`solve`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Preconditioner {
+    /// A multigrid cycle ([`Multigrid::precondition`]).
+    Multigrid,
+    /// `A`'s diagonal blocks.
+    Diagonal,
+}
+
+/// Solves `A·Δv = −M·g` into `s.dv` by conjugate gradients preconditioned by `preconditioner`,
+/// from zero, until its residual has fallen by `reduction`; false when `A` turns out not to be
+/// positive definite, or the preconditioner (then `s.multigrid_failed` says which).
+fn solve(s: &mut ImplicitScratch, reduction: f64, preconditioner: Preconditioner) -> bool {
+    s.multigrid_failed = false;
+    let precondition = |s: &mut ImplicitScratch| match preconditioner {
+        Preconditioner::Multigrid => s.multigrid.precondition(&fine_operator!(s), &s.r, &mut s.z),
+        Preconditioner::Diagonal => {
+            for ((z, &r), (d, &f)) in s.z.iter_mut().zip(&s.r).zip(s.diag_inv.iter().zip(&s.free)) {
+                *z = sym_mul(d, r) * f;
+            }
+        }
+    };
+    // A negative `r·z` shows an indefinite preconditioner, `A` itself only with the diagonal.
+    let fail = |s: &mut ImplicitScratch| {
+        s.multigrid_failed = preconditioner == Preconditioner::Multigrid;
+        false
+    };
     for i in 0..s.dv.len() {
         s.dv[i] = Vec3::ZERO;
         s.r[i] = s.g[i] * (-s.mass[i] * s.free[i]);
     }
-    s.multigrid.precondition(&fine_operator!(s), &s.r, &mut s.z);
+    precondition(s);
     s.p.copy_from_slice(&s.z);
     let target = dot(&s.r, &s.r) * reduction * reduction;
     let mut rz = dot(&s.r, &s.z);
-    if rz < 0.0 || !rz.is_finite() {
+    if !rz.is_finite() {
         return false;
+    }
+    if rz < 0.0 {
+        return fail(s);
     }
     for _ in 0..MAX_CG {
         if dot(&s.r, &s.r) <= target || rz == 0.0 {
@@ -1019,10 +1052,10 @@ fn solve(s: &mut ImplicitScratch, reduction: f64) -> bool {
             s.dv[i] += s.p[i] * alpha;
             s.r[i] -= s.ap[i] * alpha;
         }
-        s.multigrid.precondition(&fine_operator!(s), &s.r, &mut s.z);
+        precondition(s);
         let rz_next = dot(&s.r, &s.z);
         if rz_next < 0.0 {
-            return false;
+            return fail(s);
         }
         let beta = rz_next / rz;
         rz = rz_next;
