@@ -936,17 +936,12 @@ fn assemble(
     }
     // The diagonal blocks: the point's own part plus each spring's and contact's block at both
     // ends; then the coarse levels.
-    let springs = s
-        .spring_pairs
-        .iter()
-        .copied()
-        .zip(s.spring_blocks.iter().copied());
-    let contacts = s
-        .pair_rows
-        .iter()
-        .copied()
-        .zip(s.pair_blocks.iter().copied());
-    Operator::invert_diagonal(&s.extra, springs.chain(contacts), &mut s.diag_inv);
+    Operator::invert_diagonal(
+        &s.extra,
+        (&s.spring_pairs, &s.spring_blocks),
+        (&s.pair_rows, &s.pair_blocks),
+        &mut s.diag_inv,
+    );
     s.multigrid.assemble(&fine_operator!(s));
 }
 

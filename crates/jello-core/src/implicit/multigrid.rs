@@ -101,16 +101,19 @@ impl Operator<'_> {
         }
     }
 
-    /// The inverses of the diagonal blocks: `own` plus every incident pair's block.
+    /// The inverses of the diagonal blocks into `diag_inv`: `own` plus the block of every
+    /// pair, in `pairs` and `more_pairs`, at both its nodes.
     pub fn invert_diagonal(
         own: &[Sym],
-        couplings: impl Iterator<Item = ([u32; 2], Sym)>,
+        (pairs, blocks): (&[[u32; 2]], &[Sym]),
+        (more_pairs, more_blocks): (&[[u32; 2]], &[Sym]),
         diag_inv: &mut [Sym],
     ) {
         diag_inv.copy_from_slice(own);
-        for ([a, c], b) in couplings {
-            add_sym(&mut diag_inv[a as usize], &b);
-            add_sym(&mut diag_inv[c as usize], &b);
+        let more = more_pairs.iter().zip(more_blocks);
+        for (&[a, c], b) in pairs.iter().zip(blocks).chain(more) {
+            add_sym(&mut diag_inv[a as usize], b);
+            add_sym(&mut diag_inv[c as usize], b);
         }
         for d in diag_inv.iter_mut() {
             *d = sym_inverse(d);
@@ -254,34 +257,29 @@ fn cycle(levels: &mut [Level]) {
     let Some((this, coarser)) = levels.split_first_mut() else {
         return;
     };
-    let op = Operator {
-        own: &this.own,
-        pairs: &this.pairs,
-        blocks: &this.blocks,
-        more_pairs: &this.more_pairs,
-        more_blocks: &this.more_blocks,
-        diag_inv: &this.diag_inv,
-        free: None,
-    };
-    this.e.fill(Vec3::ZERO);
-    let Some(next) = coarser.first_mut() else {
-        op.jacobi(&this.r, 1.0, &mut this.e);
-        for _ in 1..COARSEST_SWEEPS {
-            op.residual(&this.r, &this.e, &mut this.t);
-            op.jacobi(&this.t, 1.0, &mut this.e);
+    // The correction and residual leave the level while its operator is borrowed (taking a
+    // `Vec` out and back does not allocate).
+    let (mut e, mut t) = (std::mem::take(&mut this.e), std::mem::take(&mut this.t));
+    let (op, r) = (this.operator(), &this.r);
+    e.fill(Vec3::ZERO);
+    if let Some(next) = coarser.first_mut() {
+        op.jacobi(r, OMEGA, &mut e);
+        op.residual(r, &e, &mut t);
+        restrict(&this.down.parent, &t, &mut next.r);
+        cycle(coarser);
+        for (e, &p) in e.iter_mut().zip(&this.down.parent) {
+            *e += coarser[0].e[p as usize];
         }
-        return;
-    };
-    op.jacobi(&this.r, OMEGA, &mut this.e);
-    op.residual(&this.r, &this.e, &mut this.t);
-    restrict(&this.down.parent, &this.t, &mut next.r);
-    cycle(coarser);
-    let ec = &coarser[0].e;
-    for (e, &p) in this.e.iter_mut().zip(&this.down.parent) {
-        *e += ec[p as usize];
+        op.residual(r, &e, &mut t);
+        op.jacobi(&t, OMEGA, &mut e);
+    } else {
+        op.jacobi(r, 1.0, &mut e);
+        for _ in 1..COARSEST_SWEEPS {
+            op.residual(r, &e, &mut t);
+            op.jacobi(&t, 1.0, &mut e);
+        }
     }
-    op.residual(&this.r, &this.e, &mut this.t);
-    op.jacobi(&this.t, OMEGA, &mut this.e);
+    (this.e, this.t) = (e, t);
 }
 
 /// `coarse[J] = Σ fine[p]` over the nodes `p` of aggregate `J`.
@@ -327,17 +325,12 @@ fn restrict_operator(fine: &Operator, down: &Restriction, coarse: &mut Level) {
     for (&pair, b) in fine.more_pairs.iter().zip(fine.more_blocks) {
         couple(pair, b, None);
     }
-    let couplings = coarse
-        .pairs
-        .iter()
-        .copied()
-        .zip(coarse.blocks.iter().copied());
-    let more = coarse
-        .more_pairs
-        .iter()
-        .copied()
-        .zip(coarse.more_blocks.iter().copied());
-    Operator::invert_diagonal(&coarse.own, couplings.chain(more), &mut coarse.diag_inv);
+    Operator::invert_diagonal(
+        &coarse.own,
+        (&coarse.pairs, &coarse.blocks),
+        (&coarse.more_pairs, &coarse.more_blocks),
+        &mut coarse.diag_inv,
+    );
 }
 
 /// The aggregates of `nodes` (2×2×2 of one body's lattice: coordinates halved, numbered in order
@@ -432,13 +425,12 @@ mod tests {
                 diag_inv: vec![[0.0; 6]; n],
                 free,
             };
-            let couplings = fine.pairs.iter().copied().zip(fine.blocks.iter().copied());
-            let more = fine
-                .more_pairs
-                .iter()
-                .copied()
-                .zip(fine.more_blocks.iter().copied());
-            Operator::invert_diagonal(&fine.own, couplings.chain(more), &mut fine.diag_inv);
+            Operator::invert_diagonal(
+                &fine.own,
+                (&fine.pairs, &fine.blocks),
+                (&fine.more_pairs, &fine.more_blocks),
+                &mut fine.diag_inv,
+            );
             fine
         }
 
