@@ -40,8 +40,10 @@
 //! otherwise; the potential's fall is computed term by term from differences, so that it stays
 //! visible below the potential's own rounding. A full step that falls faster than its
 //! quadratic model is extended while the potential keeps falling (a buckling lattice slides).
-//! The gradient's antisymmetric part (a field's curl) is not in `A`: where it dominates the
-//! masses at the step, Newton's method may not converge, and the step is reported.
+//! The gradient's antisymmetric part (a field's swirl) is not in that `A`, and Newton's method
+//! then gains at best its size over the masses (`h²·|swirl|/m`) per iteration. Where that
+//! passes 1, `A` takes the field's exact gradient instead and GMRES (`gmres.rs`) solves with
+//! it, judged by `|g|²_M`; `newton` says how the two take turns when one stalls.
 //!
 //! A step has converged when every point's residual `|g|` is at most [`TOLERANCE`] times
 //! `max(1, max |v₁|)` (m/s; both settable, [`Model::newton`](crate::Model::newton)); then the
@@ -56,7 +58,6 @@
 //! on the first implicit step and reused, so later steps do not allocate.
 
 use crate::contact::Contacts;
-use crate::field::ForceField;
 use crate::forces::{force_pass, ForceScratch};
 use crate::friction::{self, Anchors};
 use crate::integrator::Integrator;
@@ -65,10 +66,12 @@ use crate::soa::Soa;
 use crate::state::{Control, State};
 use crate::vec3::Vec3;
 
+mod gmres;
 mod multigrid;
 mod stencil;
 mod sym;
 
+use gmres::Gmres;
 use multigrid::{Multigrid, Operator};
 use stencil::SpringMatrix;
 use sym::{add_outer, sym_mul, Sym};
@@ -124,6 +127,21 @@ const CG_REDUCTION: f64 = 1e-2;
 /// The factor they reach when Newton's method converges slowly: tightened a hundredfold after
 /// each Newton iteration that does not cut the residual tenfold, down to this.
 const CG_REDUCTION_EXACT: f64 = 1e-8;
+
+/// A field's swirl (the antisymmetric part of its gradient, times `h²/m`) above which `A`
+/// takes it too, and GMRES solves for the Newton direction instead of conjugate gradients.
+/// Left out of a symmetric `A`, the swirl makes Newton's method converge no faster than this
+/// ratio per iteration, so not at all past 1. Below 1 the symmetric `A` is kept: with the
+/// potential as the merit it is the more robust (at 0.1, a scene with friction ties and a swirl
+/// of 0.7 stalled near the solution with the swirl in `A`, and converged without it).
+const SWIRL_LIMIT: f64 = 1.0;
+
+/// Newton iterations in a row that do not halve `|g|²_M` below its best, where a field swirls,
+/// before Newton's method changes between `A` with and without the swirl (see [`newton`]).
+const SWIRL_STALLS: u32 = 5;
+
+/// Changes between `A` with and without the swirl, at most, in a step.
+const SWIRL_SWITCHES: u32 = 6;
 
 /// Halvings of the Newton step before the line search gives up.
 const MAX_HALVINGS: u32 = 30;
@@ -213,6 +231,16 @@ pub struct ImplicitScratch {
     /// last solve stopped because their cycle was not positive definite.
     multigrid: Multigrid,
     multigrid_failed: bool,
+    /// A field that is not uniform: per point, the part of `A` that its exact gradient adds to
+    /// the symmetric, positive semi-definite stiffness in `extra` (a general 3×3, row-major);
+    /// used when `swirl` is set.
+    field_correction: Vec<[f64; 9]>,
+    /// True when the field's swirl at the iterate passes [`SWIRL_LIMIT`] and `swirl_allowed`
+    /// (see [`newton`]): `A` is not symmetric then, and GMRES (with its basis here) solves in
+    /// place of conjugate gradients.
+    swirl: bool,
+    swirl_allowed: bool,
+    gmres: Gmres,
 }
 
 impl ImplicitScratch {
@@ -231,9 +259,11 @@ impl ImplicitScratch {
     }
 
     fn fits(&self, model: &Model) -> bool {
-        self.mass.len() == model.point_count()
+        let n = model.point_count();
+        self.mass.len() == n
             && self.contacts.fits(model)
             && self.springs.fits(model)
+            && (!has_swirl(model) || (self.gmres.fits(n) && self.field_correction.len() == n))
     }
 
     fn new(model: &Model) -> Self {
@@ -274,6 +304,14 @@ impl ImplicitScratch {
             pair_blocks: Vec::with_capacity(if model.bodies().len() > 1 { 8 * n } else { 0 }),
             multigrid: Multigrid::default(),
             multigrid_failed: false,
+            field_correction: vec![[0.0; 9]; if has_swirl(model) { n } else { 0 }],
+            swirl: false,
+            swirl_allowed: false,
+            gmres: if has_swirl(model) {
+                Gmres::new(n)
+            } else {
+                Gmres::default()
+            },
         }
     }
 
@@ -401,6 +439,7 @@ pub(crate) fn step(
 
 /// One backward-Euler step of size `h` from `(x0, v0)` into `next_pos` and `next_vel`, the
 /// scratch loaded and its dampers set.
+///
 #[allow(clippy::too_many_arguments)]
 fn backward_euler(
     model: &Model,
@@ -413,46 +452,7 @@ fn backward_euler(
     next_pos: &mut [Vec3],
     next_vel: &mut [Vec3],
 ) -> Result<(), NotConverged> {
-    // The forces but the dampers are evaluated at zero velocity.
-    s.v_soa.fill_zero();
-    s.v.copy_from_slice(v0);
-    let mut norm2 = residual(model, control, force, s, x0, v0, h, false);
-    let mut iterations = 0;
-    let mut reduction = CG_REDUCTION;
-    let mut shift = 0.0;
-    loop {
-        let (norm, vmax) = max_norms(&s.g, &s.v);
-        if norm <= model.newton.tolerance * vmax.max(1.0) {
-            break;
-        }
-        if iterations == model.newton.max_iterations {
-            return Err(not_converged(&s.g, iterations));
-        }
-        iterations += 1;
-        newton_direction(
-            model,
-            control,
-            force.anchors(),
-            s,
-            x0,
-            h,
-            reduction,
-            &mut shift,
-        );
-        let before = norm2;
-        match line_search(model, control, force, s, x0, v0, h, norm2) {
-            Some(reached) => norm2 = reached,
-            // An inexact direction may not lead down at all: solve exactly before giving up.
-            None if reduction > CG_REDUCTION_EXACT => reduction = CG_REDUCTION_EXACT,
-            None => return Err(not_converged(&s.g, iterations)),
-        }
-        // A Newton step that did not cut the residual tenfold was mostly held back by the
-        // inexact solve (a soft mode the conjugate gradients barely reached, which they then
-        // creep along): solve the next one more exactly.
-        if norm2 > 1e-2 * before {
-            reduction = (reduction * 1e-2).max(CG_REDUCTION_EXACT);
-        }
-    }
+    newton(model, control, force, s, x0, v0, h)?;
     // The exact solution has Σ m·g = 0 over the moving points (their momentum changes by h
     // times the force on them, which internal forces do not change): take the small mean
     // residual the tolerance allows out of their velocities, so that internal forces conserve
@@ -475,6 +475,104 @@ fn backward_euler(
         *nv = v;
     }
     Ok(())
+}
+
+/// Newton's method for the step from `v = v0` (see the module's documentation), into `s.v`.
+///
+/// Where a field swirls, it first runs with the swirl in `A` (see [`SWIRL_LIMIT`]), judged by
+/// `|g|²_M`. Should that stall (there is no potential to descend, and `|g|²_M` has local minima
+/// where `A` is singular, as on a crushed lattice), it starts again from `v0` with `A` symmetric
+/// and the incremental potential (with the field's work) as the merit; that converges linearly
+/// at best (and the field's work is no potential either: near the solution it may fall along no
+/// direction), so after four times [`SWIRL_STALLS`] iterations the swirl goes back into `A`
+/// from the iterate reached, where Newton's method with the exact `A` converges quickly. At
+/// most [`SWIRL_SWITCHES`] such changes a step.
+#[allow(clippy::too_many_arguments)]
+fn newton(
+    model: &Model,
+    control: &Control,
+    force: &mut ForceScratch,
+    s: &mut ImplicitScratch,
+    x0: &[Vec3],
+    v0: &[Vec3],
+    h: f64,
+) -> Result<(), NotConverged> {
+    // The forces but the dampers are evaluated at zero velocity.
+    s.v_soa.fill_zero();
+    s.v.copy_from_slice(v0);
+    s.swirl_allowed = has_swirl(model);
+    let mut norm2 = residual(model, control, force, s, x0, v0, h, false);
+    let mut iterations = 0;
+    let mut reduction = CG_REDUCTION;
+    let mut shift = 0.0;
+    let (mut stalled, mut symmetric, mut switches, mut best) = (0, 0, 0, norm2);
+    loop {
+        let (norm, vmax) = max_norms(&s.g, &s.v);
+        if norm <= model.newton.tolerance * vmax.max(1.0) {
+            return Ok(());
+        }
+        if iterations == model.newton.max_iterations {
+            return Err(not_converged(&s.g, iterations));
+        }
+        iterations += 1;
+        newton_direction(
+            model,
+            control,
+            force.anchors(),
+            s,
+            x0,
+            h,
+            reduction,
+            &mut shift,
+        );
+        let before = norm2;
+        let swirled = s.swirl;
+        match line_search(model, control, force, s, x0, v0, h, norm2) {
+            Some(reached) => norm2 = reached,
+            // An inexact direction may not lead down at all: solve exactly before giving up.
+            None if reduction > CG_REDUCTION_EXACT => reduction = CG_REDUCTION_EXACT,
+            None if has_swirl(model)
+                && (swirled || !s.swirl_allowed)
+                && switches < SWIRL_SWITCHES =>
+            {
+                stalled = SWIRL_STALLS
+            }
+            None => return Err(not_converged(&s.g, iterations)),
+        }
+        // A Newton step that did not cut the residual tenfold was mostly held back by the
+        // inexact solve (a soft mode the conjugate gradients barely reached, which they then
+        // creep along): solve the next one more exactly.
+        if norm2 > 1e-2 * before {
+            reduction = (reduction * 1e-2).max(CG_REDUCTION_EXACT);
+        }
+        // Progress with the swirl in `A`: `|g|²_M` halved below its best.
+        // Without the swirl, Newton's method converges linearly at best: back to the swirl after
+        // a few times as long, however it went.
+        if has_swirl(model) && stalled < SWIRL_STALLS {
+            if !s.swirl_allowed {
+                symmetric += 1;
+                if symmetric == 4 * SWIRL_STALLS {
+                    stalled = SWIRL_STALLS;
+                }
+            } else if norm2 < 0.5 * best {
+                (best, stalled) = (norm2, 0);
+            } else if swirled {
+                stalled += 1;
+            }
+        }
+        if stalled >= SWIRL_STALLS && switches < SWIRL_SWITCHES {
+            // Into the other mode, fresh; from the step's start the first time `A` leaves the
+            // swirl out.
+            if s.swirl_allowed && switches == 0 {
+                s.v.copy_from_slice(v0);
+                norm2 = residual(model, control, force, s, x0, v0, h, false);
+            }
+            s.swirl_allowed = !s.swirl_allowed;
+            (stalled, symmetric) = (0, 0);
+            (best, reduction, shift) = (norm2, CG_REDUCTION, 0.0);
+            switches += 1;
+        }
+    }
 }
 
 /// The report of a step that stopped with residual `g` after `iterations`.
@@ -509,7 +607,8 @@ fn line_search(
     h: f64,
     norm2: f64,
 ) -> Option<f64> {
-    let potential = has_potential(model);
+    // A direction from a swirling `A` need not lower the potential, only `|g|²_M`.
+    let potential = has_potential(model) && !s.swirl;
     // The potential's slope along Δv is M·g·Δv (negative); for |g|²_M a plain fall is asked.
     let slope: f64 = if potential {
         s.g.iter()
@@ -860,6 +959,7 @@ fn assemble(
     // Penalty springs of walls, plane and obstacles where the iterate is, with the obstacles'
     // friction ties, their dampers as at the start, and pulls.
     let kc = model.k_collision;
+    let mut swirl: f64 = 0.0;
     for (i, e) in s.extra.iter_mut().enumerate() {
         if s.free[i] == 0.0 {
             continue;
@@ -869,8 +969,14 @@ fn assemble(
         }
         let p = at(i, &s.v);
         if let Some(field) = model.field.as_ref().filter(|f| f.uniform().is_none()) {
-            for (e, k) in e.iter_mut().zip(field_stiffness(field, p)) {
+            let gradient = field.gradient(p);
+            let k = field_stiffness(&gradient);
+            for (e, k) in e.iter_mut().zip(k) {
                 *e += h2 * k;
+            }
+            if let Some(c) = s.field_correction.get_mut(i) {
+                *c = field_correction(&gradient, &k).map(|c| h2 * c);
+                swirl = swirl.max(h2 * field_swirl(&gradient) / s.mass[i]);
             }
         }
         let walls = model
@@ -901,6 +1007,7 @@ fn assemble(
             }
         }
     }
+    s.swirl = s.swirl_allowed && swirl > SWIRL_LIMIT;
     for pull in &control.pulls {
         let e = &mut s.extra[pull.point as usize];
         let c = h * pull.damping + h2 * pull.stiffness;
@@ -957,8 +1064,7 @@ fn spring_block(u: Vec3, axial: f64, transverse: f64) -> Sym {
 /// semi-definite by adding its Gershgorin bound on the smallest eigenvalue when that is negative.
 /// A field that pulls towards a point (stiffer there than the masses) needs it, or Newton's
 /// method crawls.
-fn field_stiffness(field: &ForceField, p: Vec3) -> Sym {
-    let [dx, dy, dz] = field.gradient(p);
+fn field_stiffness(&[dx, dy, dz]: &[Vec3; 3]) -> Sym {
     let mut k: Sym = [
         -dx.x,
         -dy.y,
@@ -976,16 +1082,76 @@ fn field_stiffness(field: &ForceField, p: Vec3) -> Sym {
     k
 }
 
-/// `s.ap = A·s.p` over the free points (others give 0).
-fn apply(s: &mut ImplicitScratch) {
-    s.springs.apply(&s.extra, &s.free, &s.p, &mut s.ap);
-    let (x, y) = (&s.p, &mut s.ap);
-    for (&[a, c], b) in s.pair_rows.iter().zip(&s.pair_blocks) {
+/// What `A` needs besides the field's stiffness in `extra` for the field's exact gradient
+/// `J` (`gradient[j]` the derivative along axis `j`), `−J − k`, row-major (N/m).
+fn field_correction(gradient: &[Vec3; 3], k: &Sym) -> [f64; 9] {
+    let jacobian = |i: usize, j: usize| gradient[j].to_array()[i];
+    let sym = |i: usize, j: usize| match (i, j) {
+        (0, 0) | (1, 1) | (2, 2) => k[i],
+        (0, 1) | (1, 0) => k[3],
+        (0, 2) | (2, 0) => k[4],
+        _ => k[5],
+    };
+    std::array::from_fn(|e| {
+        let (i, j) = (e / 3, e % 3);
+        -jacobian(i, j) - sym(i, j)
+    })
+}
+
+/// The size of the antisymmetric part of a field's gradient (N/m): the largest of its entries.
+fn field_swirl(&[dx, dy, dz]: &[Vec3; 3]) -> f64 {
+    let half = |a: f64, b: f64| 0.5 * (a - b).abs();
+    half(dy.x, dx.y).max(half(dz.x, dx.z)).max(half(dz.y, dy.z))
+}
+
+/// True when the model has a field that is not uniform, whose gradient may swirl.
+fn has_swirl(model: &Model) -> bool {
+    model.field.as_ref().is_some_and(|f| f.uniform().is_none())
+}
+
+/// `y = A·x` over the free points (others give 0).
+#[allow(clippy::too_many_arguments)]
+fn apply_to(
+    springs: &mut SpringMatrix,
+    extra: &[Sym],
+    free: &[f64],
+    pair_rows: &[[u32; 2]],
+    pair_blocks: &[Sym],
+    field_correction: Option<&[[f64; 9]]>,
+    x: &[Vec3],
+    y: &mut [Vec3],
+) {
+    springs.apply(extra, free, x, y);
+    for (&[a, c], b) in pair_rows.iter().zip(pair_blocks) {
         let (a, c) = (a as usize, c as usize);
         let f = sym_mul(b, x[a] - x[c]);
-        y[a] += f * s.free[a];
-        y[c] -= f * s.free[c];
+        y[a] += f * free[a];
+        y[c] -= f * free[c];
     }
+    for (((y, &x), c), &free) in y
+        .iter_mut()
+        .zip(x)
+        .zip(field_correction.unwrap_or(&[]))
+        .zip(free)
+    {
+        let row = |i: usize| c[3 * i] * x.x + c[3 * i + 1] * x.y + c[3 * i + 2] * x.z;
+        *y += Vec3::new(row(0), row(1), row(2)) * free;
+    }
+}
+
+/// `s.ap = A·s.p` (`A` symmetric).
+fn apply(s: &mut ImplicitScratch) {
+    let pairs = (&s.pair_rows[..], &s.pair_blocks[..]);
+    apply_to(
+        &mut s.springs,
+        &s.extra,
+        &s.free,
+        pairs.0,
+        pairs.1,
+        None,
+        &s.p,
+        &mut s.ap,
+    );
 }
 
 fn dot(a: &[Vec3], b: &[Vec3]) -> f64 {
@@ -1006,6 +1172,9 @@ enum Preconditioner {
 /// positive definite, or the preconditioner (then `s.multigrid_failed` says which).
 fn solve(s: &mut ImplicitScratch, reduction: f64, preconditioner: Preconditioner) -> bool {
     s.multigrid_failed = false;
+    if s.swirl {
+        return solve_swirl(s, reduction, preconditioner);
+    }
     let precondition = |s: &mut ImplicitScratch| match preconditioner {
         Preconditioner::Multigrid => s.multigrid.precondition(&fine_operator!(s), &s.r, &mut s.z),
         Preconditioner::Diagonal => {
@@ -1061,6 +1230,76 @@ fn solve(s: &mut ImplicitScratch, reduction: f64, preconditioner: Preconditioner
     true
 }
 
+/// Solves `A·Δv = −M·g` into `s.dv` by GMRES when `A` holds a field's swirl (so is not
+/// symmetric), preconditioned as [`solve`] is, from `A`'s symmetric part. True when the residual
+/// fell by `reduction`; with the diagonal preconditioner, also when it fell by half at least,
+/// which is enough for a direction along which `|g|²_M` falls.
+fn solve_swirl(s: &mut ImplicitScratch, reduction: f64, preconditioner: Preconditioner) -> bool {
+    for i in 0..s.dv.len() {
+        s.r[i] = s.g[i] * (-s.mass[i] * s.free[i]);
+    }
+    let mut gmres = std::mem::take(&mut s.gmres);
+    let reached = {
+        let ImplicitScratch {
+            springs,
+            extra,
+            free,
+            pair_rows,
+            pair_blocks,
+            spring_pairs,
+            spring_blocks,
+            diag_inv,
+            field_correction,
+            multigrid,
+            r,
+            dv,
+            ..
+        } = s;
+        let fine = Operator {
+            own: extra,
+            pairs: spring_pairs,
+            blocks: spring_blocks,
+            more_pairs: pair_rows,
+            more_blocks: pair_blocks,
+            diag_inv,
+            free: Some(free),
+        };
+        let apply = |x: &[Vec3], y: &mut [Vec3]| {
+            let correction = Some(&field_correction[..]);
+            apply_to(
+                springs,
+                extra,
+                free,
+                pair_rows,
+                pair_blocks,
+                correction,
+                x,
+                y,
+            );
+        };
+        let precondition = |r: &[Vec3], z: &mut [Vec3]| match preconditioner {
+            Preconditioner::Multigrid => multigrid.precondition(&fine, r, z),
+            Preconditioner::Diagonal => {
+                for ((z, &r), (d, &f)) in z.iter_mut().zip(r).zip(diag_inv.iter().zip(&**free)) {
+                    *z = sym_mul(d, r) * f;
+                }
+            }
+        };
+        gmres.solve(r, dv, reduction, MAX_CG, apply, precondition)
+    };
+    s.gmres = gmres;
+    if reached.relative_residual <= reduction {
+        return true;
+    }
+    match preconditioner {
+        Preconditioner::Multigrid => {
+            s.multigrid_failed = true;
+            false
+        }
+        Preconditioner::Diagonal => reached.relative_residual <= 0.5,
+    }
+}
+
 /// Models and values for the unit tests of the solver's parts.
 #[cfg(test)]
 mod test_models {
@@ -1099,5 +1338,122 @@ mod test_models {
             .bodies(vec![holes, flat])
             .build()
             .unwrap()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::test_models::values;
+    use super::*;
+    use crate::body::{Body, Material};
+    use crate::field::ForceField;
+    use crate::lattice::Lattice;
+    use crate::model::{Aabb, ModelBuilder};
+
+    /// With a swirling field's exact gradient in it, `A` is `M·∂g/∂v`: `A·d` matches the central
+    /// difference of `M·g` along `d`, at a lattice stretched and turned so that its springs'
+    /// transverse stiffness matters, in a field that is neither linear nor a gradient.
+    #[test]
+    fn a_with_the_swirl_is_the_derivative_of_the_residual() {
+        let box_ = Aabb::new(Vec3::new(-2.0, -2.0, -2.0), Vec3::new(2.0, 2.0, 2.0)).unwrap();
+        let swirl = |p: Vec3| Vec3::new(-p.y, p.x + 0.5 * p.z * p.z, p.x * p.y) * 12.0;
+        let field = ForceField::from_fn(9, box_, swirl).unwrap();
+        let body = Body::lattice_box(
+            Lattice::new([4, 3, 3], Vec3::new(0.9, 0.6, 0.6)),
+            Material::classic(),
+        );
+        let h = 1.0 / 60.0;
+        let model = ModelBuilder::new()
+            .bodies(vec![body])
+            .field(Some(field))
+            .dt(h)
+            .pins([5])
+            .build()
+            .unwrap();
+        let mut next = values(11);
+        let mut random = || Vec3::new(next(), next(), next());
+        let x0: Vec<Vec3> = crate::State::at_rest(&model)
+            .pos
+            .iter()
+            .map(|&p| Vec3::new(p.x * 1.3 - 0.4, p.y - 0.1 * p.z, p.z + 0.2 * p.x))
+            .collect();
+        let v: Vec<Vec3> = (0..x0.len()).map(|_| random() * 2.0).collect();
+        let d: Vec<Vec3> = (0..x0.len()).map(|_| random()).collect();
+        let (control, mut force) = (Control::none(), ForceScratch::new(&model));
+        let mut s = ImplicitScratch::new(&model);
+        s.load(&model);
+        s.start_dampers(&model, &x0);
+        let mut m_g = |s: &mut ImplicitScratch, v: &[Vec3]| {
+            s.v_soa.fill_zero();
+            s.v.copy_from_slice(v);
+            residual(&model, &control, &mut force, s, &x0, &x0, h, false);
+            (s.g.iter().zip(&s.mass))
+                .map(|(&g, &m)| g * m)
+                .collect::<Vec<_>>()
+        };
+        let eps = 1e-6;
+        let along = |sign: f64| -> Vec<Vec3> {
+            v.iter()
+                .zip(&d)
+                .map(|(&v, &d)| v + d * (sign * eps))
+                .collect()
+        };
+        let (up, down) = (m_g(&mut s, &along(1.0)), m_g(&mut s, &along(-1.0)));
+        m_g(&mut s, &v);
+        s.swirl_allowed = true;
+        let anchors = ForceScratch::new(&model);
+        assemble(
+            &model,
+            &control,
+            anchors.anchors(),
+            &mut s,
+            &x0,
+            h,
+            Curvature::True { shift: 0.0 },
+        );
+        assert!(
+            s.swirl,
+            "the field should swirl past the limit at this step"
+        );
+        let mut ad = vec![Vec3::ZERO; d.len()];
+        let correction = Some(&s.field_correction[..]);
+        let pairs = (&s.pair_rows[..], &s.pair_blocks[..]);
+        apply_to(
+            &mut s.springs,
+            &s.extra,
+            &s.free,
+            pairs.0,
+            pairs.1,
+            correction,
+            &d,
+            &mut ad,
+        );
+        let scale = ad.iter().map(|a| a.max_abs()).fold(0.0, f64::max);
+        for (p, ((&a, &u), &w)) in ad.iter().zip(&up).zip(&down).enumerate() {
+            let difference = (u - w) / (2.0 * eps) * s.free[p];
+            let off = (a - difference).max_abs();
+            assert!(
+                off <= 1e-6 * scale,
+                "point {p}: A·d {a:?}, difference {difference:?}"
+            );
+        }
+        // Without the swirl's correction, A·d misses it by far more.
+        apply_to(
+            &mut s.springs,
+            &s.extra,
+            &s.free,
+            pairs.0,
+            pairs.1,
+            None,
+            &d,
+            &mut ad,
+        );
+        let worst = ad
+            .iter()
+            .zip(up.iter().zip(&down))
+            .zip(&s.free)
+            .map(|((&a, (&u, &w)), &f)| (a - (u - w) / (2.0 * eps) * f).max_abs())
+            .fold(0.0, f64::max);
+        assert!(worst > 1e-3 * scale, "{worst} against {scale}");
     }
 }
