@@ -439,7 +439,6 @@ pub(crate) fn step(
 
 /// One backward-Euler step of size `h` from `(x0, v0)` into `next_pos` and `next_vel`, the
 /// scratch loaded and its dampers set.
-///
 #[allow(clippy::too_many_arguments)]
 fn backward_euler(
     model: &Model,
@@ -1175,23 +1174,17 @@ fn solve(s: &mut ImplicitScratch, reduction: f64, preconditioner: Preconditioner
     if s.swirl {
         return solve_swirl(s, reduction, preconditioner);
     }
-    let precondition = |s: &mut ImplicitScratch| match preconditioner {
-        Preconditioner::Multigrid => s.multigrid.precondition(&fine_operator!(s), &s.r, &mut s.z),
-        Preconditioner::Diagonal => {
-            for ((z, &r), (d, &f)) in s.z.iter_mut().zip(&s.r).zip(s.diag_inv.iter().zip(&s.free)) {
-                *z = sym_mul(d, r) * f;
-            }
-        }
+    let precondition = |s: &mut ImplicitScratch| {
+        let fine = fine_operator!(s);
+        precondition_with(preconditioner, &mut s.multigrid, &fine, &s.r, &mut s.z);
     };
     // A negative `r·z` shows an indefinite preconditioner, `A` itself only with the diagonal.
     let fail = |s: &mut ImplicitScratch| {
         s.multigrid_failed = preconditioner == Preconditioner::Multigrid;
         false
     };
-    for i in 0..s.dv.len() {
-        s.dv[i] = Vec3::ZERO;
-        s.r[i] = s.g[i] * (-s.mass[i] * s.free[i]);
-    }
+    s.dv.fill(Vec3::ZERO);
+    set_right_hand_side(s);
     precondition(s);
     s.p.copy_from_slice(&s.z);
     let target = dot(&s.r, &s.r) * reduction * reduction;
@@ -1235,57 +1228,22 @@ fn solve(s: &mut ImplicitScratch, reduction: f64, preconditioner: Preconditioner
 /// fell by `reduction`; with the diagonal preconditioner, also when it fell by half at least,
 /// which is enough for a direction along which `|g|²_M` falls.
 fn solve_swirl(s: &mut ImplicitScratch, reduction: f64, preconditioner: Preconditioner) -> bool {
-    for i in 0..s.dv.len() {
-        s.r[i] = s.g[i] * (-s.mass[i] * s.free[i]);
-    }
+    set_right_hand_side(s);
     let mut gmres = std::mem::take(&mut s.gmres);
     let reached = {
-        let ImplicitScratch {
-            springs,
-            extra,
-            free,
-            pair_rows,
-            pair_blocks,
-            spring_pairs,
-            spring_blocks,
-            diag_inv,
-            field_correction,
-            multigrid,
-            r,
-            dv,
-            ..
-        } = s;
-        let fine = Operator {
-            own: extra,
-            pairs: spring_pairs,
-            blocks: spring_blocks,
-            more_pairs: pair_rows,
-            more_blocks: pair_blocks,
-            diag_inv,
-            free: Some(free),
-        };
+        let fine = fine_operator!(s);
+        let (springs, multigrid) = (&mut s.springs, &mut s.multigrid);
+        let pairs = (&s.pair_rows[..], &s.pair_blocks[..]);
+        let correction = Some(&s.field_correction[..]);
         let apply = |x: &[Vec3], y: &mut [Vec3]| {
-            let correction = Some(&field_correction[..]);
             apply_to(
-                springs,
-                extra,
-                free,
-                pair_rows,
-                pair_blocks,
-                correction,
-                x,
-                y,
+                springs, &s.extra, &s.free, pairs.0, pairs.1, correction, x, y,
             );
         };
-        let precondition = |r: &[Vec3], z: &mut [Vec3]| match preconditioner {
-            Preconditioner::Multigrid => multigrid.precondition(&fine, r, z),
-            Preconditioner::Diagonal => {
-                for ((z, &r), (d, &f)) in z.iter_mut().zip(r).zip(diag_inv.iter().zip(&**free)) {
-                    *z = sym_mul(d, r) * f;
-                }
-            }
+        let precondition = |r: &[Vec3], z: &mut [Vec3]| {
+            precondition_with(preconditioner, multigrid, &fine, r, z);
         };
-        gmres.solve(r, dv, reduction, MAX_CG, apply, precondition)
+        gmres.solve(&s.r, &mut s.dv, reduction, MAX_CG, apply, precondition)
     };
     s.gmres = gmres;
     if reached.relative_residual <= reduction {
@@ -1297,6 +1255,32 @@ fn solve_swirl(s: &mut ImplicitScratch, reduction: f64, preconditioner: Precondi
             false
         }
         Preconditioner::Diagonal => reached.relative_residual <= 0.5,
+    }
+}
+
+/// `z = P⁻¹·r` for the preconditioner `preconditioner` of `A` (`fine`).
+fn precondition_with(
+    preconditioner: Preconditioner,
+    multigrid: &mut Multigrid,
+    fine: &Operator,
+    r: &[Vec3],
+    z: &mut [Vec3],
+) {
+    match preconditioner {
+        Preconditioner::Multigrid => multigrid.precondition(fine, r, z),
+        Preconditioner::Diagonal => {
+            let free = fine.free.unwrap_or(&[]);
+            for ((z, &r), (d, &f)) in z.iter_mut().zip(r).zip(fine.diag_inv.iter().zip(free)) {
+                *z = sym_mul(d, r) * f;
+            }
+        }
+    }
+}
+
+/// The Newton system's right-hand side `−M·g` into `s.r` (zero at held points).
+fn set_right_hand_side(s: &mut ImplicitScratch) {
+    for ((r, &g), (&m, &free)) in s.r.iter_mut().zip(&s.g).zip(s.mass.iter().zip(&s.free)) {
+        *r = g * (-m * free);
     }
 }
 
@@ -1401,11 +1385,10 @@ mod tests {
         let (up, down) = (m_g(&mut s, &along(1.0)), m_g(&mut s, &along(-1.0)));
         m_g(&mut s, &v);
         s.swirl_allowed = true;
-        let anchors = ForceScratch::new(&model);
         assemble(
             &model,
             &control,
-            anchors.anchors(),
+            force.anchors(),
             &mut s,
             &x0,
             h,
