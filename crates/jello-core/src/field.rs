@@ -20,6 +20,8 @@ pub struct ForceField {
     /// The force when every node holds the same one (gravity, wind): interpolating equal values
     /// gives that value, so [`ForceField::sample`] returns it without the arithmetic.
     uniform: Option<Vec3>,
+    /// See [`ForceField::max_swirl`].
+    max_swirl: f64,
 }
 
 impl ForceField {
@@ -48,11 +50,17 @@ impl ForceField {
             .iter()
             .all(|f| f.to_array().map(f64::to_bits) == first)
             .then_some(forces[0]);
+        let max_swirl = if uniform.is_some() {
+            0.0
+        } else {
+            max_swirl(res, &bounds, &forces)
+        };
         Ok(ForceField {
             res,
             bounds,
             forces,
             uniform,
+            max_swirl,
         })
     }
 
@@ -178,10 +186,57 @@ impl ForceField {
         self.uniform
     }
 
+    /// A bound on the swirl of [`gradient`](Self::gradient) anywhere (N/m): on each
+    /// antisymmetric entry `½|∂f_b/∂a − ∂f_a/∂b|`, and on `½|∂f_b/∂a|` alone (outside the box
+    /// one derivative is zero). Within a cell each is multilinear in the position, so largest at
+    /// a corner, where the derivatives are differences along the cell's edges at a node.
+    pub fn max_swirl(&self) -> f64 {
+        self.max_swirl
+    }
+
     /// Largest node force magnitude (N).
     pub fn max_magnitude(&self) -> f64 {
         self.forces.iter().map(|f| f.length()).fold(0.0, f64::max)
     }
+}
+
+/// See [`ForceField::max_swirl`]: at every node, over the edges on either side of it along
+/// each pair of axes (every cell corner there).
+fn max_swirl(res: usize, b: &Aabb, forces: &[Vec3]) -> f64 {
+    let cells = (res - 1) as f64;
+    let scale = [
+        cells / (b.max.x - b.min.x),
+        cells / (b.max.y - b.min.y),
+        cells / (b.max.z - b.min.z),
+    ];
+    let step = [res * res, res, 1];
+    let mut most: f64 = 0.0;
+    for i in 0..res {
+        for j in 0..res {
+            for k in 0..res {
+                let node = [i, j, k];
+                let at = (i * res + j) * res + k;
+                // Component `c`'s derivative along `axis` on the edge before (0) and after (1)
+                // the node, where there is one.
+                let derivative = |axis: usize, c: usize, side: usize| -> Option<f64> {
+                    let (from, to) = match side {
+                        0 if node[axis] > 0 => (at - step[axis], at),
+                        1 if node[axis] + 1 < res => (at, at + step[axis]),
+                        _ => return None,
+                    };
+                    Some((forces[to].to_array()[c] - forces[from].to_array()[c]) * scale[axis])
+                };
+                for (a, c) in [(0, 1), (0, 2), (1, 2)] {
+                    for x in (0..2).filter_map(|side| derivative(a, c, side)) {
+                        for y in (0..2).filter_map(|side| derivative(c, a, side)) {
+                            most = most.max(0.5 * (x - y).abs().max(x.abs()).max(y.abs()));
+                        }
+                    }
+                }
+            }
+        }
+    }
+    most
 }
 
 fn node_position(b: &Aabb, res: usize, [i, j, k]: [usize; 3]) -> Vec3 {
@@ -240,5 +295,53 @@ mod tests {
         let outside = field.gradient(Vec3::new(2.5, 0.0, 0.0));
         assert_eq!(outside[0], Vec3::ZERO);
         assert_ne!(outside[1], Vec3::ZERO);
+    }
+
+    /// The antisymmetric entries of the gradient, as the implicit solver measures its swirl.
+    fn swirl(&[dx, dy, dz]: &[Vec3; 3]) -> f64 {
+        let half = |a: f64, b: f64| 0.5 * (a - b).abs();
+        half(dy.x, dx.y).max(half(dz.x, dx.z)).max(half(dz.y, dy.z))
+    }
+
+    /// `max_swirl` is the swirl of a turning field `c·(−y, x, 0)`, and bounds the swirl of a
+    /// field that is not linear everywhere, inside the box and out; a uniform field has none.
+    #[test]
+    fn max_swirl_bounds_the_swirl_everywhere() {
+        let turning = ForceField::from_fn(5, Aabb::classic(), |p| {
+            Vec3::new(-3.0 * p.y, 3.0 * p.x, 0.0)
+        })
+        .unwrap();
+        assert!(
+            (turning.max_swirl() - 3.0).abs() < 1e-12,
+            "{}",
+            turning.max_swirl()
+        );
+        let field = ForceField::from_fn(4, Aabb::classic(), |p| {
+            Vec3::new(p.x * p.y, p.z * p.z - p.x, (p.x + 2.0 * p.y).sin() * p.z)
+        })
+        .unwrap();
+        let mut seen: f64 = 0.0;
+        let steps = 37;
+        for i in 0..=steps {
+            for j in 0..=steps {
+                for k in 0..=steps {
+                    let at = |c: usize| -3.0 + 6.0 * c as f64 / steps as f64;
+                    seen = seen.max(swirl(&field.gradient(Vec3::new(at(i), at(j), at(k)))));
+                }
+            }
+        }
+        assert!(
+            seen <= field.max_swirl() * (1.0 + 1e-12),
+            "{seen} > {}",
+            field.max_swirl()
+        );
+        assert!(
+            seen > 0.5 * field.max_swirl(),
+            "{seen} ≪ {}",
+            field.max_swirl()
+        );
+        let still =
+            ForceField::from_fn(3, Aabb::classic(), |_| Vec3::new(0.0, 0.0, -9.81)).unwrap();
+        assert_eq!(still.max_swirl(), 0.0);
     }
 }

@@ -40,10 +40,14 @@
 //! otherwise; the potential's fall is computed term by term from differences, so that it stays
 //! visible below the potential's own rounding. A full step that falls faster than its
 //! quadratic model is extended while the potential keeps falling (a buckling lattice slides).
+//! A full step that cuts `|g|_M` tenfold is taken as it is, without the merit's fall: Newton's
+//! method is then in its fast regime.
 //! The gradient's antisymmetric part (a field's swirl) is not in that `A`, and Newton's method
 //! then gains at best its size over the masses (`h²·|swirl|/m`) per iteration. Where that
 //! passes 1, `A` takes the field's exact gradient instead and GMRES (`gmres.rs`) solves with
-//! it, judged by `|g|²_M`; `newton` says how the two take turns when one stalls.
+//! it, judged by `|g|²_M`; `newton` says how the two take turns when one stalls. Only a field
+//! that can swirl past that limit at the model's step has GMRES's basis allocated (its swirl is
+//! bounded once, from its nodes: [`crate::ForceField::max_swirl`]).
 //!
 //! A step has converged when every point's residual `|g|` is at most [`TOLERANCE`] times
 //! `max(1, max |v₁|)` (m/s; both settable, [`Model::newton`](crate::Model::newton)); then the
@@ -231,9 +235,9 @@ pub struct ImplicitScratch {
     /// last solve stopped because their cycle was not positive definite.
     multigrid: Multigrid,
     multigrid_failed: bool,
-    /// A field that is not uniform: per point, the part of `A` that its exact gradient adds to
-    /// the symmetric, positive semi-definite stiffness in `extra` (a general 3×3, row-major);
-    /// used when `swirl` is set.
+    /// A field that may swirl past the limit ([`can_swirl`]): per point, the part of `A` that
+    /// its exact gradient adds to the symmetric, positive semi-definite stiffness in `extra` (a
+    /// general 3×3, row-major); used when `swirl` is set.
     field_correction: Vec<[f64; 9]>,
     /// True when the field's swirl at the iterate passes [`SWIRL_LIMIT`] and `swirl_allowed`
     /// (see [`newton`]): `A` is not symmetric then, and GMRES (with its basis here) solves in
@@ -263,7 +267,7 @@ impl ImplicitScratch {
         self.mass.len() == n
             && self.contacts.fits(model)
             && self.springs.fits(model)
-            && (!has_swirl(model) || (self.gmres.fits(n) && self.field_correction.len() == n))
+            && (!can_swirl(model) || (self.gmres.fits(n) && self.field_correction.len() == n))
     }
 
     fn new(model: &Model) -> Self {
@@ -304,10 +308,10 @@ impl ImplicitScratch {
             pair_blocks: Vec::with_capacity(if model.bodies().len() > 1 { 8 * n } else { 0 }),
             multigrid: Multigrid::default(),
             multigrid_failed: false,
-            field_correction: vec![[0.0; 9]; if has_swirl(model) { n } else { 0 }],
+            field_correction: vec![[0.0; 9]; if can_swirl(model) { n } else { 0 }],
             swirl: false,
             swirl_allowed: false,
-            gmres: if has_swirl(model) {
+            gmres: if can_swirl(model) {
                 Gmres::new(n)
             } else {
                 Gmres::default()
@@ -499,7 +503,7 @@ fn newton(
     // The forces but the dampers are evaluated at zero velocity.
     s.v_soa.fill_zero();
     s.v.copy_from_slice(v0);
-    s.swirl_allowed = has_swirl(model);
+    s.swirl_allowed = can_swirl(model);
     let mut norm2 = residual(model, control, force, s, x0, v0, h, false);
     let mut iterations = 0;
     let mut reduction = CG_REDUCTION;
@@ -530,7 +534,7 @@ fn newton(
             Some(reached) => norm2 = reached,
             // An inexact direction may not lead down at all: solve exactly before giving up.
             None if reduction > CG_REDUCTION_EXACT => reduction = CG_REDUCTION_EXACT,
-            None if has_swirl(model)
+            None if can_swirl(model)
                 && (swirled || !s.swirl_allowed)
                 && switches < SWIRL_SWITCHES =>
             {
@@ -547,7 +551,7 @@ fn newton(
         // Progress with the swirl in `A`: `|g|²_M` halved below its best.
         // Without the swirl, Newton's method converges linearly at best: back to the swirl after
         // a few times as long, however it went.
-        if has_swirl(model) && stalled < SWIRL_STALLS {
+        if can_swirl(model) && stalled < SWIRL_STALLS {
             if !s.swirl_allowed {
                 symmetric += 1;
                 if symmetric == 4 * SWIRL_STALLS {
@@ -618,21 +622,28 @@ fn line_search(
     } else {
         0.0
     };
-    let fall_to_trial = |s: &mut ImplicitScratch, force: &mut ForceScratch, from: f64| {
-        let n2 = residual(model, control, force, s, x0, v0, h, true);
-        let fall = if !n2.is_finite() {
+    // The merit's fall to the trial, whose `|g|²_M` is `n2`, from `from`.
+    let fall_to = |s: &ImplicitScratch, n2: f64, from: f64| {
+        if !n2.is_finite() {
             f64::NEG_INFINITY
         } else if potential {
             potential_fall(model, control, s, x0, v0, h)
         } else {
             from - n2
-        };
-        (fall, n2)
+        }
     };
     let mut alpha = 1.0;
     for _ in 0..=MAX_HALVINGS {
         s.set_trial(alpha);
-        let (fall, n2) = fall_to_trial(s, force, norm2);
+        let n2 = residual(model, control, force, s, x0, v0, h, true);
+        // A full step that cuts `|g|_M` tenfold is taken without the merit's fall (a third of
+        // the line search's cost): Newton's method is then in its fast regime, where the merit
+        // falls as its quadratic model says, and would not be followed further.
+        if alpha == 1.0 && n2 < 1e-2 * norm2 {
+            s.take_trial();
+            return Some(n2);
+        }
+        let fall = fall_to(s, n2, norm2);
         // At a contact's kink the merit may not fall at all: a step that lowers the residual
         // is taken too.
         if fall > -1e-4 * alpha * slope.min(0.0) || n2 < norm2 {
@@ -645,8 +656,8 @@ fn line_search(
             if alpha == 1.0 && slope < 0.0 && fall > -0.75 * slope {
                 for _ in 0..MAX_EXPANSIONS {
                     s.set_trial(1.0);
-                    let (fall, n2) = fall_to_trial(s, force, reached);
-                    if fall <= 0.0 {
+                    let n2 = residual(model, control, force, s, x0, v0, h, true);
+                    if fall_to(s, n2, reached) <= 0.0 {
                         break;
                     }
                     s.take_trial();
@@ -1103,9 +1114,20 @@ fn field_swirl(&[dx, dy, dz]: &[Vec3; 3]) -> f64 {
     half(dy.x, dx.y).max(half(dz.x, dx.z)).max(half(dz.y, dy.z))
 }
 
-/// True when the model has a field that is not uniform, whose gradient may swirl.
-fn has_swirl(model: &Model) -> bool {
-    model.field.as_ref().is_some_and(|f| f.uniform().is_none())
+/// True when the model's field may swirl past [`SWIRL_LIMIT`] at its step: the field's largest
+/// swirl ([`ForceField::max_swirl`](crate::ForceField::max_swirl)) times `dt²` over the
+/// lightest point mass (an SDIRK2 stage is shorter than `dt`). Only then does the solver hold
+/// GMRES's basis and the field's corrections, and take turns between the two kinds of `A`.
+fn can_swirl(model: &Model) -> bool {
+    let lightest = model
+        .bodies()
+        .iter()
+        .map(|b| b.material.mass)
+        .fold(f64::INFINITY, f64::min);
+    model
+        .field
+        .as_ref()
+        .is_some_and(|f| model.dt * model.dt * f.max_swirl() / lightest > SWIRL_LIMIT)
 }
 
 /// `y = A·x` over the free points (others give 0).
@@ -1333,6 +1355,42 @@ mod tests {
     use crate::field::ForceField;
     use crate::lattice::Lattice;
     use crate::model::{Aabb, ModelBuilder};
+
+    /// GMRES's basis and the field's corrections are held only for a field whose swirl can pass
+    /// the limit at the model's step: not for a gentle field that is not uniform, nor for the
+    /// same field at a step too short for it.
+    #[test]
+    fn only_a_field_that_can_swirl_past_the_limit_gets_gmres() {
+        let box_ = Aabb::new(Vec3::new(-2.0, -2.0, -2.0), Vec3::new(2.0, 2.0, 2.0)).unwrap();
+        // c·(−y, x, 0) swirls by c (N/m); the classic mass is 1/512 kg.
+        let turning = |c: f64| ForceField::from_fn(5, box_, move |p| Vec3::new(-p.y, p.x, 0.0) * c);
+        let model = |c: f64, dt: f64| {
+            let body = Body::lattice_box(
+                Lattice::new([3, 3, 3], Vec3::new(0.5, 0.5, 0.5)),
+                Material::classic(),
+            );
+            let model = ModelBuilder::new().bodies(vec![body]);
+            model
+                .field(Some(turning(c).unwrap()))
+                .dt(dt)
+                .build()
+                .unwrap()
+        };
+        let h = 1.0 / 60.0;
+        let at_limit = SWIRL_LIMIT / 512.0 / (h * h);
+        for (c, dt, held) in [
+            (2.0 * at_limit, h, true),
+            (0.5 * at_limit, h, false),
+            (2.0 * at_limit, 0.5 * h, false),
+        ] {
+            let model = model(c, dt);
+            let s = ImplicitScratch::new(&model);
+            let n = model.point_count();
+            assert_eq!(can_swirl(&model), held, "field {c} N/m, dt {dt}");
+            assert_eq!(s.gmres.fits(n), held, "field {c} N/m, dt {dt}");
+            assert_eq!(s.field_correction.len(), if held { n } else { 0 });
+        }
+    }
 
     /// With a swirling field's exact gradient in it, `A` is `M·∂g/∂v`: `A·d` matches the central
     /// difference of `M·g` along `d`, at a lattice stretched and turned so that its springs'
