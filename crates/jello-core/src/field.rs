@@ -200,6 +200,13 @@ impl ForceField {
     }
 }
 
+/// The size of the antisymmetric part of a field's gradient `[∂f/∂x, ∂f/∂y, ∂f/∂z]` (N/m): the
+/// largest of its entries `½|∂f_b/∂a − ∂f_a/∂b|` (the implicit solver's measure of a swirl).
+pub(crate) fn swirl(&[dx, dy, dz]: &[Vec3; 3]) -> f64 {
+    let half = |a: f64, b: f64| 0.5 * (a - b).abs();
+    half(dy.x, dx.y).max(half(dz.x, dx.z)).max(half(dz.y, dy.z))
+}
+
 /// See [`ForceField::max_swirl`]: at every node, over the edges on either side of it along
 /// each pair of axes (every cell corner there).
 fn max_swirl(res: usize, b: &Aabb, forces: &[Vec3]) -> f64 {
@@ -295,12 +302,6 @@ mod tests {
         let outside = field.gradient(Vec3::new(2.5, 0.0, 0.0));
         assert_eq!(outside[0], Vec3::ZERO);
         assert_ne!(outside[1], Vec3::ZERO);
-    }
-
-    /// The antisymmetric entries of the gradient, as the implicit solver measures its swirl.
-    fn swirl(&[dx, dy, dz]: &[Vec3; 3]) -> f64 {
-        let half = |a: f64, b: f64| 0.5 * (a - b).abs();
-        half(dy.x, dx.y).max(half(dz.x, dx.z)).max(half(dz.y, dy.z))
     }
 
     /// `max_swirl` is the swirl of a turning field `c·(−y, x, 0)`, and bounds the swirl of a

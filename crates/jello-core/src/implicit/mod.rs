@@ -62,6 +62,7 @@
 //! on the first implicit step and reused, so later steps do not allocate.
 
 use crate::contact::Contacts;
+use crate::field;
 use crate::forces::{force_pass, ForceScratch};
 use crate::friction::{self, Anchors};
 use crate::integrator::Integrator;
@@ -272,6 +273,7 @@ impl ImplicitScratch {
 
     fn new(model: &Model) -> Self {
         let n = model.point_count();
+        let swirls = can_swirl(model);
         let zeros = vec![Vec3::ZERO; n];
         ImplicitScratch {
             rows: Vec::with_capacity(model.spring_count()),
@@ -308,10 +310,10 @@ impl ImplicitScratch {
             pair_blocks: Vec::with_capacity(if model.bodies().len() > 1 { 8 * n } else { 0 }),
             multigrid: Multigrid::default(),
             multigrid_failed: false,
-            field_correction: vec![[0.0; 9]; if can_swirl(model) { n } else { 0 }],
+            field_correction: vec![[0.0; 9]; if swirls { n } else { 0 }],
             swirl: false,
             swirl_allowed: false,
-            gmres: if can_swirl(model) {
+            gmres: if swirls {
                 Gmres::new(n)
             } else {
                 Gmres::default()
@@ -503,7 +505,8 @@ fn newton(
     // The forces but the dampers are evaluated at zero velocity.
     s.v_soa.fill_zero();
     s.v.copy_from_slice(v0);
-    s.swirl_allowed = can_swirl(model);
+    let swirls = can_swirl(model);
+    s.swirl_allowed = swirls;
     let mut norm2 = residual(model, control, force, s, x0, v0, h, false);
     let mut iterations = 0;
     let mut reduction = CG_REDUCTION;
@@ -534,10 +537,7 @@ fn newton(
             Some(reached) => norm2 = reached,
             // An inexact direction may not lead down at all: solve exactly before giving up.
             None if reduction > CG_REDUCTION_EXACT => reduction = CG_REDUCTION_EXACT,
-            None if can_swirl(model)
-                && (swirled || !s.swirl_allowed)
-                && switches < SWIRL_SWITCHES =>
-            {
+            None if swirls && (swirled || !s.swirl_allowed) && switches < SWIRL_SWITCHES => {
                 stalled = SWIRL_STALLS
             }
             None => return Err(not_converged(&s.g, iterations)),
@@ -551,7 +551,7 @@ fn newton(
         // Progress with the swirl in `A`: `|g|²_M` halved below its best.
         // Without the swirl, Newton's method converges linearly at best: back to the swirl after
         // a few times as long, however it went.
-        if can_swirl(model) && stalled < SWIRL_STALLS {
+        if swirls && stalled < SWIRL_STALLS {
             if !s.swirl_allowed {
                 symmetric += 1;
                 if symmetric == 4 * SWIRL_STALLS {
@@ -986,7 +986,7 @@ fn assemble(
             }
             if let Some(c) = s.field_correction.get_mut(i) {
                 *c = field_correction(&gradient, &k).map(|c| h2 * c);
-                swirl = swirl.max(h2 * field_swirl(&gradient) / s.mass[i]);
+                swirl = swirl.max(h2 * field::swirl(&gradient) / s.mass[i]);
             }
         }
         let walls = model
@@ -1106,12 +1106,6 @@ fn field_correction(gradient: &[Vec3; 3], k: &Sym) -> [f64; 9] {
         let (i, j) = (e / 3, e % 3);
         -jacobian(i, j) - sym(i, j)
     })
-}
-
-/// The size of the antisymmetric part of a field's gradient (N/m): the largest of its entries.
-fn field_swirl(&[dx, dy, dz]: &[Vec3; 3]) -> f64 {
-    let half = |a: f64, b: f64| 0.5 * (a - b).abs();
-    half(dy.x, dx.y).max(half(dz.x, dx.z)).max(half(dz.y, dy.z))
 }
 
 /// True when the model's field may swirl past [`SWIRL_LIMIT`] at its step: the field's largest
