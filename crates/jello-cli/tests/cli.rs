@@ -314,6 +314,37 @@ fn blow_up_exits_3_and_saves_nothing() {
         .success();
 }
 
+/// `pinball.w` under SDIRK2 at 0.01 s: its first step does not converge whole (its second stage
+/// starts crushed) and is taken in halves, which the summary says; with `--cutbacks 0` the run
+/// stops there, saving nothing. More halvings than the core allows are refused.
+#[test]
+fn implicit_steps_that_fail_are_cut_back_and_said() {
+    let world = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/worlds/pinball.w");
+    if !world.is_file() {
+        eprintln!(
+            "skipping: {} is absent (the shared world corpus is not here)",
+            world.display()
+        );
+        return;
+    }
+    let t = TempDir::new("cutbacks");
+    let world = world.to_str().unwrap();
+    let args = ["run", world, "--integrator", "SDIRK2", "--dt", "0.01", "--steps", "2"];
+    t.jello(&[&args[..], &["-q", "--save", "S.w"]].concat())
+        .success()
+        .stdout_has("steps taken in parts (")
+        .stdout_has("the smallest dt/2)");
+    assert!(t.path("S.w").exists());
+    let r = t.jello(&[&args[..], &["-q", "--cutbacks", "0", "--save", "T.w"]].concat());
+    r.code(3)
+        .stderr_has("did not converge at step 1")
+        .stderr_has("after 200 Newton iterations (");
+    assert!(!t.path("T.w").exists(), "a stopped run left T.w");
+    let r = t.jello(&[&args[..], &["--cutbacks", "21"]].concat());
+    r.code(2).stderr_has("--cutbacks");
+    t.assert_no_temp_files();
+}
+
 /// Writes `bytes` as `name`, runs it with `--save`, and checks the clean failure: exit 1, the
 /// file and a line named, no output file.
 fn assert_rejected(t: &TempDir, name: &str, bytes: &[u8]) -> Run {

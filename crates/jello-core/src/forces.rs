@@ -154,6 +154,11 @@ impl ForceScratch {
         &self.anchors
     }
 
+    /// The anchors, to be put back after a step that is taken again (see [`crate::cutback`]).
+    pub(crate) fn anchors_mut(&mut self) -> &mut Anchors {
+        &mut self.anchors
+    }
+
     fn fits(&self, model: &Model) -> bool {
         self.bodies.len() == model.bodies().len()
             && self

@@ -32,6 +32,7 @@
 
 pub mod body;
 pub mod contact;
+pub mod cutback;
 pub mod diagnostics;
 pub mod field;
 pub mod field_preset;
@@ -61,6 +62,7 @@ pub mod voxel;
 pub mod world;
 
 pub use body::{Body, Material};
+pub use cutback::CutbackStats;
 pub use diagnostics::Energy;
 pub use field::ForceField;
 pub use field_preset::FieldPreset;
@@ -116,6 +118,12 @@ impl Simulation {
             &self.control,
             &mut self.scratch,
         )
+    }
+
+    /// How often implicit steps were taken in parts (see [`cutback`]) since this simulation
+    /// was made.
+    pub fn cutbacks(&self) -> CutbackStats {
+        self.scratch.cutbacks()
     }
 
     /// `n` steps, stopping at the first blow-up.

@@ -445,6 +445,13 @@ impl ModelBuilder {
         if self.newton.max_iterations == 0 {
             return Err(ModelError::new("Newton iterations must be at least 1"));
         }
+        if self.newton.cutbacks > crate::implicit::MAX_CUTBACKS {
+            return Err(ModelError::new(format!(
+                "a step may be halved at most {} times, not {}",
+                crate::implicit::MAX_CUTBACKS,
+                self.newton.cutbacks
+            )));
+        }
         Ok(Model {
             bodies: self.bodies,
             k_collision: self.k_collision,

@@ -258,10 +258,39 @@ pub fn suggest_dt(model: &Model) -> Option<f64> {
     Some(round_down_2(f64::min(0.9 * estimate, 0.5 * model.dt)))
 }
 
-/// `x` rounded down to two significant digits (x > 0).
+/// `x` rounded down to two significant digits (x > 0), as the double nearest that decimal, so
+/// that it prints as one. Powers of ten up to 10²² are exact, so `m·10ᵉ` and `m/10⁻ᵉ` round once.
+/// It does not allocate (a step's report makes it).
 pub(crate) fn round_down_2(x: f64) -> f64 {
-    let scale = 10f64.powi(x.log10().floor() as i32 - 1);
-    let r = (x / scale).floor() * scale;
-    // Re-parse the printed form so the suggestion prints as a short decimal.
-    format!("{:.1e}", r).parse().unwrap_or(r)
+    let e = x.log10().floor() as i32 - 1;
+    if e >= 0 {
+        let scale = 10f64.powi(e);
+        (x / scale).floor() * scale
+    } else {
+        let scale = 10f64.powi(-e);
+        (x * scale).floor() / scale
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::round_down_2;
+
+    #[test]
+    fn suggestions_are_rounded_down_to_two_digits_and_print_short() {
+        for (x, printed) in [
+            (0.5 / 60.0, "0.0083"),
+            (0.000_833_333, "0.00083"),
+            (0.000_25, "0.00025"),
+            (0.7, "0.7"),
+            (0.069_999_9, "0.069"),
+            (2.71, "2.7"),
+            (123.4, "120"),
+            (1.0e-9 * 4.567, "0.0000000045"),
+        ] {
+            let r = round_down_2(x);
+            assert!(r <= x, "{x} → {r}");
+            assert_eq!(format!("{r}"), printed, "{x}");
+        }
+    }
 }

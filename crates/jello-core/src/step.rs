@@ -7,8 +7,9 @@
 
 use std::fmt;
 
+use crate::cutback::Cutback;
 use crate::forces::{force_pass, ForceScratch, PARALLEL_MIN_POINTS};
-use crate::implicit::{self, ImplicitScratch};
+use crate::implicit::ImplicitScratch;
 use crate::integrator::Integrator;
 use crate::model::Model;
 use crate::soa::Soa;
@@ -22,7 +23,7 @@ use crate::vec3::Vec3;
 /// arrays of vectors, which are swapped into the state.
 #[derive(Clone, Debug, Default)]
 pub struct Scratch {
-    force: ForceScratch,
+    pub(crate) force: ForceScratch,
     pos: Soa,
     vel: Soa,
     /// Positions of the intermediate stages: RK2's midpoint; RK4's stages 2 and 4 in the first,
@@ -34,13 +35,21 @@ pub struct Scratch {
     /// RK4's sum of the velocity slopes `k1 + 2k2 + 2k3` (accelerations).
     sum_vel: Soa,
     /// The step's result, swapped into the state when it is sound.
-    next_pos: Vec<Vec3>,
-    next_vel: Vec<Vec3>,
+    pub(crate) next_pos: Vec<Vec3>,
+    pub(crate) next_vel: Vec<Vec3>,
     /// The implicit solver's buffers (sized on its first step).
-    implicit: ImplicitScratch,
+    pub(crate) implicit: ImplicitScratch,
+    /// How implicit steps are being cut back, and the state to go back to.
+    pub(crate) cutback: Cutback,
 }
 
 impl Scratch {
+    /// How often implicit steps were taken in parts (see [`crate::cutback`]) since these
+    /// buffers were made.
+    pub fn cutbacks(&self) -> crate::CutbackStats {
+        self.cutback.stats()
+    }
+
     /// Buffers for a model's point count.
     pub fn new(model: &Model) -> Self {
         // Buffers read in the same loops get different colors (cache sets, see Soa).
@@ -55,6 +64,7 @@ impl Scratch {
             next_pos: vec![Vec3::ZERO; model.point_count()],
             next_vel: vec![Vec3::ZERO; model.point_count()],
             implicit: ImplicitScratch::default(),
+            cutback: Cutback::default(),
         }
     }
 }
@@ -75,6 +85,9 @@ pub enum BlowUpCause {
         iterations: u32,
         /// The tolerance it was to reach (m/s, before scaling by the largest speed).
         tolerance: f64,
+        /// Halvings of the step the solve was on: its size was `dt/2^halvings` (see
+        /// [`crate::cutback`]).
+        halvings: u32,
     },
 }
 
@@ -110,16 +123,24 @@ impl fmt::Display for BlowUp {
             residual,
             iterations,
             tolerance,
+            halvings,
         } = self.cause
         {
             let [i, j, k] = self.point_ijk;
-            return write!(
+            write!(
                 f,
                 "the implicit solve did not converge at step {} (t = {:.6} s): residual \
                  {residual:.3e} m/s, largest at point {} ({i}, {j}, {k}), after {iterations} \
-                 Newton iterations (the tolerance is {:.0e} m/s); {} with dt = {} s: try a \
-                 smaller --dt",
-                self.step, self.time, self.point, tolerance, self.integrator, self.dt
+                 Newton iterations",
+                self.step, self.time, self.point
+            )?;
+            if halvings > 0 {
+                write!(f, " on a substep of dt/{}", 1u64 << halvings)?;
+            }
+            return write!(
+                f,
+                " (the tolerance is {tolerance:.0e} m/s); {} with dt = {} s: try a smaller --dt",
+                self.integrator, self.dt
             );
         }
         let [i, j, k] = self.point_ijk;
@@ -182,83 +203,52 @@ pub fn step(
     if scratch.pos.len() != n {
         *scratch = Scratch::new(model);
     }
-    let dt = model.dt;
-    let start_time = state.time;
-    let sound = if model.integrator.is_implicit() {
-        let s = &mut *scratch;
-        match implicit::step(
-            model,
-            state,
-            control,
-            &mut s.force,
-            &mut s.implicit,
-            &mut s.next_pos,
-            &mut s.next_vel,
-        ) {
-            Ok(()) => block_is_sound(model, &s.next_pos, &s.next_vel),
-            Err(e) => {
-                let (body, point_ijk) = model.locate(e.point);
-                return Err(BlowUp {
-                    step: state.steps + 1,
-                    time: state.time,
-                    point: e.point,
-                    body: body as u32,
-                    point_ijk,
-                    cause: BlowUpCause::NotConverged {
-                        residual: e.residual,
-                        iterations: e.iterations,
-                        tolerance: model.newton.tolerance,
-                    },
-                    integrator: model.integrator,
-                    dt,
-                    suggested_dt: Some(stability::round_down_2(0.5 * dt)),
-                    escape_margin: model.escape_margin,
-                });
-            }
-        }
-    } else {
-        integrate(model, state, control, scratch)
-    };
-
-    // Step boundary: accept the new state only if it is sound.
-    let s = scratch;
-    if !sound {
-        let (point, cause) = find_blow_up(model, &s.next_pos, &s.next_vel)
-            .expect("an unsound state has a point at fault");
-        let (body, point_ijk) = model.locate(point);
-        return Err(BlowUp {
-            step: state.steps + 1,
-            time: state.time,
-            point,
-            body: body as u32,
-            point_ijk,
-            cause,
-            integrator: model.integrator,
-            dt,
-            suggested_dt: stability::suggest_dt(model),
-            escape_margin: model.escape_margin,
-        });
+    if model.integrator.is_implicit() {
+        return crate::cutback::step(model, state, control, scratch);
     }
-    // The new state is in the scratch's buffers: swap them in (the old ones are overwritten by
-    // the next step).
+    if !integrate(model, state, control, scratch) {
+        let s = scratch;
+        return Err(unsound(model, state, &s.next_pos, &s.next_vel, model.dt));
+    }
+    let (t0, t1) = (state.time, state.time + model.dt);
+    accept(model, state, scratch, t0, t1);
+    state.time = t1;
+    state.steps += 1;
+    Ok(())
+}
+
+/// The report of a step (the state's next one) whose result `pos`, `vel` is not sound, taken
+/// with time step `dt`.
+pub(crate) fn unsound(model: &Model, state: &State, pos: &[Vec3], vel: &[Vec3], dt: f64) -> BlowUp {
+    let (point, cause) =
+        find_blow_up(model, pos, vel).expect("an unsound state has a point at fault");
+    let (body, point_ijk) = model.locate(point);
+    BlowUp {
+        step: state.steps + 1,
+        time: state.time,
+        point,
+        body: body as u32,
+        point_ijk,
+        cause,
+        integrator: model.integrator,
+        dt,
+        suggested_dt: stability::suggest_dt(model),
+        escape_margin: model.escape_margin,
+    }
+}
+
+/// The sound result of a step from `t0` to `t1`, in the scratch's buffers, becomes the state's
+/// positions and velocities (its time and step count are the caller's): swapped in (the old
+/// ones are overwritten by the next step), then the moving pins put where their paths say, and
+/// the obstacles' friction anchors dragged or let go.
+pub(crate) fn accept(model: &Model, state: &mut State, s: &mut Scratch, t0: f64, t1: f64) {
     std::mem::swap(&mut state.pos, &mut s.next_pos);
     std::mem::swap(&mut state.vel, &mut s.next_vel);
-    state.time += dt;
-    state.steps += 1;
-    // Moving pins go exactly where their paths say (from their positions at the step's start,
-    // now in the scratch's buffer).
+    // From the positions at the step's start, now in the scratch's buffer.
     for m in &model.pin_motions {
-        m.apply(
-            start_time,
-            state.time,
-            &s.next_pos,
-            &mut state.pos,
-            &mut state.vel,
-        );
+        m.apply(t0, t1, &s.next_pos, &mut state.pos, &mut state.vel);
     }
-    // Obstacle friction ties, drags and lets go its anchors between steps.
     s.force.update_anchors(model, &state.pos);
-    Ok(())
 }
 
 /// One step of an explicit integrator from `state` into `s.next_pos` and `s.next_vel`; whether the
@@ -295,6 +285,7 @@ fn integrate(model: &Model, state: &State, control: &Control, s: &mut Scratch) -
         next_pos,
         next_vel,
         implicit: _,
+        cutback: _,
     } = s;
     let (p, v) = (&*pos, &*vel);
     let sound = |np: &[Vec3], nv: &[Vec3]| block_is_sound(model, np, nv);
@@ -550,7 +541,7 @@ crate::simd::multiversion! {
     /// True when every position and velocity of a block is finite and no point is further
     /// outside the box than the escape margin. Branch-free, so it vectorises; [`find_blow_up`]
     /// then names the point when it is false.
-    fn block_is_sound(model: &Model, pos: &[Vec3], vel: &[Vec3]) -> bool {
+    pub(crate) fn block_is_sound(model: &Model, pos: &[Vec3], vel: &[Vec3]) -> bool {
         let m = model.escape_margin;
         let (lo, hi) = (model.bounds.min, model.bounds.max);
         let (lo, hi) = ([lo.x - m, lo.y - m, lo.z - m], [hi.x + m, hi.y + m, hi.z + m]);

@@ -303,6 +303,7 @@ fn a_step_that_does_not_converge_is_reported() {
         .newton(Newton {
             tolerance: 1e-9,
             max_iterations: 1,
+            cutbacks: 0,
         })
         .build()
         .unwrap();
@@ -338,11 +339,11 @@ fn a_step_that_does_not_converge_is_reported() {
     for bad in [
         Newton {
             tolerance: 0.0,
-            max_iterations: 5,
+            ..Newton::default()
         },
         Newton {
-            tolerance: 1e-9,
             max_iterations: 0,
+            ..Newton::default()
         },
     ] {
         assert!(ModelBuilder::new().newton(bad).build().is_err());

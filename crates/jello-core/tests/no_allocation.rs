@@ -10,6 +10,7 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::Mutex;
 
 use jello_core::forces::PARALLEL_MIN_POINTS;
+use jello_core::implicit::{Newton, MAX_CUTBACKS};
 use jello_core::{
     step, Aabb, Body, Control, ForceField, Integrator, Lattice, Material, ModelBuilder, Obstacle,
     Plane, Pull, Scratch, Sphere, SpringScale, State, Vec3,
@@ -158,6 +159,57 @@ fn implicit_steps_in_a_swirling_field_do_not_allocate() {
     for integrator in [Integrator::BackwardEuler, Integrator::Sdirk2] {
         let made = allocations_in([8, 8, 8], integrator, 30, false, (14.0, 1.0 / 60.0));
         assert_eq!(made, 0, "{integrator}: {made} allocations in 30 steps");
+    }
+}
+
+/// Steps cut back into halves and quarters (a scattered cube, and Newton's method allowed too
+/// few iterations for the full step, as in `tests/cutback.rs`), and one that fails at the
+/// smallest size allowed and is undone: no allocation after the first step.
+#[test]
+fn cut_back_steps_do_not_allocate() {
+    let _turn = SERIAL.lock().unwrap_or_else(|e| e.into_inner());
+    for integrator in [Integrator::BackwardEuler, Integrator::Sdirk2] {
+        let model = |cutbacks| {
+            ModelBuilder::new()
+                .integrator(integrator)
+                .dt(1.0 / 60.0)
+                .newton(Newton {
+                    tolerance: 1e-9,
+                    max_iterations: 7,
+                    cutbacks,
+                })
+                .build()
+                .unwrap()
+        };
+        let (lenient, strict) = (model(MAX_CUTBACKS), model(1));
+        let mut state = State::at_rest(&lenient);
+        let mut scattered = state.pos.clone();
+        let mut seed = 4u64;
+        for p in &mut scattered {
+            for c in [&mut p.x, &mut p.y, &mut p.z] {
+                seed = seed
+                    .wrapping_mul(6364136223846793005)
+                    .wrapping_add(1442695040888963407);
+                *c += ((seed >> 11) as f64 / (1u64 << 53) as f64 - 0.5) * 0.1;
+            }
+        }
+        let mut scratch = Scratch::new(&lenient);
+        let control = Control::none();
+        // The warm-up: a first step of the same kind (it starts rayon's pool and sizes the
+        // buffers).
+        state.pos.copy_from_slice(&scattered);
+        step(&lenient, &mut state, &control, &mut scratch).unwrap();
+        let before = ALLOCATIONS.load(Ordering::SeqCst);
+        state.pos.copy_from_slice(&scattered);
+        for _ in 0..3 {
+            step(&lenient, &mut state, &control, &mut scratch).unwrap();
+        }
+        state.pos.copy_from_slice(&scattered);
+        let failed = step(&strict, &mut state, &control, &mut scratch).is_err();
+        let made = ALLOCATIONS.load(Ordering::SeqCst) - before;
+        assert!(failed, "{integrator}: the step allowed one halving converged");
+        assert!(scratch.cutbacks().split_steps >= 1, "{integrator}: no step was cut back");
+        assert_eq!(made, 0, "{integrator}: {made} allocations");
     }
 }
 

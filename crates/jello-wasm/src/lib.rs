@@ -719,11 +719,16 @@ fn describe_blow_up(b: &BlowUp) -> String {
     if let BlowUpCause::NotConverged {
         residual,
         iterations,
+        halvings,
         ..
     } = b.cause
     {
+        let substep = match halvings {
+            0 => String::new(),
+            h => format!(" on a substep of dt/{}", 1u64 << h),
+        };
         return format!(
-            "The implicit solve did not converge at step {} (t = {:.4} s): residual {residual:.2e} m/s after {iterations} Newton iterations. Try a smaller dt than {} s.",
+            "The implicit solve did not converge at step {} (t = {:.4} s): residual {residual:.2e} m/s after {iterations} Newton iterations{substep}. Try a smaller dt than {} s.",
             b.step, b.time, b.dt
         );
     }

@@ -44,6 +44,8 @@ struct Measurement {
     dt: f64,
     steps: u64,
     wall: f64,
+    /// Measured steps that an implicit integrator took in parts (see `jello_core::cutback`).
+    split_steps: u64,
 }
 
 /// Runs the benchmark scene (see [`scenes::benchmark`]) and prints the rates.
@@ -87,7 +89,7 @@ pub fn bench(args: BenchArgs) -> Result<(), CliError> {
             "{{\"impl\": \"jello\", \"size\": {}, \"points\": {}, \"springs\": {}, \"integrator\": \"{}\", \
              \"device\": \"{device}\", \"adapter\": {adapter_json}, \"precision\": \"{precision}\", \
              \"threads\": {threads}, \"simd\": \"{tier}\", \"dt\": {}, \"steps\": {}, \"seconds\": {:.3}, \"steps_per_s\": {:.1}, \
-             \"real_time\": {:.4}, \"spring_evals_per_s\": {}, \"peak_rss_mib\": {}, \"version\": \"{}\"}}",
+             \"real_time\": {:.4}, \"split_steps\": {}, \"spring_evals_per_s\": {}, \"peak_rss_mib\": {}, \"version\": \"{}\"}}",
             args.size,
             m.points,
             m.springs,
@@ -97,6 +99,7 @@ pub fn bench(args: BenchArgs) -> Result<(), CliError> {
             m.wall,
             steps_per_s,
             real_time,
+            m.split_steps,
             evals_per_s.map_or("null".to_string(), |e| format!("{e:.1}")),
             peak.map_or("null".to_string(), |p| format!("{p:.1}")),
             env!("CARGO_PKG_VERSION")
@@ -108,7 +111,7 @@ pub fn bench(args: BenchArgs) -> Result<(), CliError> {
         };
         println!(
             "{n}³ lattice ({} points, {} springs), {}, dt {} s, {on}: {:.0} steps/s, {:.3}× real time{} \
-             ({} steps in {:.2} s{})",
+             ({} steps in {:.2} s{}{})",
             m.points,
             m.springs,
             args.integrator,
@@ -118,6 +121,10 @@ pub fn bench(args: BenchArgs) -> Result<(), CliError> {
             evals_per_s.map_or(String::new(), |e| format!(", {:.1} M spring evaluations/s", e / 1e6)),
             m.steps,
             m.wall,
+            match m.split_steps {
+                0 => String::new(),
+                k => format!(", {k} of them taken in parts"),
+            },
             peak.map_or(String::new(), |p| format!(", peak memory {p:.0} MiB")),
             n = args.size
         );
@@ -180,6 +187,7 @@ fn measure(
     sim.state = scenes::benchmark(n, integrator)
         .map_err(|e| CliError::input(e.to_string()))?
         .1;
+    let split_before = sim.cutbacks().split_steps;
     let start = Instant::now();
     let mut steps = 0u64;
     while start.elapsed().as_secs_f64() < seconds {
@@ -192,6 +200,7 @@ fn measure(
         dt,
         steps,
         wall: start.elapsed().as_secs_f64(),
+        split_steps: sim.cutbacks().split_steps - split_before,
     })
 }
 
@@ -232,6 +241,7 @@ fn measure_gpu(
             dt: model.dt,
             steps,
             wall,
+            split_steps: 0,
         },
         gpu.adapter(),
     ))

@@ -40,6 +40,11 @@ pub struct RunArgs {
     /// Time step to use instead of the file's (s).
     #[arg(long, value_parser = parse_positive)]
     pub dt: Option<f64>,
+    /// Implicit integrators: how many times a step whose solve fails may be halved (taken again
+    /// as 2, 4, … 2^N substeps of the same method) before the run stops; 0 stops at once.
+    #[arg(long, value_name = "N", default_value_t = jello_core::implicit::CUTBACKS,
+          value_parser = clap::value_parser!(u32).range(0..=jello_core::implicit::MAX_CUTBACKS as i64))]
+    pub cutbacks: u32,
     /// Save the final state as a world file, or as a scene file when running a scene (written
     /// only if the run succeeds).
     #[arg(long, value_name = "OUT.w|OUT.toml")]
@@ -73,6 +78,7 @@ pub struct RunArgs {
 /// Runs the world and prints a one-line summary.
 pub fn run(args: RunArgs) -> Result<(), CliError> {
     let (mut sim, source) = load(&args.world, args.integrator, args.dt)?;
+    sim.model.newton.cutbacks = args.cutbacks;
     let name = args.world.display().to_string();
     if let Some(out) = &args.save {
         check_writable_target(out)?;
@@ -213,6 +219,15 @@ pub fn run(args: RunArgs) -> Result<(), CliError> {
         e.spring,
         e.collision
     );
+    let cut = sim.cutbacks();
+    if cut.split_steps > 0 {
+        summary.push_str(&format!(
+            ", {} steps taken in parts ({} substeps, the smallest dt/{})",
+            cut.split_steps,
+            cut.substeps,
+            1u64 << cut.finest
+        ));
+    }
     if let Some(f) = &frames {
         summary.push_str(&format!(", {} frames", f.written()));
     }

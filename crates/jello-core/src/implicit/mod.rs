@@ -103,14 +103,25 @@ pub const TOLERANCE: f64 = 1e-9;
 /// Newton iterations before a step is reported as not converged, by default.
 pub const MAX_NEWTON: u32 = 200;
 
+/// Halvings of a step that does not converge, by default (see [`crate::cutback`]): its smallest
+/// substep is `dt/64`.
+pub const CUTBACKS: u32 = 6;
+
+/// The most halvings a model may allow (a step of a million substeps).
+pub const MAX_CUTBACKS: u32 = 20;
+
 /// How closely a step is solved: converged when `max |g| ≤ tolerance · max(1, max |v₁|)`
-/// (m/s), reported when that takes more than `max_iterations` Newton iterations.
+/// (m/s), not when that takes more than `max_iterations` Newton iterations; then the step is
+/// taken as two halves, each of which may be halved again, `cutbacks` times in all, before it is
+/// reported (see [`crate::cutback`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Newton {
     /// m/s (> 0).
     pub tolerance: f64,
     /// At least 1.
     pub max_iterations: u32,
+    /// 0 reports the first step that does not converge; at most [`MAX_CUTBACKS`].
+    pub cutbacks: u32,
 }
 
 impl Default for Newton {
@@ -118,6 +129,7 @@ impl Default for Newton {
         Newton {
             tolerance: TOLERANCE,
             max_iterations: MAX_NEWTON,
+            cutbacks: CUTBACKS,
         }
     }
 }
@@ -268,12 +280,14 @@ impl ImplicitScratch {
         self.mass.len() == n
             && self.contacts.fits(model)
             && self.springs.fits(model)
-            && (!can_swirl(model) || (self.gmres.fits(n) && self.field_correction.len() == n))
+            && (!can_swirl(model, model.dt)
+                || (self.gmres.fits(n) && self.field_correction.len() == n))
     }
 
     fn new(model: &Model) -> Self {
         let n = model.point_count();
-        let swirls = can_swirl(model);
+        // A step cut back is shorter than `dt`, so swirls less.
+        let swirls = can_swirl(model, model.dt);
         let zeros = vec![Vec3::ZERO; n];
         ImplicitScratch {
             rows: Vec::with_capacity(model.spring_count()),
@@ -388,8 +402,9 @@ pub const SDIRK2_GAMMA: f64 = 1.0 - 0.5 * std::f64::consts::SQRT_2;
 /// The second stage starts from `y₀ + c·(Y₁ − y₀)`, `c = (1 − γ)/γ = 1 + √2`.
 pub const SDIRK2_C: f64 = (1.0 - SDIRK2_GAMMA) / SDIRK2_GAMMA;
 
-/// One step of the model's implicit integrator from `state` into `next_pos` and `next_vel`
-/// (not checked for soundness here). `Err` when Newton's method did not converge.
+/// One step of size `h` (the model's `dt`, or a part of it where a step is cut back: see
+/// [`crate::cutback`]) of the model's implicit integrator from `state` into `next_pos` and
+/// `next_vel` (not checked for soundness here). `Err` when Newton's method did not converge.
 ///
 /// SDIRK2 (Alexander 1977; `y = (x, v)`, `F(y) = (v, M⁻¹·(f(x) − D·v))`): the stage
 /// `Y₁ = y₀ + γh·F(Y₁)`, a backward-Euler step of size `γh`; then `y₁ = y₀ + (1 − γ)h·F(Y₁) +
@@ -398,12 +413,14 @@ pub const SDIRK2_C: f64 = (1.0 - SDIRK2_GAMMA) / SDIRK2_GAMMA;
 /// minimisation below, so the stages are as robust as backward Euler's step. The dampers `D`
 /// are taken for the whole step at `x₀ + (h/2)·v₀`, the step's predicted middle, which keeps the
 /// method second order where the dampers turn with the springs.
+#[allow(clippy::too_many_arguments)]
 pub(crate) fn step(
     model: &Model,
     state: &State,
     control: &Control,
     force: &mut ForceScratch,
     s: &mut ImplicitScratch,
+    h: f64,
     next_pos: &mut [Vec3],
     next_vel: &mut [Vec3],
 ) -> Result<(), NotConverged> {
@@ -411,11 +428,13 @@ pub(crate) fn step(
         *s = ImplicitScratch::new(model);
     }
     s.load(model);
-    let h = model.dt;
+    let swirls = can_swirl(model, h);
     let (x0, v0) = (&state.pos[..], &state.vel[..]);
     if model.integrator != Integrator::Sdirk2 {
         s.start_dampers(model, x0);
-        return backward_euler(model, control, force, s, x0, v0, h, next_pos, next_vel);
+        return backward_euler(
+            model, control, force, s, x0, v0, h, swirls, next_pos, next_vel,
+        );
     }
     let k = SDIRK2_GAMMA * h;
     // The second stage's start lives in buffers taken out of the scratch while it is solved from.
@@ -424,7 +443,9 @@ pub(crate) fn step(
         *b = x + v * (0.5 * h);
     }
     s.start_dampers(model, &bx);
-    let first = backward_euler(model, control, force, s, x0, v0, k, next_pos, next_vel);
+    let first = backward_euler(
+        model, control, force, s, x0, v0, k, swirls, next_pos, next_vel,
+    );
     if first.is_ok() {
         for ((((bx, bv), (&x1, &v1)), &x), &v) in bx
             .iter_mut()
@@ -437,14 +458,17 @@ pub(crate) fn step(
             *bv = v + (v1 - v) * SDIRK2_C;
         }
     }
-    let result = first
-        .and_then(|()| backward_euler(model, control, force, s, &bx, &bv, k, next_pos, next_vel));
+    let result = first.and_then(|()| {
+        backward_euler(
+            model, control, force, s, &bx, &bv, k, swirls, next_pos, next_vel,
+        )
+    });
     (s.base_x, s.base_v) = (bx, bv);
     result
 }
 
 /// One backward-Euler step of size `h` from `(x0, v0)` into `next_pos` and `next_vel`, the
-/// scratch loaded and its dampers set.
+/// scratch loaded and its dampers set; `swirls` as [`can_swirl`] says of the integrator's step.
 #[allow(clippy::too_many_arguments)]
 fn backward_euler(
     model: &Model,
@@ -454,10 +478,11 @@ fn backward_euler(
     x0: &[Vec3],
     v0: &[Vec3],
     h: f64,
+    swirls: bool,
     next_pos: &mut [Vec3],
     next_vel: &mut [Vec3],
 ) -> Result<(), NotConverged> {
-    newton(model, control, force, s, x0, v0, h)?;
+    newton(model, control, force, s, x0, v0, h, swirls)?;
     // The exact solution has Σ m·g = 0 over the moving points (their momentum changes by h
     // times the force on them, which internal forces do not change): take the small mean
     // residual the tolerance allows out of their velocities, so that internal forces conserve
@@ -482,7 +507,8 @@ fn backward_euler(
     Ok(())
 }
 
-/// Newton's method for the step from `v = v0` (see the module's documentation), into `s.v`.
+/// Newton's method for the step from `v = v0` (see the module's documentation), into `s.v`;
+/// `swirls` when the field may swirl past the limit at the integrator's step ([`can_swirl`]).
 ///
 /// Where a field swirls, it first runs with the swirl in `A` (see [`SWIRL_LIMIT`]), judged by
 /// `|g|²_M`. Should that stall (there is no potential to descend, and `|g|²_M` has local minima
@@ -501,11 +527,11 @@ fn newton(
     x0: &[Vec3],
     v0: &[Vec3],
     h: f64,
+    swirls: bool,
 ) -> Result<(), NotConverged> {
     // The forces but the dampers are evaluated at zero velocity.
     s.v_soa.fill_zero();
     s.v.copy_from_slice(v0);
-    let swirls = can_swirl(model);
     s.swirl_allowed = swirls;
     let mut norm2 = residual(model, control, force, s, x0, v0, h, false);
     let mut iterations = 0;
@@ -1108,11 +1134,12 @@ fn field_correction(gradient: &[Vec3; 3], k: &Sym) -> [f64; 9] {
     })
 }
 
-/// True when the model's field may swirl past [`SWIRL_LIMIT`] at its step: the field's largest
-/// swirl ([`ForceField::max_swirl`](crate::ForceField::max_swirl)) times `dt²` over the
-/// lightest point mass (an SDIRK2 stage is shorter than `dt`). Only then does the solver hold
-/// GMRES's basis and the field's corrections, and take turns between the two kinds of `A`.
-fn can_swirl(model: &Model) -> bool {
+/// True when the model's field may swirl past [`SWIRL_LIMIT`] at a step of size `h`: the
+/// field's largest swirl ([`ForceField::max_swirl`](crate::ForceField::max_swirl)) times `h²`
+/// over the lightest point mass (an SDIRK2 stage is shorter than `h`). Only then does the solver
+/// hold GMRES's basis and the field's corrections (for `h = dt`), and take turns between the two
+/// kinds of `A`.
+fn can_swirl(model: &Model, h: f64) -> bool {
     let lightest = model
         .bodies()
         .iter()
@@ -1121,7 +1148,7 @@ fn can_swirl(model: &Model) -> bool {
     model
         .field
         .as_ref()
-        .is_some_and(|f| model.dt * model.dt * f.max_swirl() / lightest > SWIRL_LIMIT)
+        .is_some_and(|f| h * h * f.max_swirl() / lightest > SWIRL_LIMIT)
 }
 
 /// `y = A·x` over the free points (others give 0).
@@ -1380,7 +1407,7 @@ mod tests {
             let model = model(c, dt);
             let s = ImplicitScratch::new(&model);
             let n = model.point_count();
-            assert_eq!(can_swirl(&model), held, "field {c} N/m, dt {dt}");
+            assert_eq!(can_swirl(&model, model.dt), held, "field {c} N/m, dt {dt}");
             assert_eq!(s.gmres.fits(n), held, "field {c} N/m, dt {dt}");
             assert_eq!(s.field_correction.len(), if held { n } else { 0 });
         }
