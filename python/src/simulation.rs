@@ -5,6 +5,7 @@ use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
 use jello_core::diagnostics::{energy, max_penetration};
+use jello_core::implicit::Newton;
 use jello_core::{Integrator, Material, ModelBuilder};
 use jello_io::Source;
 use numpy::PyArray2;
@@ -316,6 +317,29 @@ impl Simulation {
             .parse::<Integrator>()
             .map_err(|e| PyValueError::new_err(format!("integrator: {e}")))?;
         self.rebuild(integrator, self.sim.model.dt)
+    }
+
+    /// How many times an implicit step whose solve fails may be halved (taken again as 2, 4, …
+    /// 2^n substeps of the same method) before `step` raises `jello.BlowUp`; 0 raises at once.
+    /// Assign to change it (at most 20; the state carries on).
+    #[getter]
+    fn cutbacks(&self) -> u32 {
+        self.sim.model.newton.cutbacks
+    }
+
+    #[setter]
+    fn set_cutbacks(&mut self, n: u32) -> PyResult<()> {
+        let newton = Newton {
+            cutbacks: n,
+            ..self.sim.model.newton
+        };
+        self.replace_model(self.sim.model.to_builder().newton(newton))
+    }
+
+    /// Steps an implicit integrator took in parts (see `cutbacks`) since the model last changed.
+    #[getter]
+    fn split_steps(&self) -> u64 {
+        self.sim.cutbacks().split_steps
     }
 
     /// Steps per displayed frame (the world file's `n`).

@@ -119,3 +119,27 @@ def test_saving_refuses_the_wrong_format_and_leaves_nothing(tmp_path: Path) -> N
     with pytest.raises(OSError, match="does not exist"):
         sim.save(tmp_path / "no" / "such" / "out.w")
     assert list(tmp_path.iterdir()) == []
+
+
+def test_an_implicit_step_that_fails_is_cut_back_or_raises(shared_worlds: Path, cli: Path) -> None:
+    """pinball.w under SDIRK2 at 0.01 s: its first step does not converge whole."""
+    path = shared_worlds / "pinball.w"
+    sim = jello.load(path, integrator="SDIRK2", dt=0.01)
+    assert sim.cutbacks == 6 and sim.split_steps == 0
+    sim.cutbacks = 0
+    start = sim.positions.copy()
+    with pytest.raises(jello.BlowUp) as e:
+        sim.step()
+    assert "did not converge at step 1" in str(e.value)
+    assert sim.steps == 0 and np.array_equal(sim.positions, start)
+    with pytest.raises(ValueError, match="halved at most 20 times, not 21"):
+        sim.cutbacks = 21
+    sim.cutbacks = 6
+    sim.step(2)
+    assert sim.steps == 2 and sim.split_steps >= 1
+    run = subprocess.run(
+        [cli, "run", path, "--integrator", "SDIRK2", "--dt", "0.01", "--steps", "2", "--quiet"],
+        capture_output=True,
+        text=True,
+    )
+    assert f"{sim.split_steps} steps taken in parts" in run.stdout, run.stdout + run.stderr

@@ -329,7 +329,16 @@ fn implicit_steps_that_fail_are_cut_back_and_said() {
     }
     let t = TempDir::new("cutbacks");
     let world = world.to_str().unwrap();
-    let args = ["run", world, "--integrator", "SDIRK2", "--dt", "0.01", "--steps", "2"];
+    let args = [
+        "run",
+        world,
+        "--integrator",
+        "SDIRK2",
+        "--dt",
+        "0.01",
+        "--steps",
+        "2",
+    ];
     t.jello(&[&args[..], &["-q", "--save", "S.w"]].concat())
         .success()
         .stdout_has("steps taken in parts (")

@@ -141,7 +141,7 @@ pub(crate) fn step(
                     c.wanted = COARSEN_AFTER;
                     c.coarsened = false;
                 }
-                c.streak += 1;
+                c.streak = c.streak.saturating_add(1);
                 if halvings > 0 && c.streak >= c.wanted && done % (2 * units) == 0 {
                     halvings -= 1;
                     (c.streak, c.coarsened) = (0, true);

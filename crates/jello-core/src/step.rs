@@ -182,7 +182,8 @@ impl std::error::Error for BlowUp {}
 /// Advances `state` by one step of `model.integrator` with `model.dt`.
 ///
 /// On success the state holds the new positions and velocities, `time` grows by `dt` and `steps`
-/// by one. On a blow-up the state is unchanged and the error says where and what to try.
+/// by one. On a blow-up the state is unchanged and the error says where and what to try. An
+/// implicit step that fails is first taken again in parts ([`crate::cutback`]).
 ///
 /// Stepping allocates nothing. On lattices large enough for threads, call it from inside the
 /// rayon pool (`ThreadPool::install` around the stepping loop, as `jello bench` does): from

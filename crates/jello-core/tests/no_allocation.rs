@@ -207,8 +207,14 @@ fn cut_back_steps_do_not_allocate() {
         state.pos.copy_from_slice(&scattered);
         let failed = step(&strict, &mut state, &control, &mut scratch).is_err();
         let made = ALLOCATIONS.load(Ordering::SeqCst) - before;
-        assert!(failed, "{integrator}: the step allowed one halving converged");
-        assert!(scratch.cutbacks().split_steps >= 1, "{integrator}: no step was cut back");
+        assert!(
+            failed,
+            "{integrator}: the step allowed one halving converged"
+        );
+        assert!(
+            scratch.cutbacks().split_steps >= 1,
+            "{integrator}: no step was cut back"
+        );
         assert_eq!(made, 0, "{integrator}: {made} allocations");
     }
 }

@@ -53,8 +53,9 @@
 //! `max(1, max |v₁|)` (m/s; both settable, [`Model::newton`](crate::Model::newton)); then the
 //! mass-weighted mean residual of the moving points is taken out of their velocities (the exact
 //! solution has none), so internal forces conserve momentum to rounding. A step that does not
-//! converge within [`MAX_NEWTON`] iterations (by default) is reported (the state stays at the
-//! last good step) with the residual reached.
+//! converge within [`MAX_NEWTON`] iterations (by default) returns the residual reached; the
+//! caller ([`crate::cutback`]) then takes it again in halves, and reports it only at the
+//! smallest size allowed, with the state back at the step's start.
 //!
 //! Every loop here runs in a fixed order on the calling thread, but for the force evaluations
 //! and `A·x`, which are split over threads so that each result is summed in the same order
