@@ -50,7 +50,9 @@
 //! bounded once, from its nodes: [`crate::ForceField::max_swirl`]).
 //!
 //! A step has converged when every point's residual `|g|` is at most [`TOLERANCE`] times
-//! `max(1, max |v₁|)` (m/s; both settable, [`Model::newton`](crate::Model::newton)); then the
+//! `max(1, max |v₁|)` (m/s; both settable, [`Model::newton`](crate::Model::newton)), or at most
+//! the residual's rounding floor where that is larger ([`rounding_floor`]: stiff springs at large
+//! steps); then the
 //! mass-weighted mean residual of the moving points is taken out of their velocities (the exact
 //! solution has none), so internal forces conserve momentum to rounding. A step that does not
 //! converge within [`MAX_NEWTON`] iterations (by default) returns the residual reached; the
@@ -212,6 +214,10 @@ pub struct ImplicitScratch {
     /// Per point: mass (kg), and 1 for a point that moves, 0 for one pinned or unused.
     mass: Vec<f64>,
     free: Vec<f64>,
+    /// Per point: the stiffness of its springs, summed (N/m); and the largest of that plus the
+    /// contacts' over the mass among the moving points (1/s², see [`rounding_floor`]).
+    point_stiffness: Vec<f64>,
+    stiffness_over_mass: f64,
     /// Per point: the damping matrix `dCollision·Σ n nᵀ` of the walls, plane and obstacles it is
     /// in at the step's start.
     start_damping: Vec<Sym>,
@@ -301,6 +307,8 @@ impl ImplicitScratch {
             field_trial: zeros.clone(),
             mass: vec![0.0; n],
             free: vec![0.0; n],
+            point_stiffness: vec![0.0; n],
+            stiffness_over_mass: 0.0,
             start_damping: vec![[0.0; 6]; n],
             extra: vec![[0.0; 6]; n],
             diag_inv: vec![[0.0; 6]; n],
@@ -361,6 +369,21 @@ impl ImplicitScratch {
         for &p in &model.pins {
             self.free[p as usize] = 0.0;
         }
+        self.point_stiffness.fill(0.0);
+        for r in &self.rows {
+            self.point_stiffness[r.a as usize] += r.k;
+            self.point_stiffness[r.b as usize] += r.k;
+        }
+        // Penalty springs: three walls, the plane and each obstacle at once, at most.
+        let contacts = (4 + model.obstacles.len()) as f64 * model.k_collision;
+        self.stiffness_over_mass = self
+            .point_stiffness
+            .iter()
+            .zip(&self.mass)
+            .zip(&self.free)
+            .filter(|&(_, &free)| free != 0.0)
+            .map(|((&k, &m), _)| (k + contacts) / m)
+            .fold(0.0, f64::max);
         self.springs.finish();
         // Into the springs' slot order (see `SpringMatrix`).
         self.listed_rows.clone_from(&self.rows);
@@ -534,6 +557,7 @@ fn newton(
     s.v_soa.fill_zero();
     s.v.copy_from_slice(v0);
     s.swirl_allowed = swirls;
+    let floor = rounding_floor(s, x0, h);
     let mut norm2 = residual(model, control, force, s, x0, v0, h, false);
     let mut iterations = 0;
     let mut reduction = CG_REDUCTION;
@@ -541,7 +565,7 @@ fn newton(
     let (mut stalled, mut symmetric, mut switches, mut best) = (0, 0, 0, norm2);
     loop {
         let (norm, vmax) = max_norms(&s.g, &s.v);
-        if norm <= model.newton.tolerance * vmax.max(1.0) {
+        if norm <= (model.newton.tolerance * vmax.max(1.0)).max(floor) {
             return Ok(());
         }
         if iterations == model.newton.max_iterations {
@@ -603,6 +627,23 @@ fn newton(
             switches += 1;
         }
     }
+}
+
+/// The residual a step of size `h` from `x0` can be solved to in floating point, at least
+/// (m/s): `ε·h·max(K/m)·max|x|`, `K` a point's spring and contact stiffness summed. The end
+/// positions `x0 + h·v` carry a rounding of `ε·|x|` each, every spring's force `k·ε·|x|` of it,
+/// and the residual `h/m` times their sum; so a stiff lattice at a large step cannot reach a
+/// fixed tolerance (kElastic = kCollision = 10⁶ at 1/60 s: Newton's method stalls near 1e-8
+/// m/s, where this floor is 7e-8), and converges at that floor instead. Negligible otherwise
+/// (the classic cube at 1/60 s: 1.5e-11 m/s).
+fn rounding_floor(s: &ImplicitScratch, x0: &[Vec3], h: f64) -> f64 {
+    let reach = x0
+        .iter()
+        .zip(&s.free)
+        .filter(|&(_, &free)| free != 0.0)
+        .map(|(x, _)| x.x.abs().max(x.y.abs()).max(x.z.abs()))
+        .fold(0.0, f64::max);
+    f64::EPSILON * h * s.stiffness_over_mass * reach
 }
 
 /// The report of a step that stopped with residual `g` after `iterations`.
