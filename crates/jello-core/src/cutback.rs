@@ -1,7 +1,7 @@
 //! Cutbacks: an implicit step that fails is taken again in halves.
 //!
 //! A step of an implicit integrator fails when Newton's method does not converge within its
-//! iterations, or when its result is not sound (see [`crate::step`]). It is then taken again
+//! iterations, or when its result is not sound (see [`mod@crate::step`]). It is then taken again
 //! as two substeps of half the size, each of which may itself be halved, down to
 //! `dt/2^cutbacks` ([`Newton::cutbacks`](crate::implicit::Newton)). Only a substep of that
 //! size that still fails is reported, with the state back at the step's start (friction anchors

@@ -51,7 +51,7 @@
 //!
 //! A step has converged when every point's residual `|g|` is at most [`TOLERANCE`] times
 //! `max(1, max |v₁|)` (m/s; both settable, [`Model::newton`](crate::Model::newton)), or at most
-//! the residual's rounding floor where that is larger ([`rounding_floor`]: stiff springs at large
+//! the residual's rounding floor where that is larger (`rounding_floor`: stiff springs at large
 //! steps); then the
 //! mass-weighted mean residual of the moving points is taken out of their velocities (the exact
 //! solution has none), so internal forces conserve momentum to rounding. A step that does not
