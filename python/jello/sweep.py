@@ -37,6 +37,7 @@ METRICS: tuple[str, ...] = (
     "blow_up",
     "steps",
     "time",
+    "split_steps",
     "wall_s",
 )
 
@@ -44,6 +45,7 @@ METRICS: tuple[str, ...] = (
 PARAMETERS: tuple[str, ...] = (
     "integrator",
     "dt",
+    "cutbacks",
     "stiffness",
     "damping",
     "mass",
@@ -79,7 +81,8 @@ def sweep(
     ``{"stiffness": [100, 200, 400], "dt": [0.0005, 0.001]}`` is six cases per world. Or give
     ``cases``, a list of name → value mappings, each one case per world. The names:
 
-    - ``integrator`` (``"RK4"``, ``"BackwardEuler"``…) and ``dt`` (s);
+    - ``integrator`` (``"RK4"``, ``"BackwardEuler"``…) and ``dt`` (s); ``cutbacks``, how many
+      times an implicit step that fails may be halved (see ``Simulation.cutbacks``);
     - ``stiffness`` (N/m) and ``damping`` (N·s/m) of every spring, a number or one per kind,
       and ``mass`` (kg per point), of every body;
     - ``collision_stiffness`` (N/m) and ``collision_damping`` (N·s/m);
@@ -90,7 +93,7 @@ def sweep(
     ``metrics``: names from :data:`METRICS` (``final_energy`` (J), ``kinetic_energy``,
     ``spring_energy``, ``collision_energy``, ``max_penetration`` (the deepest over the run, m),
     ``blew_up`` (bool), ``blow_up`` (the message, or None), ``steps`` and ``time`` reached,
-    ``wall_s``) or functions of the final :class:`~jello.Simulation` (their ``__name__`` heads
+    ``split_steps`` (steps an implicit integrator took in parts), ``wall_s``) or functions of the final :class:`~jello.Simulation` (their ``__name__`` heads
     the column). A case that blows up reports the metrics of its last good step.
 
     ``save``: a folder (created when missing) where each case's final state is written as
@@ -223,6 +226,7 @@ def run_case(job: _Job) -> dict[str, Any]:
         "blow_up": blow_up,
         "steps": sim.steps,
         "time": sim.time,
+        "split_steps": sim.split_steps,
         "wall_s": wall,
     }
     out: dict[str, Any] = {}
@@ -240,6 +244,8 @@ def apply_parameters(sim: Simulation, params: Mapping[str, Any]) -> None:
         sim.integrator = params["integrator"]
     if "dt" in params:
         sim.dt = float(params["dt"])
+    if "cutbacks" in params:
+        sim.cutbacks = int(params["cutbacks"])
     material = {k: params[k] for k in ("stiffness", "damping", "mass") if k in params}
     if material:
         sim.set_material(**material)
