@@ -573,3 +573,47 @@ fn regions_of_springs_from_the_command_line() {
     );
     assert!(!dir.path("s.toml").exists());
 }
+
+/// `--cutbacks` on a scene: saved into the scene's `[simulation]`, and the saved value is what a
+/// later run of that file uses when the flag is not given.
+#[test]
+fn cutbacks_given_to_a_scene_run_are_saved_and_kept() {
+    let t = TempDir::new("cutbacks");
+    t.jello(&[
+        "create",
+        "c.toml",
+        "--cube",
+        "3",
+        "--integrator",
+        "BackwardEuler",
+        "--dt",
+        "0.01",
+    ]);
+    assert_eq!(t.scene("c.toml").simulation.cutbacks, 6);
+    t.jello(&[
+        "run",
+        "c.toml",
+        "--steps",
+        "2",
+        "--cutbacks",
+        "0",
+        "--save",
+        "a.toml",
+        "-q",
+    ]);
+    assert_eq!(t.scene("a.toml").simulation.cutbacks, 0);
+    t.jello(&["run", "a.toml", "--steps", "2", "--save", "b.toml", "-q"]);
+    assert_eq!(t.scene("b.toml").simulation.cutbacks, 0);
+    t.jello(&[
+        "run",
+        "b.toml",
+        "--steps",
+        "2",
+        "--cutbacks",
+        "3",
+        "--save",
+        "c2.toml",
+        "-q",
+    ]);
+    assert_eq!(t.scene("c2.toml").simulation.cutbacks, 3);
+}

@@ -8,6 +8,8 @@
 //! dt = 0.0005                 # s
 //! steps_per_frame = 1
 //! gravity = [0.0, 0.0, -9.81] # m/s², on every point whatever its mass
+//! cutbacks = 6                # implicit methods: halvings of a step that fails (0–20; see
+//!                             # jello_core::cutback)
 //!
 //! [collision]                 # the penalty springs of walls, obstacles and contacts
 //! stiffness = 400.0           # N/m
@@ -146,6 +148,10 @@ pub struct Settings {
     pub steps_per_frame: u32,
     /// Acceleration of every point (m/s²).
     pub gravity: [f64; 3],
+    /// How many times an implicit step that fails may be halved (see [`crate::cutback`]);
+    /// written only when not the default.
+    #[serde(skip_serializing_if = "is_default_cutbacks")]
+    pub cutbacks: u32,
     /// Simulated time of the start state (s): 0 for a new scene, the run's end time in a saved
     /// one (so moving pins carry on in step with their paths).
     #[serde(skip_serializing_if = "is_zero")]
@@ -156,6 +162,10 @@ fn is_zero(t: &f64) -> bool {
     *t == 0.0
 }
 
+fn is_default_cutbacks(n: &u32) -> bool {
+    *n == crate::implicit::CUTBACKS
+}
+
 impl Default for Settings {
     fn default() -> Self {
         Settings {
@@ -163,6 +173,7 @@ impl Default for Settings {
             dt: defaults::DT,
             steps_per_frame: defaults::STEPS_PER_FRAME,
             gravity: [0.0; 3],
+            cutbacks: crate::implicit::CUTBACKS,
             time: 0.0,
         }
     }
@@ -659,6 +670,13 @@ impl SceneFile {
                 )));
             }
         }
+        if self.simulation.cutbacks > crate::implicit::MAX_CUTBACKS {
+            return Err(error(format!(
+                "[simulation] cutbacks must be at most {} (got {})",
+                crate::implicit::MAX_CUTBACKS,
+                self.simulation.cutbacks
+            )));
+        }
         let mut model = ModelBuilder::new()
             .bodies(bodies)
             .integrator(integrator)
@@ -670,6 +688,10 @@ impl SceneFile {
             .bounds(bounds)
             .obstacles(obstacles)
             .field(field)
+            .newton(crate::implicit::Newton {
+                cutbacks: self.simulation.cutbacks,
+                ..Default::default()
+            })
             .build()
             .map_err(|e| error(e.to_string()))?;
         let mut state = State::at_rest(&model);
@@ -759,13 +781,14 @@ impl SceneFile {
         })
     }
 
-    /// This scene with every body's state replaced by `state`, and the model's integrator and
-    /// time step (for saving a run's end, which may have changed them).
+    /// This scene with every body's state replaced by `state`, and the model's integrator, time
+    /// step and cutbacks (for saving a run's end, which may have changed them).
     pub fn with_state(&self, model: &Model, state: &State) -> SceneFile {
         let mut scene = self.clone();
         scene.simulation.time = state.time;
         scene.simulation.integrator = model.integrator.name().to_string();
         scene.simulation.dt = model.dt;
+        scene.simulation.cutbacks = model.newton.cutbacks;
         for (spec, body) in scene.bodies.iter_mut().zip(model.bodies()) {
             let r = body.points();
             spec.state = Some(StateSpec {

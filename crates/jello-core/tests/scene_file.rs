@@ -69,6 +69,37 @@ fn a_scene_writes_and_reads_back_the_same() {
     assert_eq!(again.state.vel, made.state.vel);
 }
 
+/// `[simulation] cutbacks` reaches the model, is written only when not the default, and a run's
+/// end saved keeps the model's; more than the core allows is an error naming the key, and a
+/// negative count is a wrong type at its line.
+#[test]
+fn cutbacks_read_write_and_check() {
+    let cube = "[[body]]\ncube = { points = [3, 3, 3], size = [1.0, 1.0, 1.0] }\n";
+    let read = |text: &str| parse(text).unwrap().to_scene("s.toml").unwrap();
+    assert_eq!(read(cube).model.newton.cutbacks, 6);
+    let file = parse(&format!("[simulation]\ncutbacks = 2\n{cube}")).unwrap();
+    let scene = file.to_scene("s.toml").unwrap();
+    assert_eq!(scene.model.newton.cutbacks, 2);
+    assert!(file.to_toml().contains("cutbacks = 2"));
+    assert!(!parse(cube).unwrap().to_toml().contains("cutbacks"));
+    let mut model = scene.model.clone();
+    model.newton.cutbacks = 0;
+    let saved = file.with_state(&model, &scene.state).to_toml();
+    assert_eq!(read(&saved).model.newton.cutbacks, 0);
+    assert_error(
+        &format!("[simulation]\ncutbacks = 21\n{cube}"),
+        0,
+        0,
+        "[simulation] cutbacks must be at most 20 (got 21)",
+    );
+    assert_error(
+        &format!("[simulation]\ncutbacks = -1\n{cube}"),
+        2,
+        12,
+        "invalid value",
+    );
+}
+
 /// A shaken pin and a pin on a path read and write back; the scene starts them at their path's
 /// velocity, and a run's end saved into the scene carries its time, so the pins resume in step.
 #[test]

@@ -41,10 +41,11 @@ pub struct RunArgs {
     #[arg(long, value_parser = parse_positive)]
     pub dt: Option<f64>,
     /// Implicit integrators: how many times a step whose solve fails may be halved (taken again
-    /// as 2, 4, … 2^N substeps of the same method) before the run stops; 0 stops at once.
-    #[arg(long, value_name = "N", default_value_t = jello_core::implicit::CUTBACKS,
+    /// as 2, 4, … 2^N substeps of the same method) before the run stops; 0 stops at once
+    /// [default: the scene file's `cutbacks`, else 6].
+    #[arg(long, value_name = "N",
           value_parser = clap::value_parser!(u32).range(0..=jello_core::implicit::MAX_CUTBACKS as i64))]
-    pub cutbacks: u32,
+    pub cutbacks: Option<u32>,
     /// Save the final state as a world file, or as a scene file when running a scene (written
     /// only if the run succeeds).
     #[arg(long, value_name = "OUT.w|OUT.toml")]
@@ -78,7 +79,9 @@ pub struct RunArgs {
 /// Runs the world and prints a one-line summary.
 pub fn run(args: RunArgs) -> Result<(), CliError> {
     let (mut sim, source) = load(&args.world, args.integrator, args.dt)?;
-    sim.model.newton.cutbacks = args.cutbacks;
+    if let Some(n) = args.cutbacks {
+        sim.model.newton.cutbacks = n;
+    }
     let name = args.world.display().to_string();
     if let Some(out) = &args.save {
         check_writable_target(out)?;
