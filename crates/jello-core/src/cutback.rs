@@ -22,8 +22,10 @@
 //! full-size try on every step. After [`COARSEN_AFTER`] substeps in a row succeed at one size,
 //! the next one that starts on the coarser grid is tried at twice the size. A try that fails at
 //! once doubles that count for the next try, up to [`COARSEN_AFTER_MAX`]. Substep sizes are
-//! `dt` over powers of two and their ends are on that grid, so the times stay exact and the
-//! results do not depend on anything but the model and the states stepped through.
+//! `dt` over powers of two and their ends are on that grid, so the times stay exact. Like the
+//! friction anchors, the remembered size lives in the step's scratch: results depend on the
+//! model and the steps taken since the scratch was made (never on threads), and a run resumed
+//! from a saved state starts again at full size.
 
 use crate::friction::Anchors;
 use crate::implicit;
@@ -214,7 +216,7 @@ fn substep(
 
 /// The report of a step whose substep of `dt/2^halvings` failed; the state is still at the
 /// step's start (its time and count are not advanced until the step ends). Made only for the
-/// failure reported: a retry is not, as the report allocates.
+/// failure reported; a retry needs none.
 fn report(model: &Model, state: &State, s: &Scratch, failure: Failure, halvings: u32) -> BlowUp {
     let e = match failure {
         Failure::Unsound => return step::unsound(model, state, &s.next_pos, &s.next_vel, model.dt),
@@ -246,7 +248,7 @@ fn save(s: &mut Scratch, state: &State) {
     let c = &mut s.cutback;
     c.start_pos.copy_from_slice(&state.pos);
     c.start_vel.copy_from_slice(&state.vel);
-    c.start_anchors.clone_from(s.force.anchors());
+    c.start_anchors.copy_from(s.force.anchors());
 }
 
 /// Puts the saved start back.
@@ -254,5 +256,5 @@ fn restore(s: &mut Scratch, state: &mut State) {
     let c = &s.cutback;
     state.pos.copy_from_slice(&c.start_pos);
     state.vel.copy_from_slice(&c.start_vel);
-    s.force.anchors_mut().clone_from(&c.start_anchors);
+    s.force.anchors_mut().copy_from(&c.start_anchors);
 }

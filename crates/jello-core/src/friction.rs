@@ -131,6 +131,13 @@ impl Anchors {
         }
     }
 
+    /// Becomes a copy of `other`, reusing its own buffer (a derived `clone_from` would allocate
+    /// a new one each time).
+    pub(crate) fn copy_from(&mut self, other: &Anchors) {
+        self.at.clone_from(&other.at);
+        self.points = other.points;
+    }
+
     /// Whether `model` has obstacle friction (a coefficient and an obstacle).
     fn wanted(model: &Model) -> bool {
         model.friction != 0.0 && !model.obstacles.is_empty()

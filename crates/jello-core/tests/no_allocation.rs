@@ -163,7 +163,8 @@ fn implicit_steps_in_a_swirling_field_do_not_allocate() {
 }
 
 /// Steps cut back into halves and quarters (a scattered cube, and Newton's method allowed too
-/// few iterations for the full step, as in `tests/cutback.rs`), and one that fails at the
+/// few iterations for the full step, as in `tests/cutback.rs`; a sphere with friction in its
+/// bottom, so that friction anchors are saved and put back too), and one that fails at the
 /// smallest size allowed and is undone: no allocation after the first step.
 #[test]
 fn cut_back_steps_do_not_allocate() {
@@ -178,6 +179,10 @@ fn cut_back_steps_do_not_allocate() {
                     max_iterations: 7,
                     cutbacks,
                 })
+                .friction(0.5)
+                .obstacle(Obstacle::Sphere(
+                    Sphere::new(Vec3::new(0.5, 0.5, 0.0), 0.3).unwrap(),
+                ))
                 .build()
                 .unwrap()
         };
