@@ -9,7 +9,7 @@
 
 mod common;
 
-use common::{max_diff, Lcg as Rng};
+use common::{deformed, max_diff, Lcg as Rng};
 use jello_core::implicit::{Newton, MAX_CUTBACKS};
 use jello_core::{
     step, BlowUpCause, Control, CutbackStats, Integrator, Model, ModelBuilder, Scratch, Simulation,
@@ -40,13 +40,8 @@ fn model(integrator: Integrator, dt: f64, cutbacks: u32) -> Model {
 }
 
 fn scattered(model: &Model) -> State {
-    let mut rng = Rng(4);
     let mut state = State::at_rest(model);
-    let scatter = hard_start(model.integrator).1;
-    state
-        .pos
-        .iter_mut()
-        .for_each(|p| *p += rng.vec3() * scatter);
+    state.pos = deformed(model, Vec3::ZERO, hard_start(model.integrator).1, 4);
     state
 }
 
@@ -202,11 +197,7 @@ fn a_step_that_converges_is_untouched() {
 fn scattered_classic() -> State {
     let model = ModelBuilder::new().build().unwrap();
     let mut state = State::at_rest(&model);
-    let mut rng = Rng(9);
-    state
-        .pos
-        .iter_mut()
-        .for_each(|p| *p += rng.vec3() * 0.02 + Vec3::new(0.0, 0.0, 0.1));
+    state.pos = deformed(&model, Vec3::new(0.0, 0.0, 0.1), 0.02, 9);
     state
 }
 

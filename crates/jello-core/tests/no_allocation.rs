@@ -5,6 +5,8 @@
 //! after a few warm-up steps (the first may start threads and grow rayon's queues). The tests of
 //! this file take turns (a lock), so that no other test allocates while one counts.
 
+mod common;
+
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::Mutex;
@@ -188,16 +190,7 @@ fn cut_back_steps_do_not_allocate() {
         };
         let (lenient, strict) = (model(MAX_CUTBACKS), model(1));
         let mut state = State::at_rest(&lenient);
-        let mut scattered = state.pos.clone();
-        let mut seed = 4u64;
-        for p in &mut scattered {
-            for c in [&mut p.x, &mut p.y, &mut p.z] {
-                seed = seed
-                    .wrapping_mul(6364136223846793005)
-                    .wrapping_add(1442695040888963407);
-                *c += ((seed >> 11) as f64 / (1u64 << 53) as f64 - 0.5) * 0.1;
-            }
-        }
+        let scattered = common::deformed(&lenient, Vec3::ZERO, 0.05, 4);
         let mut scratch = Scratch::new(&lenient);
         let control = Control::none();
         // The warm-up: a first step of the same kind (it starts rayon's pool and sizes the
