@@ -1,15 +1,18 @@
 //! Stepping never allocates: every buffer lives in `Scratch`, sized once.
 //!
-//! Allocations are counted in every thread (one global counter), because on lattices of at least
-//! `PARALLEL_MIN_POINTS` points the force passes run on rayon's worker threads. Counting starts
-//! after a few warm-up steps (the first may start threads and grow rayon's queues). The tests of
-//! this file take turns (a lock), so that no other test allocates while one counts.
+//! Allocations are counted in the threads of one rayon pool ([`counted`]) that every test steps
+//! in, workers included, because on lattices of at least `PARALLEL_MIN_POINTS` points the force
+//! passes run on several of them. The test harness's own threads are not counted: a test that
+//! has just finished prints and sends its result while the next one counts. Counting starts after
+//! a few warm-up steps (the first may grow rayon's queues). The tests of this file take turns (a
+//! lock), so that no other test steps in the pool while one counts.
 
 mod common;
 
 use std::alloc::{GlobalAlloc, Layout, System};
+use std::cell::Cell;
 use std::sync::atomic::{AtomicUsize, Ordering};
-use std::sync::Mutex;
+use std::sync::{Mutex, OnceLock};
 
 use jello_core::forces::PARALLEL_MIN_POINTS;
 use jello_core::implicit::{Newton, MAX_CUTBACKS};
@@ -18,22 +21,34 @@ use jello_core::{
     Plane, Pull, Scratch, Sphere, SpringScale, State, Vec3,
 };
 
-/// Counts allocations (and reallocations) made by any thread.
+/// Counts allocations (and reallocations) made by the threads marked with [`COUNTED`].
 struct Counting;
 
 static ALLOCATIONS: AtomicUsize = AtomicUsize::new(0);
 
+thread_local! {
+    /// Whether this thread's allocations count (const-initialised and without a destructor, so
+    /// reading it never allocates).
+    static COUNTED: Cell<bool> = const { Cell::new(false) };
+}
+
+fn note_allocation() {
+    if COUNTED.try_with(Cell::get).unwrap_or(false) {
+        ALLOCATIONS.fetch_add(1, Ordering::Relaxed);
+    }
+}
+
 unsafe impl GlobalAlloc for Counting {
     unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
-        ALLOCATIONS.fetch_add(1, Ordering::Relaxed);
+        note_allocation();
         unsafe { System.alloc(layout) }
     }
     unsafe fn alloc_zeroed(&self, layout: Layout) -> *mut u8 {
-        ALLOCATIONS.fetch_add(1, Ordering::Relaxed);
+        note_allocation();
         unsafe { System.alloc_zeroed(layout) }
     }
     unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
-        ALLOCATIONS.fetch_add(1, Ordering::Relaxed);
+        note_allocation();
         unsafe { System.realloc(ptr, layout, new_size) }
     }
     unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
@@ -46,6 +61,45 @@ static GLOBAL: Counting = Counting;
 
 /// One test counts at a time.
 static SERIAL: Mutex<()> = Mutex::new(());
+
+/// Counts the current thread's allocations while alive. Declared after the lock's guard, it is
+/// dropped first: the thread stops counting before the next test may start.
+struct CountThisThread;
+
+impl CountThisThread {
+    fn start() -> Self {
+        COUNTED.with(|c| c.set(true));
+        CountThisThread
+    }
+}
+
+impl Drop for CountThisThread {
+    fn drop(&mut self) {
+        COUNTED.with(|c| c.set(false));
+    }
+}
+
+/// Runs `work` on a thread of a 4-thread pool (4, so that the work is split even on a one-core
+/// machine) whose threads all count their allocations, one test at a time. The pool lives as long
+/// as the process: its idle workers allocate nothing, where a pool dropped at the end of one test
+/// would shut its workers down while the next test counts.
+fn counted<R: Send>(work: impl FnOnce() -> R + Send) -> R {
+    static POOL: OnceLock<rayon::ThreadPool> = OnceLock::new();
+    let _turn = SERIAL.lock().unwrap_or_else(|e| e.into_inner());
+    let pool = POOL.get_or_init(|| {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(4)
+            .start_handler(|_| COUNTED.with(|c| c.set(true)))
+            .build()
+            .unwrap();
+        // Every worker started and through its first steals (which register it with crossbeam).
+        for _ in 0..3 {
+            pool.broadcast(|_| rayon::join(|| (), || ()));
+        }
+        pool
+    });
+    pool.install(work)
+}
 
 /// A lattice large enough for the threaded path.
 const LARGE: [usize; 3] = [24, 24, 24];
@@ -123,21 +177,11 @@ fn allocations_in(
 
 /// Every integrator on the classic cube (one thread) and on a 24³ lattice (threaded when the
 /// `parallel` feature is on, as it is by default), with and without per-spring values, stepped
-/// on a thread of a 4-thread pool (4, so that the work is split even on a one-core machine): no
-/// allocation in any thread.
+/// in the counted pool: no allocation in any of its threads.
 #[test]
 fn steps_do_not_allocate() {
-    let _turn = SERIAL.lock().unwrap_or_else(|e| e.into_inner());
     assert!(LARGE.iter().product::<usize>() >= PARALLEL_MIN_POINTS);
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(4)
-        .build()
-        .unwrap();
-    // Every worker started and through its first steals (which register it with crossbeam).
-    for _ in 0..3 {
-        pool.broadcast(|_| rayon::join(|| (), || ()));
-    }
-    pool.install(|| {
+    counted(|| {
         for (counts, steps) in [([8, 8, 8], 200), (LARGE, 20)] {
             for integrator in Integrator::ALL {
                 for per_spring in [false, true] {
@@ -157,11 +201,12 @@ fn steps_do_not_allocate() {
 /// GMRES solves for the Newton directions: no allocation either.
 #[test]
 fn implicit_steps_in_a_swirling_field_do_not_allocate() {
-    let _turn = SERIAL.lock().unwrap_or_else(|e| e.into_inner());
-    for integrator in [Integrator::BackwardEuler, Integrator::Sdirk2] {
-        let made = allocations_in([8, 8, 8], integrator, 30, false, (14.0, 1.0 / 60.0));
-        assert_eq!(made, 0, "{integrator}: {made} allocations in 30 steps");
-    }
+    counted(|| {
+        for integrator in [Integrator::BackwardEuler, Integrator::Sdirk2] {
+            let made = allocations_in([8, 8, 8], integrator, 30, false, (14.0, 1.0 / 60.0));
+            assert_eq!(made, 0, "{integrator}: {made} allocations in 30 steps");
+        }
+    });
 }
 
 /// Steps cut back into halves and quarters (a scattered cube, and Newton's method allowed too
@@ -170,51 +215,52 @@ fn implicit_steps_in_a_swirling_field_do_not_allocate() {
 /// smallest size allowed and is undone: no allocation after the first step.
 #[test]
 fn cut_back_steps_do_not_allocate() {
-    let _turn = SERIAL.lock().unwrap_or_else(|e| e.into_inner());
-    for integrator in [Integrator::BackwardEuler, Integrator::Sdirk2] {
-        let model = |cutbacks| {
-            ModelBuilder::new()
-                .integrator(integrator)
-                .dt(1.0 / 60.0)
-                .newton(Newton {
-                    tolerance: 1e-9,
-                    max_iterations: 7,
-                    cutbacks,
-                })
-                .friction(0.5)
-                .obstacle(Obstacle::Sphere(
-                    Sphere::new(Vec3::new(0.5, 0.5, 0.0), 0.3).unwrap(),
-                ))
-                .build()
-                .unwrap()
-        };
-        let (lenient, strict) = (model(MAX_CUTBACKS), model(1));
-        let mut state = State::at_rest(&lenient);
-        let scattered = common::deformed(&lenient, Vec3::ZERO, 0.05, 4);
-        let mut scratch = Scratch::new(&lenient);
-        let control = Control::none();
-        // The warm-up: a first step of the same kind (it starts rayon's pool and sizes the
-        // buffers).
-        state.pos.copy_from_slice(&scattered);
-        step(&lenient, &mut state, &control, &mut scratch).unwrap();
-        let before = ALLOCATIONS.load(Ordering::SeqCst);
-        state.pos.copy_from_slice(&scattered);
-        for _ in 0..3 {
+    counted(|| {
+        for integrator in [Integrator::BackwardEuler, Integrator::Sdirk2] {
+            let model = |cutbacks| {
+                ModelBuilder::new()
+                    .integrator(integrator)
+                    .dt(1.0 / 60.0)
+                    .newton(Newton {
+                        tolerance: 1e-9,
+                        max_iterations: 7,
+                        cutbacks,
+                    })
+                    .friction(0.5)
+                    .obstacle(Obstacle::Sphere(
+                        Sphere::new(Vec3::new(0.5, 0.5, 0.0), 0.3).unwrap(),
+                    ))
+                    .build()
+                    .unwrap()
+            };
+            let (lenient, strict) = (model(MAX_CUTBACKS), model(1));
+            let mut state = State::at_rest(&lenient);
+            let scattered = common::deformed(&lenient, Vec3::ZERO, 0.05, 4);
+            let mut scratch = Scratch::new(&lenient);
+            let control = Control::none();
+            // The warm-up: a first step of the same kind (it starts rayon's pool and sizes the
+            // buffers).
+            state.pos.copy_from_slice(&scattered);
             step(&lenient, &mut state, &control, &mut scratch).unwrap();
+            let before = ALLOCATIONS.load(Ordering::SeqCst);
+            state.pos.copy_from_slice(&scattered);
+            for _ in 0..3 {
+                step(&lenient, &mut state, &control, &mut scratch).unwrap();
+            }
+            state.pos.copy_from_slice(&scattered);
+            let failed = step(&strict, &mut state, &control, &mut scratch).is_err();
+            let made = ALLOCATIONS.load(Ordering::SeqCst) - before;
+            assert!(
+                failed,
+                "{integrator}: the step allowed one halving converged"
+            );
+            assert!(
+                scratch.cutbacks().split_steps >= 1,
+                "{integrator}: no step was cut back"
+            );
+            assert_eq!(made, 0, "{integrator}: {made} allocations");
         }
-        state.pos.copy_from_slice(&scattered);
-        let failed = step(&strict, &mut state, &control, &mut scratch).is_err();
-        let made = ALLOCATIONS.load(Ordering::SeqCst) - before;
-        assert!(
-            failed,
-            "{integrator}: the step allowed one halving converged"
-        );
-        assert!(
-            scratch.cutbacks().split_steps >= 1,
-            "{integrator}: no step was cut back"
-        );
-        assert_eq!(made, 0, "{integrator}: {made} allocations");
-    }
+    });
 }
 
 /// The same from a thread outside the pool, as `Simulation::step` and the command line call it.
@@ -226,6 +272,12 @@ fn cut_back_steps_do_not_allocate() {
             the pool (every 63 jobs); see the doc comment"]
 fn steps_from_outside_the_pool_do_not_allocate() {
     let _turn = SERIAL.lock().unwrap_or_else(|e| e.into_inner());
+    // This thread and the global pool's workers count (if this test is the first to start the
+    // global pool; no other test here uses it).
+    let _ = rayon::ThreadPoolBuilder::new()
+        .start_handler(|_| COUNTED.with(|c| c.set(true)))
+        .build_global();
+    let _counting = CountThisThread::start();
     for integrator in Integrator::ALL {
         let steps = 200;
         let made = allocations_while_stepping(LARGE, integrator, steps, false);
