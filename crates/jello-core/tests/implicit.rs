@@ -453,7 +453,8 @@ fn a_swirling_field_far_stiffer_than_the_masses_follows_the_recurrence() {
 /// (`h/m` times each spring's force error `k·ε·|x|`, about 1e-8 m/s) is above the 1e-9 m/s
 /// tolerance: every step converges whole at that floor (cutbacks off), from a throw into the
 /// walls until it rests. Under backward Euler the energy never rises above its start (no field,
-/// no gravity; SDIRK2 has no such bound, and here its impact briefly raises it by a third).
+/// no gravity; SDIRK2 is not algebraically stable, `M₁₁ = (1 − γ)(3γ − 1) < 0`, so it has no
+/// such bound, and here its impact briefly raises the energy by a third).
 #[test]
 fn a_lattice_too_stiff_for_the_tolerance_converges_at_its_rounding_floor() {
     for integrator in [Integrator::BackwardEuler, Integrator::Sdirk2] {
