@@ -30,6 +30,9 @@ class WorldError(ValueError):
 
     filename: str | None
 
+class GpuError(RuntimeError):
+    """No usable GPU for ``device="gpu"``, or the GPU failed while stepping."""
+
 @final
 class Energy:
     """Kinetic, spring and collision energy (J)."""
@@ -77,6 +80,12 @@ class Simulation:
     @integrator.setter
     def integrator(self, value: str) -> None: ...
     @property
+    def device(self) -> Literal["cpu", "gpu"]: ...
+    @device.setter
+    def device(self, value: Literal["cpu", "gpu"] | str) -> None: ...
+    @property
+    def adapter(self) -> str | None: ...
+    @property
     def cutbacks(self) -> int: ...
     @cutbacks.setter
     def cutbacks(self, value: int) -> None: ...
@@ -123,7 +132,13 @@ class Pin:
 class Region:
     """Springs of a body with their own factors: ``region(...)``."""
 
-def load(path: _Path, *, integrator: str | None = None, dt: float | None = None) -> Simulation: ...
+def load(
+    path: _Path,
+    *,
+    integrator: str | None = None,
+    dt: float | None = None,
+    device: Literal["cpu", "gpu"] | str = "cpu",
+) -> Simulation: ...
 def loads(
     text: str | bytes,
     *,
@@ -131,6 +146,7 @@ def loads(
     name: str = "<string>",
     integrator: str | None = None,
     dt: float | None = None,
+    device: Literal["cpu", "gpu"] | str = "cpu",
 ) -> Simulation: ...
 def cube(
     n: int | Sequence[int] | None = None,

@@ -1,5 +1,6 @@
-//! The package's exceptions: `jello.BlowUp` for a step that blew up (or did not converge) and
-//! `jello.WorldError` for a file or a description that makes no valid simulation.
+//! The package's exceptions: `jello.BlowUp` for a step that blew up (or did not converge),
+//! `jello.WorldError` for a file or a description that makes no valid simulation, and
+//! `jello.GpuError` for a GPU that cannot be used or fails.
 
 use std::path::Path;
 
@@ -28,6 +29,15 @@ create_exception!(
     "A world file, scene file, mesh or description that makes no valid simulation; the message \
      names the file and the line (and the column in a scene file) and says what was expected. \
      Attribute: filename (None for a description built in Python)."
+);
+
+create_exception!(
+    jello,
+    GpuError,
+    PyRuntimeError,
+    "No usable GPU for `device=\"gpu\"` (no Vulkan, Metal or DX12 driver, nor Mesa's lavapipe), \
+     or the GPU failed while stepping (lost, out of memory); the simulation stays at the last \
+     state read back from it, on the CPU."
 );
 
 /// `jello.WorldError(message)` with its `filename`.

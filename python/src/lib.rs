@@ -1,11 +1,12 @@
 //! `jello._jello`: the native half of the Python package `jello`, a thin face over `jello-core`
-//! (the physics) and `jello-io` (the files). `jello/__init__.py` re-exports it; `_jello.pyi`
+//! (the physics), `jello-io` (the files) and `jello-gpu` (stepping on a GPU). `jello/__init__.py` re-exports it; `_jello.pyi`
 //! types it. No physics here: only conversions between numpy and the core's types, and errors
 //! turned into Python exceptions.
 
 mod arrays;
 mod build;
 mod errors;
+mod gpu;
 mod simulation;
 
 use pyo3::prelude::*;
@@ -35,6 +36,7 @@ fn _jello(m: &Bound<'_, PyModule>) -> PyResult<()> {
     }
     m.add("BlowUp", py.get_type::<errors::BlowUp>())?;
     m.add("WorldError", py.get_type::<errors::WorldError>())?;
+    m.add("GpuError", py.get_type::<errors::GpuError>())?;
     m.add_class::<simulation::Simulation>()?;
     m.add_class::<simulation::Energy>()?;
     m.add_class::<build::Body>()?;

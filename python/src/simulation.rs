@@ -15,6 +15,7 @@ use pyo3::types::PySlice;
 
 use crate::arrays::{from_array, to_array};
 use crate::errors::{blow_up_error, unreadable, world_error, write_error};
+use crate::gpu::{Device, GpuStop, Mirror};
 
 /// How long a step call runs with the GIL released before it takes the GIL back to look for
 /// Ctrl-C (and lets other Python threads run their Python code).
@@ -29,7 +30,7 @@ enum Stopped {
 }
 
 /// A simulation: the model (what does not change), its state (positions, velocities, time) and
-/// the forces from outside, stepped by the core.
+/// the forces from outside, stepped by the core or on a GPU (see `gpu.rs`).
 #[pyclass(module = "jello", name = "Simulation")]
 #[derive(Clone)]
 pub struct Simulation {
@@ -42,6 +43,9 @@ pub struct Simulation {
     pub(crate) body_names: Vec<String>,
     /// Each body's material as loaded or built, so that a saved scene records changes to it.
     pub(crate) initial_materials: Vec<Material>,
+    /// Where `step` and `run` compute, and the GPU's copy when that is the GPU.
+    device: Device,
+    gpu: Mirror,
 }
 
 impl Simulation {
@@ -58,7 +62,15 @@ impl Simulation {
             name,
             body_names,
             initial_materials,
+            device: Device::Cpu,
+            gpu: Mirror::default(),
         }
+    }
+
+    /// This simulation set to step on `device` (see `Simulation.device`).
+    fn on(mut self, py: Python<'_>, device: Device) -> PyResult<Self> {
+        self.set_device(py, device.name())?;
+        Ok(self)
     }
 
     /// The file text of the current state, in the format it was read from or built as.
@@ -120,6 +132,14 @@ impl Simulation {
         let model = builder
             .build()
             .map_err(|e| PyValueError::new_err(e.to_string()))?;
+        if self.device == Device::Gpu {
+            if let Some(what) = jello_gpu::unsupported(&model, &self.sim.control) {
+                return Err(crate::gpu::gpu_error(jello_gpu::GpuError::Unsupported(
+                    what,
+                )));
+            }
+        }
+        self.gpu.clear();
         let control = std::mem::take(&mut self.sim.control);
         let state = self.sim.state.clone();
         self.sim = jello_core::Simulation::new(model, state);
@@ -135,6 +155,13 @@ impl Simulation {
     /// Ctrl-C stops between steps, leaving a whole step too.
     #[pyo3(signature = (n = 1))]
     fn step(&mut self, py: Python<'_>, n: u64) -> PyResult<()> {
+        if self.device == Device::Gpu {
+            return match self.gpu.advance(py, &mut self.sim, n) {
+                Ok(_) => Ok(()),
+                Err(GpuStop::BlowUp(b, _)) => Err(blow_up_error(py, &self.name, &b)),
+                Err(GpuStop::Interrupted(e) | GpuStop::Failed(e)) => Err(e),
+            };
+        }
         match self.advance(py, n, |_| {}) {
             Ok(()) => Ok(()),
             Err(Stopped::BlowUp(b)) => Err(blow_up_error(py, &self.name, &b)),
@@ -147,6 +174,18 @@ impl Simulation {
     /// `jello.BlowUp` carries it as `max_penetration`, up to the last good step.
     fn run(&mut self, py: Python<'_>, n: u64) -> PyResult<f64> {
         let mut deepest = max_penetration(&self.sim.model, &self.sim.state.pos);
+        if self.device == Device::Gpu {
+            return match self.gpu.advance(py, &mut self.sim, n) {
+                Ok(d) => Ok(deepest.max(d)),
+                Err(GpuStop::BlowUp(b, before)) => {
+                    deepest = deepest.max(before);
+                    let err = blow_up_error(py, &self.name, &b);
+                    let _ = err.value(py).setattr("max_penetration", deepest);
+                    Err(err)
+                }
+                Err(GpuStop::Interrupted(e) | GpuStop::Failed(e)) => Err(e),
+            };
+        }
         let result = self.advance(py, n, |sim| {
             deepest = deepest.max(max_penetration(&sim.model, &sim.state.pos));
         });
@@ -234,6 +273,7 @@ impl Simulation {
     #[setter]
     fn set_positions(&mut self, value: &Bound<'_, PyAny>) -> PyResult<()> {
         self.sim.state.pos = from_array(value, self.sim.state.pos.len(), "positions")?;
+        self.gpu.clear();
         Ok(())
     }
 
@@ -246,6 +286,7 @@ impl Simulation {
     #[setter]
     fn set_velocities(&mut self, value: &Bound<'_, PyAny>) -> PyResult<()> {
         self.sim.state.vel = from_array(value, self.sim.state.vel.len(), "velocities")?;
+        self.gpu.clear();
         Ok(())
     }
 
@@ -263,7 +304,41 @@ impl Simulation {
             None => Vec::new(),
             Some(v) => from_array(v, self.sim.state.pos.len(), "control_forces")?,
         };
+        self.gpu.clear();
         Ok(())
+    }
+
+    /// Where `step` and `run` compute: "cpu" (the f64 core, the default) or "gpu" (f32 WGSL
+    /// shaders through wgpu: the explicit integrators, one body, no obstacles or pulls, pins that
+    /// stay). Assign to change it: "gpu" raises `ValueError` for a model the GPU does not cover
+    /// and `jello.GpuError` when there is no usable GPU, leaving the device as it was. On the
+    /// GPU the state is read back after every call (and every 50 ms or so within one), so every
+    /// property reads as on the CPU, rounded to f32.
+    #[getter]
+    fn device(&self) -> &'static str {
+        self.device.name()
+    }
+
+    #[setter]
+    fn set_device(&mut self, py: Python<'_>, name: &str) -> PyResult<()> {
+        let device = Device::parse(name)?;
+        if device == Device::Gpu {
+            self.gpu.make(py, &self.sim)?;
+        } else {
+            self.gpu.clear();
+        }
+        self.device = device;
+        Ok(())
+    }
+
+    /// The GPU `step` and `run` use ("NVIDIA H100 (Vulkan)", "llvmpipe (LLVM 15.0.6, 256 bits)
+    /// (Vulkan)"), or None on the CPU.
+    #[getter]
+    fn adapter(&mut self, py: Python<'_>) -> PyResult<Option<String>> {
+        if self.device == Device::Cpu {
+            return Ok(None);
+        }
+        Ok(Some(self.gpu.make(py, &self.sim)?.adapter()))
     }
 
     /// Simulated time (s).
@@ -423,12 +498,16 @@ impl Simulation {
 
     fn __repr__(&self) -> String {
         format!(
-            "Simulation({:?}, {} points, {}, dt={}, t={})",
+            "Simulation({:?}, {} points, {}, dt={}, t={}{})",
             self.name,
             self.sim.state.pos.len(),
             self.sim.model.integrator.name(),
             self.sim.model.dt,
-            self.sim.state.time
+            self.sim.state.time,
+            match self.device {
+                Device::Cpu => "",
+                Device::Gpu => ", device='gpu' (f32)",
+            }
         )
     }
 }
@@ -484,16 +563,19 @@ fn check_dt(dt: Option<f64>) -> PyResult<Option<f64>> {
 }
 
 /// Reads a world file (`.w`) or a scene file (`.toml`), with the integrator and time step
-/// replaced when given. Raises `jello.WorldError` naming the file and line for a bad file and
-/// `FileNotFoundError` (or another `OSError`) for one that cannot be read.
+/// replaced when given, to step on `device` ("cpu" or "gpu", as `Simulation.device`). Raises
+/// `jello.WorldError` naming the file and line for a bad file and `FileNotFoundError` (or another
+/// `OSError`) for one that cannot be read.
 #[pyfunction]
-#[pyo3(signature = (path, *, integrator = None, dt = None))]
+#[pyo3(signature = (path, *, integrator = None, dt = None, device = "cpu"))]
 pub fn load(
     py: Python<'_>,
     path: PathBuf,
     integrator: Option<&str>,
     dt: Option<f64>,
+    device: &str,
 ) -> PyResult<Simulation> {
+    let device = Device::parse(device)?;
     let integrator = parse_integrator(integrator)?;
     let dt = check_dt(dt)?;
     if let Some(err) = unreadable(&path) {
@@ -502,13 +584,16 @@ pub fn load(
     let name = path.display().to_string();
     let (sim, source) = jello_io::load(&path, integrator, dt)
         .map_err(|e| world_error(py, e.message, Some(&name)))?;
-    Ok(Simulation::new(sim, source, name))
+    Simulation::new(sim, source, name).on(py, device)
 }
 
 /// Reads a world (`format="w"`) or a scene (`format="toml"`) from its text, `name` labelling
 /// errors and blow-ups; otherwise as `load`.
 #[pyfunction]
-#[pyo3(signature = (text, *, format = "w", name = "<string>", integrator = None, dt = None))]
+#[pyo3(signature = (
+    text, *, format = "w", name = "<string>", integrator = None, dt = None, device = "cpu"
+))]
+#[allow(clippy::too_many_arguments)]
 pub fn loads(
     py: Python<'_>,
     text: &Bound<'_, PyAny>,
@@ -516,7 +601,9 @@ pub fn loads(
     name: &str,
     integrator: Option<&str>,
     dt: Option<f64>,
+    device: &str,
 ) -> PyResult<Simulation> {
+    let device = Device::parse(device)?;
     let integrator = parse_integrator(integrator)?;
     let dt = check_dt(dt)?;
     let scene = match format.trim_start_matches('.').to_ascii_lowercase().as_str() {
@@ -536,5 +623,5 @@ pub fn loads(
     };
     let (sim, source) = jello_io::load_bytes(&bytes, name, scene, integrator, dt)
         .map_err(|e| world_error(py, e.message, Some(name)))?;
-    Ok(Simulation::new(sim, source, name.to_string()))
+    Simulation::new(sim, source, name.to_string()).on(py, device)
 }

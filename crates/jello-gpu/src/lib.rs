@@ -548,6 +548,12 @@ impl GpuSimulation {
         self.deepest
     }
 
+    /// Forgets the deepest penetration so far: [`GpuSimulation::max_penetration`] then covers
+    /// the steps taken after this call.
+    pub fn reset_max_penetration(&mut self) {
+        self.deepest = 0.0;
+    }
+
     /// Puts the checkpoint back as the state, with the time and step count it was taken at.
     fn restore(&mut self) {
         let size = self.points as u64 * 32;

@@ -1,0 +1,163 @@
+//! `device="gpu"`: stepping on a GPU through `jello-gpu` (its f32 WGSL shaders, the explicit
+//! integrators).
+//!
+//! The core's `jello_core::Simulation` stays the simulation's whole truth: every property reads
+//! it, and every change from Python goes into it. The GPU holds a copy of its model, state and
+//! control forces (the [`Mirror`]), made on the first step there and dropped whenever any of them
+//! changes, so that the next step makes it again from the core. After each chunk of steps the
+//! state is read back into the core's, so positions, energy, `save` and the rest read as on the
+//! CPU, rounded to f32.
+
+use std::time::{Duration, Instant};
+
+use jello_gpu::{GpuSimulation, StepError};
+use pyo3::exceptions::PyValueError;
+use pyo3::prelude::*;
+
+use crate::errors::GpuError;
+
+/// Where `step` and `run` compute.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub(crate) enum Device {
+    /// The f64 core (the reference).
+    #[default]
+    Cpu,
+    /// The f32 shaders of `jello-gpu`.
+    Gpu,
+}
+
+impl Device {
+    pub(crate) fn parse(name: &str) -> PyResult<Device> {
+        match name.to_ascii_lowercase().as_str() {
+            "cpu" => Ok(Device::Cpu),
+            "gpu" => Ok(Device::Gpu),
+            _ => Err(PyValueError::new_err(format!(
+                "device: expected \"cpu\" or \"gpu\", found {name:?}"
+            ))),
+        }
+    }
+
+    pub(crate) fn name(self) -> &'static str {
+        match self {
+            Device::Cpu => "cpu",
+            Device::Gpu => "gpu",
+        }
+    }
+}
+
+/// The GPU's copy of a simulation (see the module documentation). A copy of the simulation
+/// (`Simulation.copy`) does not share it: it makes its own on its first step.
+#[derive(Default)]
+pub(crate) struct Mirror(Option<GpuSimulation>);
+
+impl Clone for Mirror {
+    fn clone(&self) -> Self {
+        Mirror(None)
+    }
+}
+
+/// How long a chunk of GPU steps should take at most, between looks for Ctrl-C.
+const CHUNK_TIME: Duration = Duration::from_millis(50);
+
+/// Steps per chunk, at most (the GPU backend submits 512 at a time).
+const MAX_CHUNK: u64 = 4096;
+
+/// Why GPU stepping stopped before the steps asked for; the core's state is at the last good
+/// step either way.
+pub(crate) enum GpuStop {
+    /// A step blew up; with the deepest penetration at the end of a good step before it (m).
+    BlowUp(Box<jello_core::BlowUp>, f64),
+    /// Ctrl-C (or another signal handler's exception) between chunks.
+    Interrupted(PyErr),
+    /// No usable GPU, a model it does not cover, or a GPU that failed.
+    Failed(PyErr),
+}
+
+impl Mirror {
+    /// Forgets the copy: the model, the state or the control forces changed.
+    pub(crate) fn clear(&mut self) {
+        self.0 = None;
+    }
+
+    /// The copy, made from `sim` when there is none (with the GIL released: it compiles the
+    /// shaders). `ValueError` for a model the shaders do not cover, `jello.GpuError` when there
+    /// is no usable GPU.
+    pub(crate) fn make(
+        &mut self,
+        py: Python<'_>,
+        sim: &jello_core::Simulation,
+    ) -> PyResult<&mut GpuSimulation> {
+        let gpu = match self.0.take() {
+            Some(gpu) => gpu,
+            None => py
+                .detach(|| GpuSimulation::new(&sim.model, &sim.state, &sim.control))
+                .map_err(gpu_error)?,
+        };
+        Ok(self.0.insert(gpu))
+    }
+
+    /// `n` steps on the GPU with the GIL released, in chunks of at most about [`CHUNK_TIME`]
+    /// after each of which the state is read back into `sim` and Ctrl-C is looked for. Returns
+    /// the deepest penetration at the end of a step (m); on a blow-up, `sim` holds the last good
+    /// step.
+    pub(crate) fn advance(
+        &mut self,
+        py: Python<'_>,
+        sim: &mut jello_core::Simulation,
+        n: u64,
+    ) -> Result<f64, GpuStop> {
+        let gpu = self.make(py, sim).map_err(GpuStop::Failed)?;
+        let result = chunks(py, gpu, sim, n);
+        if let Err(GpuStop::Failed(_)) = &result {
+            // The copy is not to be trusted: made anew from the core's state on the next step.
+            self.clear();
+        }
+        result
+    }
+}
+
+/// [`Mirror::advance`] on the copy `gpu`.
+fn chunks(
+    py: Python<'_>,
+    gpu: &mut GpuSimulation,
+    sim: &mut jello_core::Simulation,
+    n: u64,
+) -> Result<f64, GpuStop> {
+    gpu.reset_max_penetration();
+    let (mut left, mut chunk) = (n, 8);
+    while left > 0 {
+        let take = chunk.min(left);
+        let start = Instant::now();
+        let outcome = py.detach(|| -> Result<_, jello_gpu::GpuError> {
+            let blow_up = match gpu.step(take) {
+                Ok(()) => None,
+                Err(StepError::BlowUp(b)) => Some(b),
+                Err(StepError::Device(e)) => return Err(e),
+            };
+            // The state after the chunk, or at the last good step of a blow-up.
+            Ok((blow_up, gpu.read_state()?))
+        });
+        let (blow_up, state) = outcome.map_err(|e| GpuStop::Failed(gpu_error(e)))?;
+        sim.state = state;
+        if let Some(b) = blow_up {
+            return Err(GpuStop::BlowUp(Box::new(b), gpu.max_penetration()));
+        }
+        left -= take;
+        if start.elapsed() < CHUNK_TIME / 2 {
+            chunk = (chunk * 2).min(MAX_CHUNK);
+        } else if start.elapsed() > CHUNK_TIME * 2 && chunk > 1 {
+            chunk /= 2;
+        }
+        py.check_signals().map_err(GpuStop::Interrupted)?;
+    }
+    Ok(gpu.max_penetration())
+}
+
+/// A model the shaders do not cover is the caller's to change (`ValueError`); no usable GPU or
+/// a failed one is `jello.GpuError`.
+pub(crate) fn gpu_error(e: jello_gpu::GpuError) -> PyErr {
+    match e {
+        jello_gpu::GpuError::Unsupported(_) => PyValueError::new_err(e.to_string()),
+        _ => GpuError::new_err(e.to_string()),
+    }
+}

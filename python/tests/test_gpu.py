@@ -1,0 +1,170 @@
+"""`device="gpu"`: the f32 shaders of jello-gpu through wgpu, against the f64 core.
+
+On a machine without a GPU these run on Mesa's lavapipe (`scripts/setup.sh` installs Debian's
+mesa-vulkan-drivers); where no adapter at all is found they skip, saying so.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import jello
+from conftest import EXAMPLES
+
+
+def spinning_cube(device: str = "cpu", integrator: str = "RK4") -> jello.Simulation:
+    """A 6×5×4 lattice spinning and drifting in the middle of the box, under gravity: no
+    contact within 200 steps."""
+    body = jello.cube((6, 5, 4), 0.5, at=(0.0, 0.0, 0.5), velocity=(0.3, -0.2, 0.5), spin=(1.0, 2.0, -3.0))
+    sim = jello.create([body], gravity=(0.0, 0.0, -9.81), integrator=integrator, dt=0.0005)
+    sim.device = device
+    return sim
+
+
+@pytest.fixture(scope="module")
+def gpu() -> str:
+    """The adapter's name, or a skip when there is no usable GPU."""
+    try:
+        sim = spinning_cube("gpu")
+    except jello.GpuError as e:
+        pytest.skip(f"no usable GPU (install Mesa's lavapipe: mesa-vulkan-drivers): {e}")
+    adapter = sim.adapter
+    assert adapter
+    return adapter
+
+
+@pytest.mark.parametrize("integrator", ["Euler", "SymplecticEuler", "RK2", "RK4"])
+def test_the_gpu_agrees_with_the_core_within_f32(gpu: str, integrator: str) -> None:
+    cpu, on_gpu = spinning_cube("cpu", integrator), spinning_cube("gpu", integrator)
+    assert on_gpu.device == "gpu" and cpu.adapter is None
+    cpu.step(200)
+    on_gpu.step(200)
+    assert on_gpu.steps == 200 and on_gpu.time == pytest.approx(cpu.time)
+    # Far apart in f64 terms (the cube moved centimetres), close in f32 ones.
+    assert np.abs(cpu.positions - spinning_cube().positions).max() > 1e-2
+    assert np.abs(on_gpu.positions - cpu.positions).max() < 1e-4
+    assert np.abs(on_gpu.velocities - cpu.velocities).max() < 1e-2
+    assert on_gpu.energy().total == pytest.approx(cpu.energy().total, rel=1e-4)
+
+
+def test_changes_from_python_reach_the_gpu(gpu: str) -> None:
+    cpu, on_gpu = spinning_cube(), spinning_cube("gpu")
+    centre = cpu.positions.mean(axis=0)
+    stretched = centre + 1.1 * (cpu.positions - centre)
+    pushed = np.zeros((len(cpu), 3))
+    pushed[:10] = [0.0, 0.05, 0.0]
+    # Each change, made on both between calls, then 20 steps: the GPU's copy is made again from
+    # the core's each time (a stale copy would be millimetres away).
+    changes = {
+        "positions": lambda sim: setattr(sim, "positions", stretched),
+        "velocities": lambda sim: setattr(sim, "velocities", np.zeros((len(sim), 3))),
+        "control_forces": lambda sim: setattr(sim, "control_forces", pushed),
+        "dt": lambda sim: setattr(sim, "dt", 0.00025),
+        "material": lambda sim: sim.set_material(stiffness=2000.0),
+        "no control_forces": lambda sim: setattr(sim, "control_forces", None),
+    }
+    for what, change in changes.items():
+        for sim in (cpu, on_gpu):
+            change(sim)
+            sim.step(20)
+        assert on_gpu.time == pytest.approx(cpu.time), what
+        assert np.abs(on_gpu.positions - cpu.positions).max() < 1e-4, what
+
+
+def test_moving_between_devices_carries_the_state_on(gpu: str) -> None:
+    sim = spinning_cube("gpu")
+    sim.step(50)
+    sim.device = "cpu"
+    assert sim.device == "cpu" and sim.adapter is None
+    sim.step(50)
+    reference = spinning_cube()
+    reference.step(100)
+    assert sim.steps == 100
+    assert np.abs(sim.positions - reference.positions).max() < 1e-4
+    assert "device='gpu'" not in repr(sim)
+    sim.device = "GPU"
+    assert "device='gpu' (f32)" in repr(sim)
+    # A copy makes its own GPU copy, and steps on as its original does.
+    twin = sim.copy()
+    for s in (sim, twin):
+        s.step(10)
+    assert twin.device == "gpu" and np.array_equal(twin.positions, sim.positions)
+
+
+def test_run_reports_the_deepest_penetration_on_the_gpu(gpu: str) -> None:
+    cpu = jello.load(EXAMPLES / "jello.w")
+    on_gpu = jello.load(EXAMPLES / "jello.w", device="gpu")
+    assert on_gpu.device == "gpu"
+    deepest = [sim.run(2000) for sim in (cpu, on_gpu)]
+    assert deepest[0] > 0.0
+    assert deepest[1] == pytest.approx(deepest[0], rel=5e-2)
+    assert abs(on_gpu.energy().total - cpu.energy().total) <= 1e-2 * cpu.energy().total
+
+
+def test_a_blow_up_on_the_gpu_leaves_the_last_good_step(gpu: str) -> None:
+    sim = jello.load(EXAMPLES / "jello.w", device="gpu", integrator="Euler", dt=0.01)
+    with pytest.raises(jello.BlowUp) as raised:
+        sim.run(10_000)
+    e = raised.value
+    assert sim.steps == e.step - 1 and sim.time == pytest.approx(e.time)
+    assert np.isfinite(sim.positions).all()
+    assert e.max_penetration >= 0.0
+    assert "jello.w" in str(e)
+
+
+def test_what_the_gpu_does_not_cover_is_refused_and_nothing_changes(gpu: str) -> None:
+    sim = spinning_cube("gpu")
+    with pytest.raises(ValueError, match="implicit integrator BackwardEuler"):
+        sim.integrator = "BackwardEuler"
+    assert sim.integrator == "RK4" and sim.device == "gpu"
+    cpu = spinning_cube(integrator="BackwardEuler")
+    with pytest.raises(ValueError, match="implicit integrator"):
+        cpu.device = "gpu"
+    assert cpu.device == "cpu"
+    stack = jello.load(EXAMPLES / "stack.toml")
+    with pytest.raises(ValueError, match="does not support .*; run it on the CPU"):
+        stack.device = "gpu"
+    with pytest.raises(ValueError, match='expected "cpu" or "gpu", found "tpu"'):
+        sim.device = "tpu"
+    with pytest.raises(ValueError, match="device"):
+        jello.load(EXAMPLES / "jello.w", device="cuda")
+
+
+def test_no_usable_gpu_is_a_clear_error(monkeypatch: pytest.MonkeyPatch) -> None:
+    # A backend this machine has no driver for: wgpu finds no adapter.
+    monkeypatch.setenv("WGPU_BACKEND", "dx12")
+    sim = spinning_cube()
+    with pytest.raises(jello.GpuError, match="no usable GPU"):
+        sim.device = "gpu"
+    assert sim.device == "cpu"
+    sim.step(10)
+    assert sim.steps == 10
+
+
+def test_ctrl_c_stops_a_long_gpu_call_with_the_state_read_back(gpu: str) -> None:
+    # In a child process, SIGINT a second into a call of ten million GPU steps: KeyboardInterrupt
+    # comes between chunks, with the state read back at the last one and the time at its step.
+    import subprocess
+    import sys
+
+    script = """
+import os, signal, threading
+import numpy as np
+import jello
+signal.signal(signal.SIGINT, signal.default_int_handler)
+sim = jello.load(%r, device="gpu")
+threading.Timer(1.0, lambda: os.kill(os.getpid(), signal.SIGINT)).start()
+try:
+    sim.step(10_000_000)
+except KeyboardInterrupt:
+    print(sim.steps, bool(np.isfinite(sim.positions).all()), abs(sim.time - sim.steps * sim.dt) < 1e-9)
+    sim.step(10)
+    print(sim.steps)
+""" % str(EXAMPLES / "jello.w")
+    run = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=120)
+    assert run.returncode == 0, run.stderr
+    (steps, finite, on_time), (after,) = (line.split() for line in run.stdout.splitlines())
+    assert 0 < int(steps) < 10_000_000 and finite == "True" and on_time == "True"
+    # It steps on from there.
+    assert int(after) == int(steps) + 10
