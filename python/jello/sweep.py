@@ -52,6 +52,7 @@ PARAMETERS: tuple[str, ...] = (
     "collision_stiffness",
     "collision_damping",
     "velocity",
+    "device",
 )
 
 #: A metric computed by the caller's function from the final simulation.
@@ -86,7 +87,11 @@ def sweep(
     - ``stiffness`` (N/m) and ``damping`` (N·s/m) of every spring, a number or one per kind,
       and ``mass`` (kg per point), of every body;
     - ``collision_stiffness`` (N/m) and ``collision_damping`` (N·s/m);
-    - ``velocity``: every point's initial velocity (m/s), three numbers.
+    - ``velocity``: every point's initial velocity (m/s), three numbers;
+    - ``device``: ``"cpu"`` (the default) or ``"gpu"``, where the case steps (see
+      ``Simulation.device``: f32, the explicit integrators; set after the other parameters, so a
+      case the GPU cannot step raises ``ValueError``, and a worker without a GPU
+      ``jello.GpuError``).
 
     ``steps`` or ``time`` (s, rounded up to whole steps): how long each case runs (default 1 s).
 
@@ -261,6 +266,8 @@ def apply_parameters(sim: Simulation, params: Mapping[str, Any]) -> None:
         if v.shape != (3,):
             raise ValueError(f"velocity: expected three numbers (m/s), found {params['velocity']!r}")
         sim.velocities = np.broadcast_to(v, (len(sim), 3))
+    if "device" in params:
+        sim.device = str(params["device"])
 
 
 def steps_for(time: float, dt: float) -> int:

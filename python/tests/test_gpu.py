@@ -168,3 +168,27 @@ except KeyboardInterrupt:
     assert 0 < int(steps) < 10_000_000 and finite == "True" and on_time == "True"
     # It steps on from there.
     assert int(after) == int(steps) + 10
+
+
+def test_device_is_a_sweep_parameter(gpu: str) -> None:
+    table = jello.sweep(
+        EXAMPLES / "jello.w",
+        {"stiffness": [300.0], "device": ["cpu", "gpu"]},
+        steps=1000,
+        metrics=("final_energy", "max_penetration", "steps"),
+        scheduler="serial",
+        progress=False,
+    )
+    assert list(table["device"]) == ["cpu", "gpu"] and list(table["steps"]) == [1000, 1000]
+    cpu, on_gpu = table.iloc[0], table.iloc[1]
+    assert on_gpu["final_energy"] == pytest.approx(cpu["final_energy"], rel=1e-2)
+    # The GPU row is the case run alone there (the shader gives the same bits every run).
+    sim = jello.load(EXAMPLES / "jello.w")
+    sim.set_material(stiffness=300.0)
+    sim.device = "gpu"
+    deepest = sim.run(1000)
+    assert on_gpu["final_energy"] == sim.energy().total and on_gpu["max_penetration"] == deepest
+    # A case the GPU cannot step is refused, naming why.
+    with pytest.raises(ValueError, match="implicit integrator BackwardEuler"):
+        jello.sweep(EXAMPLES / "jello.w", {"integrator": ["BackwardEuler"], "device": ["gpu"]},
+                    steps=10, scheduler="serial", progress=False)
