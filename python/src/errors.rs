@@ -35,9 +35,10 @@ create_exception!(
     jello,
     GpuError,
     PyRuntimeError,
-    "No usable GPU for `device=\"gpu\"` (no Vulkan, Metal or DX12 driver, nor Mesa's lavapipe), \
-     or the GPU failed while stepping (lost, out of memory); the simulation stays at the last \
-     state read back from it, on the CPU."
+    "No usable GPU for `device=\"gpu\"` (no Vulkan, Metal or DX12 driver, nor Mesa's lavapipe; \
+     or a lattice larger than the GPU's buffers allow), or the GPU failed while stepping (lost, \
+     out of memory); the simulation keeps the last state read back from it, and the next step \
+     on the GPU starts it again from there (or set `device = \"cpu\"`)."
 );
 
 /// `jello.WorldError(message)` with its `filename`.

@@ -3,10 +3,11 @@
 //!
 //! The core's `jello_core::Simulation` stays the simulation's whole truth: every property reads
 //! it, and every change from Python goes into it. The GPU holds a copy of its model, state and
-//! control forces (the [`Mirror`]), made on the first step there and dropped whenever any of them
-//! changes, so that the next step makes it again from the core. After each chunk of steps the
-//! state is read back into the core's, so positions, energy, `save` and the rest read as on the
-//! CPU, rounded to f32.
+//! control forces (the [`Mirror`]), made when the device is set to "gpu" (or on the next step
+//! after the model changed): positions, velocities and control forces assigned from Python are
+//! written into it, and a change of the model (dt, integrator, material…) drops it, so that the
+//! next step makes it again from the core. After each chunk of steps the state is read back into
+//! the core's, so positions, energy, `save` and the rest read as on the CPU, rounded to f32.
 
 use std::time::{Duration, Instant};
 
@@ -74,9 +75,28 @@ pub(crate) enum GpuStop {
 }
 
 impl Mirror {
-    /// Forgets the copy: the model, the state or the control forces changed.
+    /// Forgets the copy: the model changed (or the copy cannot be trusted).
     pub(crate) fn clear(&mut self) {
         self.0 = None;
+    }
+
+    /// The state was assigned from Python: into the copy, if there is one (or the copy goes).
+    pub(crate) fn state_changed(&mut self, state: &jello_core::State) {
+        if let Some(gpu) = &mut self.0 {
+            if gpu.set_state(state).is_err() {
+                self.clear();
+            }
+        }
+    }
+
+    /// The control forces were assigned from Python: into the copy, if there is one (or the
+    /// copy goes, and the next step makes it again or says why it cannot).
+    pub(crate) fn control_changed(&mut self, control: &jello_core::Control) {
+        if let Some(gpu) = &mut self.0 {
+            if gpu.set_control(control).is_err() {
+                self.clear();
+            }
+        }
     }
 
     /// The copy, made from `sim` when there is none (with the GIL released: it compiles the
@@ -106,6 +126,10 @@ impl Mirror {
         sim: &mut jello_core::Simulation,
         n: u64,
     ) -> Result<f64, GpuStop> {
+        if n == 0 {
+            // As on the CPU: nothing to do, and nothing to fail.
+            return Ok(0.0);
+        }
         let gpu = self.make(py, sim).map_err(GpuStop::Failed)?;
         let result = chunks(py, gpu, sim, n);
         if let Err(GpuStop::Failed(_)) = &result {

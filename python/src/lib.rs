@@ -1,7 +1,7 @@
-//! `jello._jello`: the native half of the Python package `jello`, a thin face over `jello-core`
-//! (the physics), `jello-io` (the files) and `jello-gpu` (stepping on a GPU). `jello/__init__.py` re-exports it; `_jello.pyi`
-//! types it. No physics here: only conversions between numpy and the core's types, and errors
-//! turned into Python exceptions.
+//! `jello._jello`: the native half of the Python package `jello`, a thin face over
+//! `jello-core` (the physics), `jello-io` (the files) and `jello-gpu` (stepping on a GPU).
+//! `jello/__init__.py` re-exports it; `_jello.pyi` types it. No physics here: only conversions
+//! between numpy and the core's types, and errors turned into Python exceptions.
 
 mod arrays;
 mod build;

@@ -273,7 +273,7 @@ impl Simulation {
     #[setter]
     fn set_positions(&mut self, value: &Bound<'_, PyAny>) -> PyResult<()> {
         self.sim.state.pos = from_array(value, self.sim.state.pos.len(), "positions")?;
-        self.gpu.clear();
+        self.gpu.state_changed(&self.sim.state);
         Ok(())
     }
 
@@ -286,7 +286,7 @@ impl Simulation {
     #[setter]
     fn set_velocities(&mut self, value: &Bound<'_, PyAny>) -> PyResult<()> {
         self.sim.state.vel = from_array(value, self.sim.state.vel.len(), "velocities")?;
-        self.gpu.clear();
+        self.gpu.state_changed(&self.sim.state);
         Ok(())
     }
 
@@ -304,7 +304,7 @@ impl Simulation {
             None => Vec::new(),
             Some(v) => from_array(v, self.sim.state.pos.len(), "control_forces")?,
         };
-        self.gpu.clear();
+        self.gpu.control_changed(&self.sim.control);
         Ok(())
     }
 

@@ -174,6 +174,13 @@ pub struct GpuSimulation {
     checkpoint_at: (bool, f64, u64),
     /// The deepest penetration into a wall or the plane at the end of a step so far (m).
     deepest: f64,
+    /// Per point: the control force plus a uniform field's force, then 1 for a point that
+    /// moves, 0 for a pinned one and −1 for one outside the body (it never moves, and is in no
+    /// contact); on the GPU and here, with the uniform field's force, for
+    /// [`GpuSimulation::set_control`].
+    extra: wgpu::Buffer,
+    extra_host: Vec<[f32; 4]>,
+    uniform: Vec3,
     /// Simulated time (s) and steps, as the core counts them.
     pub time: f64,
     /// Steps taken since the state was loaded.
@@ -316,17 +323,18 @@ impl GpuSimulation {
         let mut extra: Vec<[f32; 4]> = (0..n)
             .map(|p| {
                 let f = control.forces.get(p).copied().unwrap_or(Vec3::ZERO) + uniform;
-                let moves = body.is_active(p);
                 [
                     f.x as f32,
                     f.y as f32,
                     f.z as f32,
-                    if moves { 1.0 } else { 0.0 },
+                    if body.is_active(p) { 1.0 } else { -1.0 },
                 ]
             })
             .collect();
         for &p in &model.pins {
-            extra[p as usize][3] = 0.0;
+            if extra[p as usize][3] > 0.0 {
+                extra[p as usize][3] = 0.0;
+            }
         }
 
         let state_data = pack_state(state);
@@ -346,7 +354,8 @@ impl GpuSimulation {
         let sums = init("slope sums", bytemuck::cast_slice(&state_data), storage);
         let checkpoint = init("checkpoint", bytemuck::cast_slice(&state_data), storage);
         let links = init("links", bytemuck::cast_slice(&links), storage);
-        let extra = init("extra", bytemuck::cast_slice(&extra), storage);
+        let extra_host = extra;
+        let extra = init("extra", bytemuck::cast_slice(&extra_host), storage);
         let field = init("field", bytemuck::cast_slice(&nodes), storage);
         let springs = init("spring values", bytemuck::cast_slice(&values), storage);
         let status = init("status", bytemuck::cast_slice(&STATUS_START), storage);
@@ -460,6 +469,9 @@ impl GpuSimulation {
             in_a: false,
             checkpoint_at: (false, state.time, state.steps),
             deepest: 0.0,
+            extra,
+            extra_host,
+            uniform,
             time: state.time,
             steps: state.steps,
         }
@@ -546,6 +558,37 @@ impl GpuSimulation {
     /// (m): the core's `max_penetration` over every step.
     pub fn max_penetration(&self) -> f64 {
         self.deepest
+    }
+
+    /// Replaces the state (positions, velocities, time and step count) with `state`, which has
+    /// a point for each of the model's.
+    pub fn set_state(&mut self, state: &State) -> Result<(), GpuError> {
+        if state.pos.len() != self.points as usize || state.vel.len() != self.points as usize {
+            return Err(GpuError::Device(format!(
+                "a state of {} points for a model of {}",
+                state.pos.len(),
+                self.points
+            )));
+        }
+        self.queue
+            .write_buffer(self.live(), 0, bytemuck::cast_slice(&pack_state(state)));
+        (self.time, self.steps) = (state.time, state.steps);
+        Ok(())
+    }
+
+    /// Replaces the control forces with `control`'s (refused, as [`GpuSimulation::new`] refuses
+    /// it, when it holds what the shader does not cover), for the steps after this call.
+    pub fn set_control(&mut self, control: &Control) -> Result<(), GpuError> {
+        if let Some(what) = unsupported(&self.model, control) {
+            return Err(GpuError::Unsupported(what));
+        }
+        for (p, e) in self.extra_host.iter_mut().enumerate() {
+            let f = control.forces.get(p).copied().unwrap_or(Vec3::ZERO) + self.uniform;
+            (e[0], e[1], e[2]) = (f.x as f32, f.y as f32, f.z as f32);
+        }
+        self.queue
+            .write_buffer(&self.extra, 0, bytemuck::cast_slice(&self.extra_host));
+        Ok(())
     }
 
     /// Forgets the deepest penetration so far: [`GpuSimulation::max_penetration`] then covers

@@ -159,7 +159,8 @@ fn acceleration(i: u32) -> vec3<f32> {
     }
     let x = extra[i];
     f = f + x.xyz;
-    return (f / P.material.x + P.gravity.xyz) * x.w;
+    // x.w: 1 for a point that moves, 0 for a pinned one, -1 for one outside the body.
+    return (f / P.material.x + P.gravity.xyz) * max(x.w, 0.0);
 }
 
 // Point i's position and velocity into the stage written.
@@ -190,6 +191,11 @@ fn check(i: u32, p: vec3<f32>, v: vec3<f32>) {
     if (bad) {
         atomicOr(&status[0], 1u);
         atomicMin(&status[1], i);
+        return;
+    }
+    // A point outside the body (a lattice's corner beyond a mesh) is in no contact, as in the
+    // core's max_penetration.
+    if (extra[i].w < 0.0) {
         return;
     }
     // How deep the point is into a wall (the furthest it is outside on any axis) or the plane.
