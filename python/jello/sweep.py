@@ -98,8 +98,8 @@ def sweep(
     ``metrics``: names from :data:`METRICS` (``final_energy`` (J), ``kinetic_energy``,
     ``spring_energy``, ``collision_energy``, ``max_penetration`` (the deepest over the run, m),
     ``blew_up`` (bool), ``blow_up`` (the message, or None), ``steps`` and ``time`` reached,
-    ``split_steps`` (steps an implicit integrator took in parts), ``wall_s``) or functions of the final :class:`~jello.Simulation` (their ``__name__`` heads
-    the column). A case that blows up reports the metrics of its last good step.
+    ``split_steps`` (steps an implicit integrator took in parts), ``wall_s``) or functions of
+    the final :class:`~jello.Simulation` (their ``__name__`` heads the column). A case that blows up reports the metrics of its last good step.
 
     ``save``: a folder (created when missing) where each case's final state is written as
     ``case-0000.w`` (or ``.toml`` for a scene); the table's ``saved`` column names the file.

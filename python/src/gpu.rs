@@ -16,6 +16,7 @@ use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 
 use crate::errors::GpuError;
+use crate::simulation::Stopped;
 
 /// Where `step` and `run` compute.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -63,17 +64,6 @@ const CHUNK_TIME: Duration = Duration::from_millis(50);
 /// Steps per chunk, at most (the GPU backend submits 512 at a time).
 const MAX_CHUNK: u64 = 4096;
 
-/// Why GPU stepping stopped before the steps asked for; the core's state is at the last good
-/// step either way.
-pub(crate) enum GpuStop {
-    /// A step blew up; with the deepest penetration at the end of a good step before it (m).
-    BlowUp(Box<jello_core::BlowUp>, f64),
-    /// Ctrl-C (or another signal handler's exception) between chunks.
-    Interrupted(PyErr),
-    /// No usable GPU, a model it does not cover, or a GPU that failed.
-    Failed(PyErr),
-}
-
 impl Mirror {
     /// Forgets the copy: the model changed (or the copy cannot be trusted).
     pub(crate) fn clear(&mut self) {
@@ -116,24 +106,33 @@ impl Mirror {
         Ok(self.0.insert(gpu))
     }
 
+    /// The deepest penetration at the end of a step of the last [`Mirror::advance`] (m): the
+    /// shaders' measure, the core's `max_penetration`.
+    pub(crate) fn deepest(&self) -> f64 {
+        self.0.as_ref().map_or(0.0, GpuSimulation::max_penetration)
+    }
+
     /// `n` steps on the GPU with the GIL released, in chunks of at most about [`CHUNK_TIME`]
-    /// after each of which the state is read back into `sim` and Ctrl-C is looked for. Returns
-    /// the deepest penetration at the end of a step (m); on a blow-up, `sim` holds the last good
-    /// step.
+    /// after each of which the state is read back into `sim` and Ctrl-C is looked for; on a
+    /// blow-up, `sim` holds the last good step.
     pub(crate) fn advance(
         &mut self,
         py: Python<'_>,
         sim: &mut jello_core::Simulation,
         n: u64,
-    ) -> Result<f64, GpuStop> {
+    ) -> Result<(), Stopped> {
+        if let Some(gpu) = &mut self.0 {
+            gpu.reset_max_penetration();
+        }
         if n == 0 {
             // As on the CPU: nothing to do, and nothing to fail.
-            return Ok(0.0);
+            return Ok(());
         }
-        let gpu = self.make(py, sim).map_err(GpuStop::Failed)?;
+        let gpu = self.make(py, sim).map_err(Stopped::Raised)?;
         let result = chunks(py, gpu, sim, n);
-        if let Err(GpuStop::Failed(_)) = &result {
-            // The copy is not to be trusted: made anew from the core's state on the next step.
+        if let Err(Stopped::Raised(_)) = &result {
+            // A failed device (or Ctrl-C): the copy is made anew from the core's state, read
+            // back at the last good chunk, on the next step.
             self.clear();
         }
         result
@@ -146,8 +145,7 @@ fn chunks(
     gpu: &mut GpuSimulation,
     sim: &mut jello_core::Simulation,
     n: u64,
-) -> Result<f64, GpuStop> {
-    gpu.reset_max_penetration();
+) -> Result<(), Stopped> {
     let (mut left, mut chunk) = (n, 8);
     while left > 0 {
         let take = chunk.min(left);
@@ -161,10 +159,10 @@ fn chunks(
             // The state after the chunk, or at the last good step of a blow-up.
             Ok((blow_up, gpu.read_state()?))
         });
-        let (blow_up, state) = outcome.map_err(|e| GpuStop::Failed(gpu_error(e)))?;
+        let (blow_up, state) = outcome.map_err(|e| Stopped::Raised(gpu_error(e)))?;
         sim.state = state;
         if let Some(b) = blow_up {
-            return Err(GpuStop::BlowUp(Box::new(b), gpu.max_penetration()));
+            return Err(Stopped::BlowUp(Box::new(b)));
         }
         left -= take;
         if start.elapsed() < CHUNK_TIME / 2 {
@@ -172,9 +170,9 @@ fn chunks(
         } else if start.elapsed() > CHUNK_TIME * 2 && chunk > 1 {
             chunk /= 2;
         }
-        py.check_signals().map_err(GpuStop::Interrupted)?;
+        py.check_signals().map_err(Stopped::Raised)?;
     }
-    Ok(gpu.max_penetration())
+    Ok(())
 }
 
 /// A model the shaders do not cover is the caller's to change (`ValueError`); no usable GPU or

@@ -15,18 +15,19 @@ use pyo3::types::PySlice;
 
 use crate::arrays::{from_array, to_array};
 use crate::errors::{blow_up_error, unreadable, world_error, write_error};
-use crate::gpu::{Device, GpuStop, Mirror};
+use crate::gpu::{Device, Mirror};
 
 /// How long a step call runs with the GIL released before it takes the GIL back to look for
 /// Ctrl-C (and lets other Python threads run their Python code).
 const SIGNAL_CHECK_EVERY: Duration = Duration::from_millis(50);
 
-/// Why stepping stopped before the steps asked for.
-enum Stopped {
-    /// A step blew up; the state is the last good step.
-    BlowUp(jello_core::BlowUp),
-    /// Ctrl-C (or another signal handler's exception) between steps.
-    Interrupted(PyErr),
+/// Why stepping stopped before the steps asked for; the state is at the last good step.
+pub(crate) enum Stopped {
+    /// A step blew up.
+    BlowUp(Box<jello_core::BlowUp>),
+    /// Ctrl-C (or another signal handler's exception) between steps, or on the GPU a device
+    /// that failed (`jello.GpuError`) or a model it cannot step (`ValueError`).
+    Raised(PyErr),
 }
 
 /// A simulation: the model (what does not change), its state (positions, velocities, time) and
@@ -64,6 +65,21 @@ impl Simulation {
             initial_materials,
             device: Device::Cpu,
             gpu: Mirror::default(),
+        }
+    }
+
+    /// The exception for stepping that stopped: `jello.BlowUp` (with `max_penetration` when
+    /// `deepest` is given), or the one raised.
+    fn raise(&self, py: Python<'_>, stop: Stopped, deepest: Option<f64>) -> PyErr {
+        match stop {
+            Stopped::BlowUp(b) => {
+                let err = blow_up_error(py, &self.name, &b);
+                if let Some(d) = deepest {
+                    let _ = err.value(py).setattr("max_penetration", d);
+                }
+                err
+            }
+            Stopped::Raised(e) => e,
         }
     }
 
@@ -113,8 +129,8 @@ impl Simulation {
                 (done, Ok(()))
             });
             left -= done;
-            result.map_err(Stopped::BlowUp)?;
-            py.check_signals().map_err(Stopped::Interrupted)?;
+            result.map_err(|b| Stopped::BlowUp(Box::new(b)))?;
+            py.check_signals().map_err(Stopped::Raised)?;
         }
         Ok(())
     }
@@ -155,18 +171,11 @@ impl Simulation {
     /// Ctrl-C stops between steps, leaving a whole step too.
     #[pyo3(signature = (n = 1))]
     fn step(&mut self, py: Python<'_>, n: u64) -> PyResult<()> {
-        if self.device == Device::Gpu {
-            return match self.gpu.advance(py, &mut self.sim, n) {
-                Ok(_) => Ok(()),
-                Err(GpuStop::BlowUp(b, _)) => Err(blow_up_error(py, &self.name, &b)),
-                Err(GpuStop::Interrupted(e) | GpuStop::Failed(e)) => Err(e),
-            };
-        }
-        match self.advance(py, n, |_| {}) {
-            Ok(()) => Ok(()),
-            Err(Stopped::BlowUp(b)) => Err(blow_up_error(py, &self.name, &b)),
-            Err(Stopped::Interrupted(e)) => Err(e),
-        }
+        let result = match self.device {
+            Device::Cpu => self.advance(py, n, |_| {}),
+            Device::Gpu => self.gpu.advance(py, &mut self.sim, n),
+        };
+        result.map_err(|stop| self.raise(py, stop, None))
     }
 
     /// Steps `n` times as `step` does and returns the deepest penetration (m) into a wall, the
@@ -174,30 +183,19 @@ impl Simulation {
     /// `jello.BlowUp` carries it as `max_penetration`, up to the last good step.
     fn run(&mut self, py: Python<'_>, n: u64) -> PyResult<f64> {
         let mut deepest = max_penetration(&self.sim.model, &self.sim.state.pos);
-        if self.device == Device::Gpu {
-            return match self.gpu.advance(py, &mut self.sim, n) {
-                Ok(d) => Ok(deepest.max(d)),
-                Err(GpuStop::BlowUp(b, before)) => {
-                    deepest = deepest.max(before);
-                    let err = blow_up_error(py, &self.name, &b);
-                    let _ = err.value(py).setattr("max_penetration", deepest);
-                    Err(err)
-                }
-                Err(GpuStop::Interrupted(e) | GpuStop::Failed(e)) => Err(e),
-            };
-        }
-        let result = self.advance(py, n, |sim| {
-            deepest = deepest.max(max_penetration(&sim.model, &sim.state.pos));
-        });
-        match result {
-            Ok(()) => Ok(deepest),
-            Err(Stopped::BlowUp(b)) => {
-                let err = blow_up_error(py, &self.name, &b);
-                let _ = err.value(py).setattr("max_penetration", deepest);
-                Err(err)
+        let result = match self.device {
+            Device::Cpu => self.advance(py, n, |sim| {
+                deepest = deepest.max(max_penetration(&sim.model, &sim.state.pos));
+            }),
+            Device::Gpu => {
+                let result = self.gpu.advance(py, &mut self.sim, n);
+                deepest = deepest.max(self.gpu.deepest());
+                result
             }
-            Err(Stopped::Interrupted(e)) => Err(e),
-        }
+        };
+        result
+            .map(|()| deepest)
+            .map_err(|stop| self.raise(py, stop, Some(deepest)))
     }
 
     /// Sets the springs' stiffness (N/m) and damping (N·s/m), a number or one per kind
