@@ -307,8 +307,8 @@ impl Simulation {
     }
 
     /// Where `step` and `run` compute: "cpu" (the f64 core, the default) or "gpu" (f32 WGSL
-    /// shaders through wgpu: the explicit integrators, one body, no obstacles or pulls, pins that
-    /// stay). Assign to change it: "gpu" raises `ValueError` for a model the GPU does not cover
+    /// shaders through wgpu: the explicit integrators, with bodies, obstacles, friction and pulls;
+    /// not pins on paths). Assign to change it: "gpu" raises `ValueError` for a model the GPU does not cover
     /// and `jello.GpuError` when there is no usable GPU, leaving the device as it was. On the
     /// GPU the state is read back after every call (and every 50 ms or so within one), so every
     /// property reads as on the CPU, rounded to f32.

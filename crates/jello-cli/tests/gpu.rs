@@ -67,21 +67,37 @@ fn bench_on_the_gpu_names_its_adapter() {
 }
 
 #[test]
+fn several_bodies_and_an_obstacle_run_on_the_gpu_as_on_the_core() {
+    // The stack: three cubes on a ball, with friction between them and on the ball.
+    let dir = TempDir::new("gpu-stack");
+    let stack = example("stack.toml");
+    let stack = stack.to_str().unwrap();
+    let gpu = dir.succeeds(&["run", stack, "--device", "gpu", "--steps", "500", "-q"]);
+    let cpu = dir.succeeds(&["run", stack, "--steps", "500", "-q"]);
+    let (e_gpu, e_cpu) = (number_after(&gpu, "energy"), number_after(&cpu, "energy"));
+    assert!((e_gpu - e_cpu).abs() <= 0.01 * e_cpu, "{gpu}\n{cpu}");
+    let (d_gpu, d_cpu) = (
+        number_after(&gpu, "max penetration"),
+        number_after(&cpu, "max penetration"),
+    );
+    assert!((d_gpu - d_cpu).abs() < 1e-3, "{gpu}\n{cpu}");
+}
+
+#[test]
 fn what_the_gpu_does_not_cover_is_refused_with_a_reason() {
     let dir = TempDir::new("gpu-refused");
-    let stack = example("stack.toml");
-    let out = dir.run(&[
-        "run",
-        stack.to_str().unwrap(),
-        "--device",
-        "gpu",
-        "--steps",
-        "5",
-    ]);
+    std::fs::write(
+        dir.path("shaken.toml"),
+        "[[body]]\ncube = { points = [4, 4, 4], size = [1.0, 1.0, 1.0] }\n\
+         pins = [{ at = [0.0, 0.0, 0.5], radius = 0.0, shake = { amplitude = [0.1, 0.0, 0.0], \
+         frequency = 2.0 } }]\n",
+    )
+    .unwrap();
+    let out = dir.run(&["run", "shaken.toml", "--device", "gpu", "--steps", "5"]);
     assert_eq!(out.status.code(), Some(1));
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(
-        err.contains("stack.toml") && err.contains("several bodies"),
+        err.contains("shaken.toml") && err.contains("pins that move"),
         "{err}"
     );
     let world = example("jello.w");

@@ -3,38 +3,15 @@
 //! they fail rather than skip when there is none.
 
 use jello_core::diagnostics::energy;
+use jello_core::motion::Motion;
 use jello_core::{
     Aabb, Body, Control, ForceField, Integrator, Lattice, Material, Model, ModelBuilder, Plane,
     Simulation, SpringKind, SpringScale, State, Vec3,
 };
 use jello_gpu::{GpuError, GpuSimulation, StepError};
 
-fn gpu(model: &Model, state: &State, control: &Control) -> GpuSimulation {
-    match GpuSimulation::new(model, state, control) {
-        Ok(sim) => sim,
-        Err(e @ GpuError::NoAdapter(_)) => {
-            panic!("{e}: these tests need one (scripts/setup.sh installs lavapipe)")
-        }
-        Err(e) => panic!("{e}"),
-    }
-}
-
-fn cpu(model: &Model, state: &State, control: &Control, steps: u64) -> State {
-    let mut sim = Simulation::new(model.clone(), state.clone());
-    sim.control = control.clone();
-    for _ in 0..steps {
-        sim.step().expect("the CPU run is stable");
-    }
-    sim.state
-}
-
-fn largest_gap(a: &State, b: &State) -> f64 {
-    a.pos
-        .iter()
-        .zip(&b.pos)
-        .map(|(p, q)| (*p - *q).length())
-        .fold(0.0, f64::max)
-}
+mod common;
+use common::{cpu, gpu, largest_gap};
 
 /// A lattice of unequal sides in free flight inside the box: spinning, in a swirling sampled
 /// field, with control forces and a pinned point, touching nothing.
@@ -249,13 +226,45 @@ fn models_the_shader_does_not_cover_are_refused() {
         Err(GpuError::Unsupported(what)) => assert!(what.contains("BackwardEuler"), "{what}"),
         other => panic!("expected a refusal, got {:?}", other.err()),
     }
-    let two = model
+    let shaken = model
         .to_builder()
-        .add_body(model.bodies()[0].clone())
-        .build();
-    if let Ok(two) = two {
-        let state = State::at_rest(&two);
-        let err = GpuSimulation::new(&two, &state, &Control::default()).err();
-        assert!(matches!(err, Some(GpuError::Unsupported(_))), "{err:?}");
+        .pin_motion(
+            vec![5],
+            Motion::Shake {
+                amplitude: Vec3::new(0.1, 0.0, 0.0),
+                frequency: 2.0,
+            },
+        )
+        .build()
+        .unwrap();
+    match GpuSimulation::new(&shaken, &state, &control) {
+        Err(GpuError::Unsupported(what)) => assert!(what.contains("pins that move"), "{what}"),
+        other => panic!("expected a refusal, got {:?}", other.err()),
+    }
+    // More bodies than the uniform block holds.
+    let small = Body::lattice_box(
+        Lattice::new([2, 2, 2], Vec3::new(0.05, 0.05, 0.05)),
+        Material::classic(),
+    );
+    let many: Vec<Body> = (0..=jello_gpu::MAX_BODIES)
+        .map(|b| {
+            small.clone().placed(
+                Vec3::new(-1.9 + 0.1 * (b % 30) as f64, 0.1 * (b / 30) as f64, 0.0),
+                jello_core::body::IDENTITY,
+            )
+        })
+        .collect();
+    let crowd = ModelBuilder::new().bodies(many).build().unwrap();
+    let err = GpuSimulation::new(&crowd, &State::at_rest(&crowd), &Control::default()).err();
+    match err {
+        Some(GpuError::Unsupported(what)) => assert!(what.contains("at most 224"), "{what}"),
+        other => panic!("expected a refusal, got {other:?}"),
+    }
+    // A control that is not valid for the model.
+    let mut bad = control.clone();
+    bad.forces.pop();
+    match GpuSimulation::new(&model, &state, &bad) {
+        Err(GpuError::Invalid(why)) => assert!(why.contains("control forces"), "{why}"),
+        other => panic!("expected a refusal, got {:?}", other.err()),
     }
 }

@@ -1,0 +1,116 @@
+// Jello's explicit integrators on the GPU, in f32: one thread per lattice point gathers the forces
+// on it (its up to 32 springs, the field, walls, plane, obstacles, contacts with other bodies,
+// control forces and pulls, gravity) and applies one stage of its integrator. Each spring is
+// evaluated at both its ends and each contact pair at both its balls: a gather needs no atomics,
+// so a run gives the same result every time.
+//
+// The module is this file (the model as the shader sees it: uniforms, buffers, helpers), then
+// forces.wgsl, grid.wgsl (the broad phase of contacts between bodies) and step.wgsl (the entry
+// points), concatenated by the crate.
+//
+// State buffers hold two vec4 per point: position (w unused), velocity (w unused).
+// Every entry point reads the stage it evaluates from `state_in` and writes its own point only,
+// so a dispatch never reads what it writes.
+
+// One body: its stencil (per entry s, vec4 s / 4, component s % 4: the flat offset to the
+// neighbour, rest length (m), stiffness (N/m), damping (N·s/m)) and what else its points share.
+struct Body {
+    offsets: array<vec4<i32>, 4>,
+    rest: array<vec4<f32>, 4>,
+    stiff: array<vec4<f32>, 4>,
+    damp: array<vec4<f32>, 4>,
+    // mass of a point (kg), contact radius (m), 0, 0
+    material: vec4<f32>,
+    // first point, where its per-spring values start in `scene` (NONE: it has none), 0, 0
+    index: vec4<u32>,
+}
+
+const MAX_BODIES: u32 = 224u;
+
+// What the model has, fixed when its pipelines are made, so that the code of what it does not
+// have is compiled out: a single body; contacts between bodies; obstacles; friction (on
+// obstacles and between bodies); a sampled field; the classic plane (CLASSIC_PLANE); per-spring values.
+override ONE_BODY: bool = true;
+override CONTACTS: bool = false;
+override OBSTACLES: bool = false;
+override FRICTION: bool = false;
+override FIELD: bool = false;
+override CLASSIC_PLANE: bool = false;
+override SPRING_VALUES: bool = false;
+const NONE: u32 = 0xffffffffu;
+
+struct Params {
+    // points, bodies, obstacles, hash buckets of the contact grid (0: no contacts between bodies)
+    counts: vec4<u32>,
+    // dt (s), kCollision (N/m), dCollision (N·s/m), friction coefficient
+    law: vec4<f32>,
+    // escape margin (m), 0, 0, pulls present (1/0: set_control changes it)
+    flags: vec4<f32>,
+    box_lo: vec4<f32>,
+    box_hi: vec4<f32>,
+    // a, b, c, d of the classic plane; then |(a, b, c)| and the allowed side (±1)
+    plane: vec4<f32>,
+    plane_side: vec4<f32>,
+    gravity: vec4<f32>,
+    field_lo: vec4<f32>,
+    field_hi: vec4<f32>,
+    // Where regions start in `scene` (in vec4): obstacles, field nodes, control, friction anchors
+    // (NONE without obstacle friction)
+    at: vec4<u32>,
+    // field res, 0, 0, 0
+    field_res: vec4<u32>,
+    // side of a contact grid cell (m), its inverse, 0, 0
+    grid_cell: vec4<f32>,
+    bodies: array<Body, MAX_BODIES>,
+}
+
+@group(0) @binding(0) var<uniform> P: Params;
+@group(0) @binding(1) var<storage, read> state_in: array<vec4<f32>>;
+@group(0) @binding(2) var<storage, read_write> base: array<vec4<f32>>;
+@group(0) @binding(3) var<storage, read_write> state_out: array<vec4<f32>>;
+@group(0) @binding(4) var<storage, read_write> sums: array<vec4<f32>>;
+// Per point: x has bit s set when the spring to the neighbour at +offset[s] exists, bit 16 + s
+// when the one to the neighbour at −offset[s] does; y is its body, with MOVES and ACTIVE.
+@group(0) @binding(5) var<storage, read> points: array<vec2<u32>>;
+// Everything else the forces read, as vec4 of 32-bit words (floats by bitcast), by region (see
+// Params.at and Body.index):
+// - obstacles, three each: [kind, 0, 0, 0], then two vec4 of its shape (see `obstacle_depth`);
+// - field nodes (res³ forces, N; i outermost, k innermost);
+// - control, two per point: [control force plus a uniform field's (N), Σ pull damping (N·s/m)],
+//   [Σ pull stiffness × target (N), Σ pull stiffness (N/m)];
+// - per-spring values of bodies that have them: for the point p of a body and stencil entry s,
+//   at 16 (p − first) + s, the rest length, stiffness and damping of the spring to +offset[s];
+// - friction anchors, per obstacle and point: where the point is tied, and 1 (or 0: not tied).
+@group(0) @binding(6) var<storage, read> scene: array<vec4<u32>>;
+// The contact grid (see grid.wgsl), read by the force passes.
+@group(0) @binding(7) var<storage, read> grid: array<u32>;
+// [0]: 1 once a step ended unsound; [1]: the lowest point found at fault; [2]: the deepest
+// penetration into a wall, the plane or an obstacle at a step's end (m, the bits of a
+// non-negative f32).
+@group(0) @binding(8) var<storage, read_write> status: array<atomic<u32>>;
+// The contact grid as the grid passes build it, and the scene as the anchor pass updates it.
+@group(0) @binding(9) var<storage, read_write> grid_rw: array<atomic<u32>>;
+@group(0) @binding(10) var<storage, read_write> scene_rw: array<vec4<u32>>;
+
+// Point flags in points[i].y, above the body index.
+const MOVES: u32 = 0x80000000u;
+const ACTIVE: u32 = 0x40000000u;
+const BODY_BITS: u32 = 0x3fffffffu;
+
+const WORKGROUP: u32 = 64u;
+
+fn point_index(gid: vec3<u32>, groups: vec3<u32>) -> u32 {
+    return gid.x + gid.y * groups.x * WORKGROUP;
+}
+
+fn scene_f(at: u32) -> vec4<f32> {
+    return bitcast<vec4<f32>>(scene[at]);
+}
+
+fn position(i: u32) -> vec3<f32> {
+    return state_in[2u * i].xyz;
+}
+
+fn velocity(i: u32) -> vec3<f32> {
+    return state_in[2u * i + 1u].xyz;
+}

@@ -1,0 +1,212 @@
+// The entry points: one stage of an integrator per dispatch (see model.wgsl), and the friction
+// anchors' update after a step.
+
+// Point i's position and velocity into the stage written.
+fn write_out(i: u32, p: vec3<f32>, v: vec3<f32>) {
+    state_out[2u * i] = vec4<f32>(p, 0.0);
+    state_out[2u * i + 1u] = vec4<f32>(v, 0.0);
+}
+
+// Point i's position and velocity at the step's end, over its start.
+fn write_base(i: u32, p: vec3<f32>, v: vec3<f32>) {
+    base[2u * i] = vec4<f32>(p, 0.0);
+    base[2u * i + 1u] = vec4<f32>(v, 0.0);
+}
+
+fn not_finite(x: f32) -> bool {
+    return (bitcast<u32>(x) & 0x7f800000u) == 0x7f800000u;
+}
+
+// A step's end state is sound when every number is finite and the point is no further outside
+// the box than the escape margin (the CPU core's rule).
+fn check(i: u32, p: vec3<f32>, v: vec3<f32>) {
+    let m = P.flags.x;
+    let lo = P.box_lo.xyz - vec3<f32>(m);
+    let hi = P.box_hi.xyz + vec3<f32>(m);
+    let inside = all(p >= lo) && all(p <= hi);
+    let bad = !inside || not_finite(p.x) || not_finite(p.y) || not_finite(p.z)
+        || not_finite(v.x) || not_finite(v.y) || not_finite(v.z);
+    if (bad) {
+        atomicOr(&status[0], 1u);
+        atomicMin(&status[1], i);
+        return;
+    }
+    // A point outside its body (a lattice's corner beyond a mesh) is in no contact, as in the
+    // core's max_penetration.
+    if ((points[i].y & ACTIVE) == 0u) {
+        return;
+    }
+    // How deep the point is into a wall (the furthest it is outside on any axis), the plane or
+    // an obstacle.
+    var depth = max(max(max(P.box_lo.x - p.x, p.x - P.box_hi.x), max(P.box_lo.y - p.y, p.y - P.box_hi.y)),
+        max(max(P.box_lo.z - p.z, p.z - P.box_hi.z), 0.0));
+    if (CLASSIC_PLANE) {
+        depth = max(depth, plane_depth(p));
+    }
+    if (OBSTACLES) {
+        for (var o = 0u; o < P.counts.z; o = o + 1u) {
+            depth = max(depth, obstacle_depth(o, p).w);
+        }
+    }
+    if (depth > 0.0) {
+        atomicMax(&status[2], bitcast<u32>(depth));
+    }
+}
+
+// RK4 stage 1: k1 at y (in `state_in`, the step's start); the sums start with it, and
+// `state_out` gets y + dt/2·k1.
+@compute @workgroup_size(64)
+fn rk4_1(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let i = point_index(gid, groups);
+    if (i >= P.counts.x) {
+        return;
+    }
+    let a = acceleration(i);
+    let p = state_in[2u * i].xyz;
+    let v = state_in[2u * i + 1u].xyz;
+    let h = 0.5 * P.law.x;
+    sums[2u * i] = vec4<f32>(v, 0.0);
+    sums[2u * i + 1u] = vec4<f32>(a, 0.0);
+    write_out(i, p + v * h, v + a * h);
+}
+
+// RK4 stages 2 and 3: k at the stage in `state_in`, added twice to the sums; `state_out` gets
+// y + h·k with y the step's start in `base`.
+fn rk4_middle(i: u32, h: f32) {
+    let a = acceleration(i);
+    let sv = state_in[2u * i + 1u].xyz;
+    sums[2u * i] = vec4<f32>(sums[2u * i].xyz + sv * 2.0, 0.0);
+    sums[2u * i + 1u] = vec4<f32>(sums[2u * i + 1u].xyz + a * 2.0, 0.0);
+    write_out(i, base[2u * i].xyz + sv * h, base[2u * i + 1u].xyz + a * h);
+}
+
+@compute @workgroup_size(64)
+fn rk4_2(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let i = point_index(gid, groups);
+    if (i >= P.counts.x) {
+        return;
+    }
+    rk4_middle(i, 0.5 * P.law.x);
+}
+
+@compute @workgroup_size(64)
+fn rk4_3(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let i = point_index(gid, groups);
+    if (i >= P.counts.x) {
+        return;
+    }
+    rk4_middle(i, P.law.x);
+}
+
+// RK4 stage 4: k4 at the stage in `state_in`; the step's end, y + dt/6·(k1 + 2k2 + 2k3 + k4),
+// replaces the start in `base`, checked.
+@compute @workgroup_size(64)
+fn rk4_4(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let i = point_index(gid, groups);
+    if (i >= P.counts.x) {
+        return;
+    }
+    let a = acceleration(i);
+    let sv = state_in[2u * i + 1u].xyz;
+    let w = P.law.x / 6.0;
+    let p = base[2u * i].xyz + (sums[2u * i].xyz + sv) * w;
+    let v = base[2u * i + 1u].xyz + (sums[2u * i + 1u].xyz + a) * w;
+    write_base(i, p, v);
+    check(i, p, v);
+}
+
+// RK2 (midpoint), first stage: `state_out` gets y + dt/2·f(y).
+@compute @workgroup_size(64)
+fn rk2_1(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let i = point_index(gid, groups);
+    if (i >= P.counts.x) {
+        return;
+    }
+    let a = acceleration(i);
+    let p = state_in[2u * i].xyz;
+    let v = state_in[2u * i + 1u].xyz;
+    let h = 0.5 * P.law.x;
+    write_out(i, p + v * h, v + a * h);
+}
+
+// RK2, second stage: the slope at the midpoint in `state_in` moves the start in `base` by dt.
+@compute @workgroup_size(64)
+fn rk2_2(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let i = point_index(gid, groups);
+    if (i >= P.counts.x) {
+        return;
+    }
+    let a = acceleration(i);
+    let sv = state_in[2u * i + 1u].xyz;
+    let dt = P.law.x;
+    let p = base[2u * i].xyz + sv * dt;
+    let v = base[2u * i + 1u].xyz + a * dt;
+    write_base(i, p, v);
+    check(i, p, v);
+}
+
+// Euler: the position moves with the old velocity, the velocity with the acceleration; into
+// `state_out` (the next step reads it).
+@compute @workgroup_size(64)
+fn euler(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let i = point_index(gid, groups);
+    if (i >= P.counts.x) {
+        return;
+    }
+    let a = acceleration(i);
+    let dt = P.law.x;
+    let p = state_in[2u * i].xyz + state_in[2u * i + 1u].xyz * dt;
+    let v = state_in[2u * i + 1u].xyz + a * dt;
+    write_out(i, p, v);
+    check(i, p, v);
+}
+
+// Symplectic Euler: the velocity first, then the position with the new velocity.
+@compute @workgroup_size(64)
+fn symplectic(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let i = point_index(gid, groups);
+    if (i >= P.counts.x) {
+        return;
+    }
+    let a = acceleration(i);
+    let dt = P.law.x;
+    let v = state_in[2u * i + 1u].xyz + a * dt;
+    let p = state_in[2u * i].xyz + v * dt;
+    write_out(i, p, v);
+    check(i, p, v);
+}
+
+// After a step, with the step's end in `state_in` (the core's friction::Anchors::update): a
+// point that left an obstacle lets go; one that touches it and is not tied is tied where it is;
+// one whose offset from its anchor across the normal is past the Coulomb cone (μ·depth) drags
+// the anchor along to the cone's edge.
+@compute @workgroup_size(64)
+fn anchors(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let i = point_index(gid, groups);
+    if (i >= P.counts.x) {
+        return;
+    }
+    let p = position(i);
+    for (var o = 0u; o < P.counts.z; o = o + 1u) {
+        let at = P.at.w + o * P.counts.x + i;
+        // The obstacles from scene_rw: this pass may not bind the scene read-only as well.
+        let shape = P.at.x + 3u * o;
+        let c = shape_depth(scene_rw[shape].x, bitcast<vec4<f32>>(scene_rw[shape + 1u]),
+            bitcast<vec4<f32>>(scene_rw[shape + 2u]), p);
+        if (!(c.w > 0.0)) {
+            scene_rw[at] = vec4<u32>(0u);
+            continue;
+        }
+        let anchor = bitcast<vec4<f32>>(scene_rw[at]);
+        if (anchor.w == 0.0) {
+            scene_rw[at] = bitcast<vec4<u32>>(vec4<f32>(p, 1.0));
+            continue;
+        }
+        let offset = across(p - anchor.xyz, c.xyz);
+        let size = length(offset);
+        let reach = P.law.w * c.w;
+        if (size > reach) {
+            scene_rw[at] = bitcast<vec4<u32>>(vec4<f32>(p - offset * (reach / size), 1.0));
+        }
+    }
+}
