@@ -21,6 +21,18 @@ fn number_after(summary: &str, label: &str) -> f64 {
     rest.split_whitespace().next().unwrap().parse().unwrap()
 }
 
+/// The same outcome in two runs' summaries: energy within 1 %, the same deepest penetration to a
+/// millimetre.
+fn assert_same_outcome(gpu: &str, cpu: &str) {
+    let (e_gpu, e_cpu) = (number_after(gpu, "energy"), number_after(cpu, "energy"));
+    assert!((e_gpu - e_cpu).abs() <= 0.01 * e_cpu, "{gpu}\n{cpu}");
+    let (d_gpu, d_cpu) = (
+        number_after(gpu, "max penetration"),
+        number_after(cpu, "max penetration"),
+    );
+    assert!((d_gpu - d_cpu).abs() < 1e-3, "{gpu}\n{cpu}");
+}
+
 #[test]
 fn a_world_runs_on_the_gpu_and_ends_where_the_core_does() {
     let dir = TempDir::new("gpu-run");
@@ -32,14 +44,7 @@ fn a_world_runs_on_the_gpu_and_ends_where_the_core_does() {
     let cpu = dir.succeeds(&["run", world, "--steps", "2000", "-q"]);
     assert!(gpu.starts_with("GPU "), "{gpu}");
     assert!(gpu.contains("f32"), "{gpu}");
-    // The same outcome: energy within 1 %, the same deepest penetration to a millimetre.
-    let (e_gpu, e_cpu) = (number_after(&gpu, "energy"), number_after(&cpu, "energy"));
-    assert!((e_gpu - e_cpu).abs() <= 0.01 * e_cpu, "{gpu}\n{cpu}");
-    let (d_gpu, d_cpu) = (
-        number_after(&gpu, "max penetration"),
-        number_after(&cpu, "max penetration"),
-    );
-    assert!((d_gpu - d_cpu).abs() < 1e-3, "{gpu}\n{cpu}");
+    assert_same_outcome(&gpu, &cpu);
     // The saved state is a world the CPU reads and goes on from.
     dir.succeeds(&["run", "gpu.w", "--steps", "10", "-q"]);
 }
@@ -74,13 +79,7 @@ fn several_bodies_and_an_obstacle_run_on_the_gpu_as_on_the_core() {
     let stack = stack.to_str().unwrap();
     let gpu = dir.succeeds(&["run", stack, "--device", "gpu", "--steps", "500", "-q"]);
     let cpu = dir.succeeds(&["run", stack, "--steps", "500", "-q"]);
-    let (e_gpu, e_cpu) = (number_after(&gpu, "energy"), number_after(&cpu, "energy"));
-    assert!((e_gpu - e_cpu).abs() <= 0.01 * e_cpu, "{gpu}\n{cpu}");
-    let (d_gpu, d_cpu) = (
-        number_after(&gpu, "max penetration"),
-        number_after(&cpu, "max penetration"),
-    );
-    assert!((d_gpu - d_cpu).abs() < 1e-3, "{gpu}\n{cpu}");
+    assert_same_outcome(&gpu, &cpu);
 }
 
 #[test]

@@ -4,7 +4,7 @@
 //! those layouts on the host.
 
 use jello_core::lattice::STENCIL;
-use jello_core::{Control, Model, Obstacle, Vec3};
+use jello_core::{Control, Model, Obstacle, State, Vec3};
 
 /// Bodies the uniform block holds, at most (the shader's `MAX_BODIES`: WebGPU's 64 KiB of
 /// uniforms).
@@ -58,6 +58,24 @@ pub const UNIFORM_BYTES: usize = size_of::<Header>() + MAX_BODIES * size_of::<Bo
 
 fn vec4(v: Vec3) -> [f32; 4] {
     [v.x as f32, v.y as f32, v.z as f32, 0.0]
+}
+
+/// The state as the shader holds it: per point its position, then its velocity, as vec4.
+pub fn pack_state(state: &State) -> Vec<[f32; 4]> {
+    state
+        .pos
+        .iter()
+        .zip(&state.vel)
+        .flat_map(|(&p, &v)| [vec4(p), vec4(v)])
+        .collect()
+}
+
+/// The state [`pack_state`] packed, back in f64 (time and step count zero).
+pub fn unpack_state(data: &[[f32; 4]]) -> State {
+    let v3 = |c: &[f32; 4]| Vec3::new(c[0] as f64, c[1] as f64, c[2] as f64);
+    let pos = data.iter().step_by(2).map(v3).collect();
+    let vel = data.iter().skip(1).step_by(2).map(v3).collect();
+    State::new(pos, vel)
 }
 
 fn bits(v: [f32; 4]) -> [u32; 4] {

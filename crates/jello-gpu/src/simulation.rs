@@ -158,7 +158,7 @@ impl GpuSimulation {
         packed: Packed,
     ) -> Self {
         let n = model.point_count();
-        let state_data = pack_state(state);
+        let state_data = scene::pack_state(state);
         let storage = wgpu::BufferUsages::STORAGE
             | wgpu::BufferUsages::COPY_SRC
             | wgpu::BufferUsages::COPY_DST;
@@ -456,8 +456,11 @@ impl GpuSimulation {
     /// a point for each of the model's.
     pub fn set_state(&mut self, state: &State) -> Result<(), GpuError> {
         check_state(&self.model, state)?;
-        self.queue
-            .write_buffer(self.live(), 0, bytemuck::cast_slice(&pack_state(state)));
+        self.queue.write_buffer(
+            self.live(),
+            0,
+            bytemuck::cast_slice(&scene::pack_state(state)),
+        );
         (self.time, self.steps) = (state.time, state.steps);
         Ok(())
     }
@@ -559,11 +562,7 @@ impl GpuSimulation {
         encoder.copy_buffer_to_buffer(self.live(), 0, &self.state_read, 0, size);
         self.queue.submit([encoder.finish()]);
         let bytes = self.read(&self.state_read, size)?;
-        let data: &[[f32; 4]] = bytemuck::cast_slice(&bytes);
-        let v3 = |c: &[f32; 4]| Vec3::new(c[0] as f64, c[1] as f64, c[2] as f64);
-        let pos = data.iter().step_by(2).map(v3).collect();
-        let vel = data.iter().skip(1).step_by(2).map(v3).collect();
-        let mut state = State::new(pos, vel);
+        let mut state = scene::unpack_state(bytemuck::cast_slice(&bytes));
         state.time = self.time;
         state.steps = self.steps;
         Ok(state)
@@ -591,18 +590,4 @@ fn check_state(model: &Model, state: &State) -> Result<(), GpuError> {
         )));
     }
     Ok(())
-}
-
-/// The state as the shader holds it: per point its position, then its velocity, as vec4.
-fn pack_state(state: &State) -> Vec<[f32; 4]> {
-    state
-        .pos
-        .iter()
-        .zip(&state.vel)
-        .flat_map(|(&p, &v)| [vec4(p), vec4(v)])
-        .collect()
-}
-
-fn vec4(v: Vec3) -> [f32; 4] {
-    [v.x as f32, v.y as f32, v.z as f32, 0.0]
 }

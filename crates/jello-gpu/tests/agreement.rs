@@ -2,7 +2,6 @@
 //! without a GPU, Mesa's lavapipe (scripts/setup.sh installs Debian's mesa-vulkan-drivers), so
 //! they fail rather than skip when there is none.
 
-use jello_core::diagnostics::energy;
 use jello_core::motion::Motion;
 use jello_core::{
     Aabb, Body, Control, ForceField, Integrator, Lattice, Material, Model, ModelBuilder, Plane,
@@ -11,7 +10,7 @@ use jello_core::{
 use jello_gpu::{GpuError, GpuSimulation, StepError};
 
 mod common;
-use common::{cpu, gpu, largest_gap};
+use common::{assert_same_energy, cpu, gpu, largest_gap};
 
 /// A lattice of unequal sides in free flight inside the box: spinning, in a swirling sampled
 /// field, with control forces and a pinned point, touching nothing.
@@ -154,14 +153,7 @@ fn with_contacts_the_outcome_is_the_same() {
     sim.step(3000).unwrap();
     let on_gpu = sim.read_state().unwrap();
     let reference = cpu(&model, &state, &control, 3000);
-    let (e_gpu, e_cpu) = (
-        energy(&model, &on_gpu).total(),
-        energy(&model, &reference).total(),
-    );
-    assert!(
-        (e_gpu - e_cpu).abs() <= 0.01 * e_cpu.abs(),
-        "energy {e_gpu} on the GPU, {e_cpu} on the core"
-    );
+    assert_same_energy(&model, &on_gpu, &reference, "");
     // Nothing went through a wall: no deeper than the core's own penetration, plus a margin.
     let depth = |s: &State| {
         s.pos

@@ -2,14 +2,14 @@
 //! lavapipe where there is no GPU; see `agreement.rs`).
 
 use jello_core::body::rotation_xyz;
-use jello_core::diagnostics::{body_centre_of_mass, energy, max_penetration, momentum};
+use jello_core::diagnostics::{body_centre_of_mass, max_penetration, momentum};
 use jello_core::{
     Aabb, Body, Control, Integrator, Lattice, Material, Model, ModelBuilder, Obstacle, Plane, Pull,
     Sphere, State, Vec3,
 };
 
 mod common;
-use common::{cpu, gpu, largest_gap};
+use common::{assert_same_energy, cpu, gpu, largest_gap};
 
 /// A cube of `n`³ points, 0.4 m wide, of a stiff material, resting with its corner at `origin`
 /// turned by `degrees` about x, y and z.
@@ -61,14 +61,7 @@ fn bodies_collide_as_on_the_core() {
     for s in [&on_gpu, &reference] {
         assert!(centre_x(s, 0) < centre_x(&state, 0) + 0.3, "body 0 bounced");
     }
-    let (e_gpu, e_cpu) = (
-        energy(&model, &on_gpu).total(),
-        energy(&model, &reference).total(),
-    );
-    assert!(
-        (e_gpu - e_cpu).abs() <= 0.01 * e_cpu,
-        "energy {e_gpu} on the GPU, {e_cpu} on the core"
-    );
+    assert_same_energy(&model, &on_gpu, &reference, "");
     // Contacts push both bodies equally and oppositely: momentum stays (to f32 rounding).
     let (p0, p1) = (momentum(&model, &state.vel), momentum(&model, &on_gpu.vel));
     let scale = p0.length();
@@ -156,14 +149,7 @@ fn obstacles_with_friction_hold_a_body_on_a_slope_as_on_the_core() {
             "μ = {mu}: the GPU's cube {} m from the core's",
             drift(&on_gpu) - drift(&reference)
         );
-        let (e_gpu, e_cpu) = (
-            energy(&model, &on_gpu).total(),
-            energy(&model, &reference).total(),
-        );
-        assert!(
-            (e_gpu - e_cpu).abs() <= 0.01 * e_cpu.abs(),
-            "μ = {mu}: energy {e_gpu} on the GPU, {e_cpu} on the core"
-        );
+        assert_same_energy(&model, &on_gpu, &reference, &format!("μ = {mu}: "));
         // Nothing went through the slope: as deep as on the core.
         let deepest = sim.max_penetration();
         assert!(

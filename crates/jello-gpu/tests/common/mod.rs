@@ -3,6 +3,7 @@
 
 #![allow(dead_code)]
 
+use jello_core::diagnostics::energy;
 use jello_core::{Control, Model, Simulation, State};
 use jello_gpu::{GpuError, GpuSimulation};
 
@@ -31,4 +32,17 @@ pub fn largest_gap(a: &State, b: &State) -> f64 {
         .zip(&b.pos)
         .map(|(p, q)| (*p - *q).length())
         .fold(0.0, f64::max)
+}
+
+/// Fails unless the total energy of `on_gpu` is within 1 % of the core's `reference` (`what`
+/// labels the message).
+pub fn assert_same_energy(model: &Model, on_gpu: &State, reference: &State, what: &str) {
+    let (e_gpu, e_cpu) = (
+        energy(model, on_gpu).total(),
+        energy(model, reference).total(),
+    );
+    assert!(
+        (e_gpu - e_cpu).abs() <= 0.01 * e_cpu.abs(),
+        "{what}energy {e_gpu} on the GPU, {e_cpu} on the core"
+    );
 }
