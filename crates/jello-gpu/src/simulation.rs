@@ -89,7 +89,13 @@ impl GpuSimulation {
     /// Uploads `model` and `state` (with `control`'s forces and pulls, held for every step) to
     /// the first high-performance adapter wgpu finds (`WGPU_BACKEND` chooses a backend), and
     /// builds the passes for the model's integrator.
+    #[cfg(not(target_arch = "wasm32"))]
     pub fn new(model: &Model, state: &State, control: &Control) -> Result<Self, GpuError> {
+        pollster::block_on(Self::create(model, state, control))
+    }
+
+    /// [`GpuSimulation::new`] as a future: the form a browser needs, where nothing may block.
+    pub async fn create(model: &Model, state: &State, control: &Control) -> Result<Self, GpuError> {
         if let Some(what) = scene::unsupported(model, control) {
             return Err(GpuError::Unsupported(what));
         }
@@ -97,10 +103,6 @@ impl GpuSimulation {
             .check(model)
             .map_err(|e| GpuError::Invalid(e.to_string()))?;
         check_state(model, state)?;
-        pollster::block_on(Self::create(model, state, control))
-    }
-
-    async fn create(model: &Model, state: &State, control: &Control) -> Result<Self, GpuError> {
         let backends = wgpu::Backends::from_env().unwrap_or(wgpu::Backends::PRIMARY);
         let instance = wgpu::Instance::new(wgpu::InstanceDescriptor {
             backends,
@@ -381,17 +383,23 @@ impl GpuSimulation {
 
     /// Takes `steps` steps. On a blow-up the state is left at the last good step and the error
     /// says which step failed, at which point, and why, as the CPU core says it.
+    #[cfg(not(target_arch = "wasm32"))]
     pub fn step(&mut self, steps: u64) -> Result<(), StepError> {
+        pollster::block_on(self.step_async(steps))
+    }
+
+    /// [`GpuSimulation::step`] as a future (for a browser).
+    pub async fn step_async(&mut self, steps: u64) -> Result<(), StepError> {
         let mut left = steps;
         while left > 0 {
             let batch = left.min(BATCH);
-            if !self.run_batch(batch)? {
+            if !self.run_batch(batch).await? {
                 // Back to the batch's start, then step by step to the one that fails (the
                 // shader is deterministic, so one does).
                 self.restore();
                 for _ in 0..batch {
-                    if !self.run_batch(1)? {
-                        let blow_up = self.blow_up()?;
+                    if !self.run_batch(1).await? {
+                        let blow_up = self.blow_up().await?;
                         self.restore();
                         return Err(StepError::BlowUp(blow_up));
                     }
@@ -405,7 +413,7 @@ impl GpuSimulation {
     /// Encodes `steps` steps after saving the state (and the friction anchors) as the
     /// checkpoint, runs them and reads the status: whether every step ended sound. The time and
     /// step count advance either way.
-    fn run_batch(&mut self, steps: u64) -> Result<bool, GpuError> {
+    async fn run_batch(&mut self, steps: u64) -> Result<bool, GpuError> {
         let size = self.points as u64 * 32;
         self.checkpoint_at = (self.in_a, self.time, self.steps);
         self.queue
@@ -439,7 +447,7 @@ impl GpuSimulation {
             self.time += self.model.dt;
         }
         self.steps += steps;
-        let [unsound, _, deepest] = self.read_status()?;
+        let [unsound, _, deepest] = self.read_status().await?;
         if unsound == 0 {
             self.deepest = self.deepest.max(f32::from_bits(deepest) as f64);
         }
@@ -508,19 +516,19 @@ impl GpuSimulation {
 
     /// The status words: whether a step ended unsound, the lowest point at fault, and the
     /// deepest penetration's bits.
-    fn read_status(&self) -> Result<[u32; 3], GpuError> {
+    async fn read_status(&self) -> Result<[u32; 3], GpuError> {
         let mut encoder = self.device.create_command_encoder(&Default::default());
         encoder.copy_buffer_to_buffer(&self.status, 0, &self.status_read, 0, STATUS_BYTES);
         self.queue.submit([encoder.finish()]);
-        let bytes = self.read(&self.status_read, STATUS_BYTES)?;
+        let bytes = self.read(&self.status_read, STATUS_BYTES).await?;
         let words: &[u32] = bytemuck::cast_slice(&bytes);
         Ok([words[0], words[1], words[2]])
     }
 
     /// The report of the single step just taken, which failed (its state still in the buffers).
-    fn blow_up(&self) -> Result<BlowUp, GpuError> {
-        let point = self.read_status()?[1] as usize;
-        let state = self.read_state()?;
+    async fn blow_up(&self) -> Result<BlowUp, GpuError> {
+        let point = self.read_status().await?[1] as usize;
+        let state = self.read_state_async().await?;
         let (p, v) = (state.pos[point], state.vel[point]);
         let finite = [p.x, p.y, p.z, v.x, v.y, v.z].iter().all(|c| c.is_finite());
         let (body, point_ijk) = self.model.locate(point);
@@ -543,12 +551,21 @@ impl GpuSimulation {
     }
 
     /// Maps a readback buffer after the work submitted so far, and copies it out.
-    fn read(&self, buffer: &wgpu::Buffer, size: u64) -> Result<Vec<u8>, GpuError> {
+    async fn read(&self, buffer: &wgpu::Buffer, size: u64) -> Result<Vec<u8>, GpuError> {
         let slice = buffer.slice(..size);
-        slice.map_async(wgpu::MapMode::Read, |_| {});
+        let (mapped, is_mapped) = futures_channel::oneshot::channel();
+        slice.map_async(wgpu::MapMode::Read, move |result| {
+            let _ = mapped.send(result);
+        });
         let device = |e: &dyn fmt::Display| GpuError::Device(format!("reading back: {e}"));
+        // Natively the mapping completes while the device is polled; a browser's device polls
+        // itself (this returns at once there) and the mapping completes as a promise.
         self.device
             .poll(wgpu::PollType::wait_indefinitely())
+            .map_err(|e| device(&e))?;
+        is_mapped
+            .await
+            .map_err(|e| device(&e))?
             .map_err(|e| device(&e))?;
         let out = slice.get_mapped_range().map_err(|e| device(&e))?.to_vec();
         buffer.unmap();
@@ -556,12 +573,18 @@ impl GpuSimulation {
     }
 
     /// The state now, in f64 (positions and velocities as the GPU holds them, in f32).
+    #[cfg(not(target_arch = "wasm32"))]
     pub fn read_state(&self) -> Result<State, GpuError> {
+        pollster::block_on(self.read_state_async())
+    }
+
+    /// [`GpuSimulation::read_state`] as a future (for a browser).
+    pub async fn read_state_async(&self) -> Result<State, GpuError> {
         let size = self.points as u64 * 32;
         let mut encoder = self.device.create_command_encoder(&Default::default());
         encoder.copy_buffer_to_buffer(self.live(), 0, &self.state_read, 0, size);
         self.queue.submit([encoder.finish()]);
-        let bytes = self.read(&self.state_read, size)?;
+        let bytes = self.read(&self.state_read, size).await?;
         let mut state = scene::unpack_state(bytemuck::cast_slice(&bytes));
         state.time = self.time;
         state.steps = self.steps;
