@@ -34,6 +34,7 @@ test:
 	cargo clippy -p jello-cli --all-targets --features gpu -- -D warnings
 	RUSTDOCFLAGS="-D warnings" cargo doc --workspace --no-deps --quiet
 	scripts/aarch64-check.sh
+	cargo clippy -p jello-wasm --target wasm32-unknown-unknown -- -D warnings
 	cargo build --release
 	scripts/make-examples.sh --check
 	cargo test --workspace

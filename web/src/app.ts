@@ -4,7 +4,7 @@ import { FrameSequence, SEQUENCE_FPS, SEQUENCE_MAX, VideoRecorder, download, web
 import { Panel, type PanelHost } from './gui';
 import { Interaction, type InteractionSettings } from './interact';
 import { Viewer, type RenderMode } from './render';
-import { JelloSim, Runner, SimView, parseWorld, sceneData, startingParameters, type Parameters, type Source } from './sim';
+import { JelloSim, Runner, SimView, parseWorld, sceneData, startingParameters, type Device, type Parameters, type Source } from './sim';
 import { Banners, Readout, acceptDroppedFiles } from './ui';
 
 /** Largest world or scene file accepted (bytes), as in the command line: a classic file with a
@@ -129,6 +129,22 @@ export class App implements PanelHost {
 
   get worldName(): string {
     return this.sim.name;
+  }
+
+  get device(): Device {
+    return this.runner.device;
+  }
+  set device(d: Device) {
+    this.runner.device = d;
+  }
+
+  /** What steps, for the panel: the backend, and why not the GPU when it was not chosen but
+   *  does not step. */
+  get backendLabel(): string {
+    const b = this.sim.backend;
+    if (!b) return 'starting…';
+    if (b.kind === 'webgpu') return `WebGPU, f32 (${b.adapter ?? 'GPU'})`;
+    return this.runner.device === 'auto' && b.why ? `CPU, wasm f64: ${b.why}` : 'CPU, wasm f64';
   }
 
   parameters(): Parameters {
@@ -276,7 +292,7 @@ export class App implements PanelHost {
    *  the file's own. */
   private applyStartingParameters(): void {
     const own = this.runner.parameters();
-    this.startParameters = startingParameters(this.sim.copy);
+    this.startParameters = startingParameters(this.sim.copy, this.runner.gpuWouldStep(this.sim.copy));
     this.ownParameters = own;
     this.banners.clear('integrator');
     if (!this.startParameters) return;
@@ -377,7 +393,8 @@ export class App implements PanelHost {
 
   private status(): string {
     const state = this.sim.blownUp ? 'blown up' : this.paused ? 'paused' : 'running';
-    return `t = ${this.sim.time.toFixed(3)} s · step ${this.sim.steps} · ${state}`;
+    const on = this.sim.backend?.kind === 'webgpu' ? ' on WebGPU' : '';
+    return `t = ${this.sim.time.toFixed(3)} s · step ${this.sim.steps} · ${state}${on}`;
   }
 
   private checkBlowUp(): void {

@@ -1,7 +1,7 @@
 // The lil-gui panel: simulation parameters, worlds (examples, load, save), view toggles,
 // interaction settings and capture. It holds no logic of its own: every control calls the app.
 import GUI, { type Controller } from 'lil-gui';
-import type { Parameters } from './sim';
+import type { Device, Parameters } from './sim';
 import type { InteractionSettings } from './interact';
 import type { RenderMode } from './render';
 
@@ -16,6 +16,9 @@ export interface PanelHost {
   setParameters(p: Parameters): string | undefined;
   speed: number;
   paused: boolean;
+  /** Which device steps, and what steps now (for a person). */
+  device: Device;
+  readonly backendLabel: string;
   mode: RenderMode;
   showKind: boolean[];
   showField: boolean;
@@ -60,6 +63,18 @@ export class Panel {
       sim.add(this.params, 'damping').name('d elastic (N·s/m)').decimals(4).onFinishChange(apply),
       sim.add(this.params, 'mass').name('mass/point (kg)').decimals(7).onFinishChange(apply),
     );
+    sim
+      .add(host, 'device', { 'GPU (WebGPU) when it can': 'auto', 'CPU (wasm, f64)': 'cpu' })
+      .name('device')
+      .onChange(() => this.refresh());
+    const backend = sim.add(host, 'backendLabel').name('stepping on').disable().listen();
+    backend.domElement.id = 'backend';
+    // The reason the GPU does not step can be long: the whole of it is the row's tooltip.
+    const showBackend = backend.updateDisplay.bind(backend);
+    backend.updateDisplay = () => {
+      backend.domElement.title = host.backendLabel;
+      return showBackend();
+    };
     sim.add(host, 'speed', 0.05, 4, 0.05).name('speed ×').listen();
     sim.add(host, 'paused').name('paused (p)').listen();
     sim.add(host, 'stepOnce').name('single step (n)');

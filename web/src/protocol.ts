@@ -5,6 +5,18 @@
 /** Where a simulation comes from: world or scene text, or the panel's cube. */
 export type Source = { kind: 'text'; text: string; name: string } | { kind: 'cube'; n: number };
 
+/** Which device steps: `auto` the GPU (WebGPU, f32) when the browser has an adapter and the GPU
+ *  steps the model, else the CPU; `cpu` the wasm core (f64) always. */
+export type Device = 'auto' | 'cpu';
+
+/** What steps now: WebGPU (on `adapter`) or the wasm core, and why not the GPU when it could
+ *  have been asked to. */
+export interface Backend {
+  kind: 'webgpu' | 'wasm';
+  adapter?: string;
+  why?: string;
+}
+
 /** The parameters the panel shows and sets. */
 export interface Parameters {
   integrator: string;
@@ -24,6 +36,7 @@ export type ToWorker =
   | { type: 'parameters'; epoch: number; parameters: Parameters }
   | { type: 'reset'; epoch: number; parameters?: Parameters }
   | { type: 'step'; epoch: number; n: number }
+  | { type: 'device'; epoch: number; device: Device }
   | { type: 'pulls'; points: Uint32Array; targets: Float64Array; stiffness: Float64Array; damping: Float64Array }
   | { type: 'push'; body: number; ax: number; ay: number; az: number }
   | { type: 'save'; id: number }
@@ -44,11 +57,14 @@ export interface Snapshot {
   blownUp: boolean;
   message?: string;
   suggestedDt?: number;
+  /** What stepped; absent until the worker has chosen. */
+  backend?: Backend;
 }
 
 /** From the worker to the page. */
 export type FromWorker =
-  | { type: 'ready' }
+  /** The worker runs; `webgpu` names the browser's WebGPU adapter, absent when it has none. */
+  | { type: 'ready'; webgpu?: string }
   | ({ type: 'state' } & Snapshot)
   | { type: 'saved'; id: number; text?: string; time?: number; error?: string }
   /** A request failed in the worker (it had passed the page's own checks): the message. */

@@ -5,11 +5,11 @@
 // bodies) and checks every request before it goes to the worker, so a bad value throws here, with
 // the core's message, and changes nothing. All physics is in Rust.
 import init, { JelloSim } from './wasm/jello_wasm.js';
-import type { FromWorker, Parameters, Snapshot, Source, ToWorker } from './protocol';
+import type { Backend, Device, FromWorker, Parameters, Snapshot, Source, ToWorker } from './protocol';
 import type { SceneData } from './render';
 
 export { JelloSim };
-export type { Parameters, Source };
+export type { Backend, Device, Parameters, Source };
 
 /** Loads and instantiates the wasm module (once). */
 export async function loadCore(): Promise<void> {
@@ -69,6 +69,10 @@ export class SimView {
   }
   suggestedDt(): number | undefined {
     return this.state.suggestedDt;
+  }
+  /** What steps (the worker's choice); undefined until it has chosen. */
+  get backend(): Backend | undefined {
+    return this.state.backend;
   }
 
   // ---- Parameters (the copy is kept equal to the worker's) ----
@@ -141,6 +145,7 @@ export class Runner {
   private _paused = false;
   private _hold = false;
   private _speed = 1;
+  private _device: Device = 'auto';
   /** Numbers the requests that change the state at once; see protocol.ts. */
   private epoch = 0;
   /** Steps the worker reported since the page last asked ([`Runner.advance`]). */
@@ -153,6 +158,8 @@ export class Runner {
 
   private constructor(
     private readonly worker: Worker,
+    /** The browser's WebGPU adapter, as it names itself; undefined without one. */
+    readonly webgpu: string | undefined,
     copy: JelloSim,
     source: Source,
     parameters: Parameters | undefined,
@@ -167,13 +174,13 @@ export class Runner {
   /** Starts the worker and loads `copy`'s source in it (with `parameters` applied, if given). */
   static async start(copy: JelloSim, source: Source, parameters?: Parameters): Promise<Runner> {
     const worker = new Worker(new URL('./worker.ts', import.meta.url), { type: 'module' });
-    await new Promise<void>((resolve, reject) => {
+    const webgpu = await new Promise<string | undefined>((resolve, reject) => {
       worker.onmessage = (e: MessageEvent<FromWorker>) => {
-        if (e.data.type === 'ready') resolve();
+        if (e.data.type === 'ready') resolve(e.data.webgpu);
       };
       worker.onerror = (e) => reject(new Error(`the stepping worker could not start: ${e.message}`));
     });
-    return new Runner(worker, copy, source, parameters);
+    return new Runner(worker, webgpu, copy, source, parameters);
   }
 
   get sim(): SimView {
@@ -209,6 +216,22 @@ export class Runner {
     this.sendRun();
   }
 
+  /** Which device steps (see [`Device`]). */
+  get device(): Device {
+    return this._device;
+  }
+  set device(d: Device) {
+    if (d === this._device) return;
+    this._device = d;
+    this.send({ type: 'device', epoch: ++this.epoch, device: d });
+  }
+
+  /** Whether the GPU would step `sim` with the current device setting (the browser has WebGPU
+   *  and the GPU covers the model). */
+  gpuWouldStep(sim: JelloSim): boolean {
+    return this._device === 'auto' && this.webgpu !== undefined && sim.gpuRefusal() === undefined;
+  }
+
   send(message: ToWorker): void {
     this.worker.postMessage(message);
   }
@@ -223,7 +246,7 @@ export class Runner {
     this._sim.copy.free();
     this._sim = new SimView(copy, this);
     this.epoch++;
-    this.state = snapshotOf(copy, this.epoch);
+    this.state = { ...snapshotOf(copy, this.epoch), backend: this.state.backend };
     this.newSteps = 0;
     this.send({ type: 'load', epoch: this.epoch, source, parameters });
   }
@@ -247,7 +270,7 @@ export class Runner {
     copy.reset();
     if (parameters) copy.setParameters(parameters.integrator, parameters.dt, parameters.stiffness, parameters.damping, parameters.mass);
     this.epoch++;
-    this.state = snapshotOf(copy, this.epoch);
+    this.state = { ...snapshotOf(copy, this.epoch), backend: this.state.backend };
     this.newSteps = 0;
     this.send({ type: 'reset', epoch: this.epoch, parameters });
   }
@@ -352,9 +375,10 @@ export function parseWorld(text: string, name: string): JelloSim {
 }
 
 /** The parameters a freshly loaded `sim` starts with in the viewer: its own, except that a
- *  scene of more than [`IMPLICIT_ABOVE_POINTS`] points stepped by an explicit method starts with
- *  the implicit default. `undefined` when its own stand. */
-export function startingParameters(sim: JelloSim): Parameters | undefined {
-  if (sim.pointCount <= IMPLICIT_ABOVE_POINTS || sim.isImplicit) return undefined;
+ *  scene of more than [`IMPLICIT_ABOVE_POINTS`] points stepped by an explicit method on the CPU
+ *  starts with the implicit default (on the GPU, `onGpu`, its own explicit steps keep up).
+ *  `undefined` when its own stand. */
+export function startingParameters(sim: JelloSim, onGpu: boolean): Parameters | undefined {
+  if (sim.pointCount <= IMPLICIT_ABOVE_POINTS || sim.isImplicit || onGpu) return undefined;
   return { integrator: IMPLICIT_DEFAULT.integrator, dt: IMPLICIT_DEFAULT.dt, stiffness: sim.stiffness, damping: sim.damping, mass: sim.mass };
 }

@@ -9,8 +9,10 @@ import { hideOverlays } from './pixels.mjs';
 
 export const CHROMIUM = process.env.CHROMIUM ?? '/usr/bin/chromium';
 
-/** Launches Chromium with a fresh profile; `close()` stops it and removes the profile. */
-export async function launch() {
+/** Launches Chromium with a fresh profile; `close()` stops it and removes the profile. With
+ *  `webgpu`, the page has WebGPU (SwiftShader, on the CPU: `--enable-unsafe-webgpu`); without it
+ *  the GPU is off and `navigator.gpu` finds no adapter, so the viewer steps on the wasm core. */
+export async function launch({ webgpu = false } = {}) {
   const profile = mkdtempSync(join(tmpdir(), 'jello-chromium-'));
   const context = await chromium.launchPersistentContext(profile, {
     executablePath: CHROMIUM,
@@ -20,7 +22,7 @@ export async function launch() {
     args: [
       '--headless',
       '--no-sandbox',
-      '--disable-gpu',
+      ...(webgpu ? ['--enable-unsafe-webgpu'] : ['--disable-gpu']),
       '--disable-quic',
       '--no-first-run',
       '--disable-background-networking',

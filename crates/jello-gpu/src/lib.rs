@@ -17,6 +17,11 @@
 //! implicit integrators, more than [`MAX_BODIES`] bodies) are refused by [`GpuSimulation::new`]
 //! with a message that names what is missing.
 //!
+//! Creating, stepping and reading back are futures underneath ([`GpuSimulation::create`],
+//! [`GpuSimulation::step_async`], [`GpuSimulation::read_state_async`]); natively the blocking
+//! forms wait on them. For wasm32 the crate builds on wgpu's WebGPU backend, where only the
+//! futures exist: the browser viewer steps with them (`jello-wasm`'s `JelloGpu`).
+//!
 //! Layout: `scene` packs a model into the buffers the shader reads, `simulation` drives the
 //! device, and `shader/` holds the WGSL (`model.wgsl`, `forces.wgsl`, `grid.wgsl`, `step.wgsl`).
 

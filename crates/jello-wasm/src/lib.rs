@@ -10,6 +10,10 @@
 //! stops, the state stays at the last good step (the core guarantees it), and
 //! [`JelloSim::blow_up_message`] and [`JelloSim::suggested_dt`] say what happened.
 //!
+//! In the browser build (wasm32), `JelloGpu` steps a `JelloSim`'s model on the GPU through
+//! WebGPU, with `jello-gpu`'s WGSL and passes (module `gpu`); the viewer falls back to
+//! `JelloSim::step` where the browser has no WebGPU adapter or the GPU does not cover the model.
+//!
 //! [wasm-bindgen]: https://rustwasm.github.io/wasm-bindgen/
 
 #![warn(missing_docs)]
@@ -22,6 +26,11 @@ use jello_core::{
     Obstacle, Pull, ReadOptions, Simulation, State, Vec3, World,
 };
 use wasm_bindgen::prelude::*;
+
+#[cfg(target_arch = "wasm32")]
+mod gpu;
+#[cfg(target_arch = "wasm32")]
+pub use gpu::JelloGpu;
 
 /// A simulation the page drives: the model and state being stepped, what it was loaded from
 /// (for reset and save), and what the renderer needs that never changes while stepping.
