@@ -175,11 +175,15 @@ fn chunks(
     Ok(())
 }
 
-/// A model the shaders do not cover is the caller's to change (`ValueError`); no usable GPU or
-/// a failed one is `jello.GpuError`.
+/// A model the shaders do not cover, or a state or control that is not valid for it, is the
+/// caller's to change (`ValueError`); no usable GPU or a failed one is `jello.GpuError`.
 pub(crate) fn gpu_error(e: jello_gpu::GpuError) -> PyErr {
     match e {
-        jello_gpu::GpuError::Unsupported(_) => PyValueError::new_err(e.to_string()),
-        _ => GpuError::new_err(e.to_string()),
+        jello_gpu::GpuError::Unsupported(_) | jello_gpu::GpuError::Invalid(_) => {
+            PyValueError::new_err(e.to_string())
+        }
+        jello_gpu::GpuError::NoAdapter(_) | jello_gpu::GpuError::Device(_) => {
+            GpuError::new_err(e.to_string())
+        }
     }
 }
