@@ -30,16 +30,26 @@ use std::fmt;
 mod scene;
 mod simulation;
 
-pub use scene::{unsupported, MAX_BODIES};
-pub use simulation::GpuSimulation;
+pub use scene::{fits_resident, unsupported, MAX_BODIES, RESIDENT_POINTS};
+pub use simulation::{GpuSimulation, Kernel};
 
 /// The WGSL module every GPU path runs (native through wgpu, and WebGPU in a browser): its parts
 /// in order.
 pub const SHADER: &str = concat!(
     include_str!("shader/model.wgsl"),
+    include_str!("shader/stage.wgsl"),
     include_str!("shader/forces.wgsl"),
     include_str!("shader/grid.wgsl"),
     include_str!("shader/step.wgsl"),
+);
+
+/// The WGSL module that steps a small lattice inside one workgroup, many steps per dispatch (see
+/// `shader/resident.wgsl`): the model and forces of [`SHADER`] over workgroup memory.
+pub const RESIDENT_SHADER: &str = concat!(
+    include_str!("shader/model.wgsl"),
+    include_str!("shader/forces.wgsl"),
+    include_str!("shader/grid.wgsl"),
+    include_str!("shader/resident.wgsl"),
 );
 
 /// Why no GPU simulation could be made.

@@ -341,5 +341,20 @@ pub fn pulls_flag(control: &Control) -> f32 {
     }
 }
 
+/// Points a model may have to step inside one workgroup (`shader/resident.wgsl`: two per thread
+/// of its 256, whose stage takes 12 KiB of WebGPU's 16 KiB of workgroup memory).
+pub const RESIDENT_POINTS: usize = 512;
+
+/// Whether `model` can step inside one workgroup (`resident.wgsl`): one body of at most
+/// [`RESIDENT_POINTS`] points, no friction anchors to update between steps (friction with
+/// obstacles), no pins moving on paths, an explicit integrator.
+pub fn fits_resident(model: &Model) -> bool {
+    model.bodies().len() == 1
+        && model.point_count() <= RESIDENT_POINTS
+        && (model.friction == 0.0 || model.obstacles.is_empty())
+        && model.pin_motions.is_empty()
+        && !model.integrator.is_implicit()
+}
+
 /// Byte offset of the pulls flag in the uniform block (`flags.w`).
 pub const PULLS_FLAG_OFFSET: u64 = (std::mem::offset_of!(Header, flags) + 12) as u64;

@@ -10,7 +10,7 @@ use jello_core::{BlowUp, BlowUpCause, Control, Integrator, Model, State, Vec3};
 use wgpu::util::DeviceExt;
 
 use crate::scene::{self, Packed};
-use crate::{GpuError, StepError, SHADER};
+use crate::{GpuError, StepError, RESIDENT_SHADER, SHADER};
 
 /// Threads per workgroup (the shader's `WORKGROUP`).
 const WORKGROUP: u32 = 64;
@@ -22,9 +22,71 @@ const MAX_GROUPS_X: u32 = 65_535;
 const BATCH: u64 = 512;
 
 /// The status words at the start of a submission (see `status` in the shader): sound, no point
-/// at fault, no penetration.
-const STATUS_START: [u32; 4] = [0, u32::MAX, 0, 0];
+/// at fault, no penetration; the rest are zero. The first four are read back.
+const STATUS_START: [u32; 8] = [0, u32::MAX, 0, 0, 0, 0, 0, 0];
 const STATUS_BYTES: u64 = 16;
+
+/// The status word that counts the steps left in a submission of [`Kernel::Resident`].
+const STEPS_LEFT_WORD: u64 = 4;
+
+/// Steps one dispatch of [`Kernel::Resident`] takes, at most (the shader's
+/// `STEPS_PER_DISPATCH`). Lavapipe's llvmpipe stopped a dispatch of RK4 on 8³ after 390 to 455
+/// steps (however the loop was written, and with no error): well under that, and still
+/// 64 times fewer dispatches than one per stage.
+const STEPS_PER_DISPATCH: u64 = 64;
+
+/// How the shader steps: a dispatch per stage over every point (`step.wgsl`), or the whole lattice
+/// inside one workgroup, many steps per dispatch (`resident.wgsl`, for small models: see
+/// [`scene::fits_resident`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Kernel {
+    /// A dispatch per stage of every step.
+    Stages,
+    /// Every step of a batch in one dispatch of one workgroup.
+    Resident,
+}
+
+impl fmt::Display for Kernel {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            Kernel::Stages => "stages",
+            Kernel::Resident => "resident",
+        })
+    }
+}
+
+impl Kernel {
+    /// The kernel `JELLO_GPU_KERNEL` forces (`stages` or `resident`), natively; none when it is
+    /// not set (or in a browser).
+    fn from_env() -> Result<Option<Kernel>, GpuError> {
+        #[cfg(not(target_arch = "wasm32"))]
+        if let Ok(forced) = std::env::var("JELLO_GPU_KERNEL") {
+            return match forced.as_str() {
+                "stages" => Ok(Some(Kernel::Stages)),
+                "resident" => Ok(Some(Kernel::Resident)),
+                other => Err(GpuError::Invalid(format!(
+                    "JELLO_GPU_KERNEL must be `stages` or `resident`, not `{other}`"
+                ))),
+            };
+        }
+        Ok(None)
+    }
+
+    /// The kernel for `model`: `forced`, or resident when the model fits it.
+    fn choose(model: &Model, forced: Option<Kernel>) -> Result<Kernel, GpuError> {
+        let fits = scene::fits_resident(model);
+        match forced {
+            Some(Kernel::Resident) if !fits => Err(GpuError::Unsupported(format!(
+                "the resident kernel for this model: it takes one body of at most {} points \
+                 without friction anchors or moving pins",
+                scene::RESIDENT_POINTS
+            ))),
+            Some(kernel) => Ok(kernel),
+            None if fits => Ok(Kernel::Resident),
+            None => Ok(Kernel::Stages),
+        }
+    }
+}
 
 /// One dispatch: an entry point's pipeline, its bind group, and its workgroup counts.
 struct Pass {
@@ -72,6 +134,9 @@ pub struct GpuSimulation {
     steps_from_a: Vec<Pass>,
     /// Euler and symplectic Euler: whether the state is in `a` now (after an odd step count).
     in_a: bool,
+    /// With [`Kernel::Resident`], its one dispatch (a batch's steps in one, `x` in place);
+    /// `steps_from_x` and `steps_from_a` are then empty.
+    resident: Option<Pass>,
     /// Where the checkpoint was taken: `in_a`, the time and the step count then.
     checkpoint_at: (bool, f64, u64),
     /// The deepest penetration into a wall, the plane or an obstacle at the end of a step so
@@ -88,14 +153,36 @@ pub struct GpuSimulation {
 impl GpuSimulation {
     /// Uploads `model` and `state` (with `control`'s forces and pulls, held for every step) to
     /// the first high-performance adapter wgpu finds (`WGPU_BACKEND` chooses a backend), and
-    /// builds the passes for the model's integrator.
+    /// builds the passes for the model's integrator: the [`Kernel`] is resident when the model
+    /// fits it, unless `JELLO_GPU_KERNEL` (`stages` or `resident`) forces one.
     #[cfg(not(target_arch = "wasm32"))]
     pub fn new(model: &Model, state: &State, control: &Control) -> Result<Self, GpuError> {
         pollster::block_on(Self::create(model, state, control))
     }
 
+    /// [`GpuSimulation::new`] with the kernel given (`None`: as `new` chooses); refused when
+    /// the model does not fit [`Kernel::Resident`] and that is asked for.
+    #[cfg(not(target_arch = "wasm32"))]
+    pub fn with_kernel(
+        model: &Model,
+        state: &State,
+        control: &Control,
+        kernel: Option<Kernel>,
+    ) -> Result<Self, GpuError> {
+        pollster::block_on(Self::create_with_kernel(model, state, control, kernel))
+    }
+
     /// [`GpuSimulation::new`] as a future: the form a browser needs, where nothing may block.
     pub async fn create(model: &Model, state: &State, control: &Control) -> Result<Self, GpuError> {
+        Self::create_with_kernel(model, state, control, Kernel::from_env()?).await
+    }
+
+    async fn create_with_kernel(
+        model: &Model,
+        state: &State,
+        control: &Control,
+        kernel: Option<Kernel>,
+    ) -> Result<Self, GpuError> {
         if let Some(what) = scene::unsupported(model, control) {
             return Err(GpuError::Unsupported(what));
         }
@@ -103,6 +190,7 @@ impl GpuSimulation {
             .check(model)
             .map_err(|e| GpuError::Invalid(e.to_string()))?;
         check_state(model, state)?;
+        let kernel = Kernel::choose(model, kernel)?;
         let backends = wgpu::Backends::from_env().unwrap_or(wgpu::Backends::PRIMARY);
         let instance = wgpu::Instance::new(wgpu::InstanceDescriptor {
             backends,
@@ -144,7 +232,7 @@ impl GpuSimulation {
             }
         }
         let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
-        let sim = Self::build(device, queue, info, model, state, packed);
+        let sim = Self::build(device, queue, info, model, state, packed, kernel);
         if let Some(e) = scope.pop().await {
             return Err(GpuError::Device(e.to_string()));
         }
@@ -158,6 +246,7 @@ impl GpuSimulation {
         model: &Model,
         state: &State,
         packed: Packed,
+        kernel: Kernel,
     ) -> Self {
         let n = model.point_count();
         let state_data = scene::pack_state(state);
@@ -293,7 +382,57 @@ impl GpuSimulation {
             passes.push(pass(entry, &all, per_point));
             passes
         };
+        let resident = (kernel == Kernel::Resident).then(|| {
+            let integrator = match model.integrator {
+                Integrator::Euler => 0.0,
+                Integrator::SymplecticEuler => 1.0,
+                Integrator::Rk2 => 2.0,
+                _ => 3.0,
+            };
+            let mut constants = packed.overrides.clone();
+            constants.push(("INTEGRATOR", integrator));
+            let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+                label: Some("jello resident"),
+                source: wgpu::ShaderSource::Wgsl(RESIDENT_SHADER.into()),
+            });
+            let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                label: Some("resident"),
+                layout: None,
+                module: &module,
+                entry_point: Some("resident"),
+                compilation_options: wgpu::PipelineCompilationOptions {
+                    constants: &constants,
+                    ..Default::default()
+                },
+                cache: None,
+            });
+            let entries: Vec<_> = [
+                (0, &uniform),
+                (2, &x),
+                (5, &points),
+                (6, &scene),
+                (7, &grid),
+                (8, &status),
+            ]
+            .into_iter()
+            .map(|(binding, buffer)| wgpu::BindGroupEntry {
+                binding,
+                resource: buffer.as_entire_binding(),
+            })
+            .collect();
+            let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("resident"),
+                layout: &pipeline.get_bind_group_layout(0),
+                entries: &entries,
+            });
+            Pass {
+                pipeline,
+                bind_group,
+                groups: (1, 1),
+            }
+        });
         let (mut steps_from_x, mut steps_from_a) = match model.integrator {
+            _ if resident.is_some() => (Vec::new(), Vec::new()),
             Integrator::Rk4 => (
                 [
                     stage("rk4_1", &[(1, &x), (3, &a), (4, &sums)]),
@@ -359,6 +498,7 @@ impl GpuSimulation {
             steps_from_x,
             steps_from_a,
             in_a: false,
+            resident,
             checkpoint_at: (false, state.time, state.steps),
             deepest: 0.0,
             uniform_field: packed.uniform_field,
@@ -370,6 +510,15 @@ impl GpuSimulation {
     /// The adapter in use: its name and backend, e.g. "NVIDIA H200 (Vulkan)".
     pub fn adapter(&self) -> String {
         format!("{} ({:?})", self.adapter.name, self.adapter.backend)
+    }
+
+    /// How the shader steps this model.
+    pub fn kernel(&self) -> Kernel {
+        if self.resident.is_some() {
+            Kernel::Resident
+        } else {
+            Kernel::Stages
+        }
     }
 
     /// The buffer holding the state now.
@@ -423,7 +572,21 @@ impl GpuSimulation {
         if let Some((at, bytes, copy)) = &self.anchors {
             encoder.copy_buffer_to_buffer(&self.scene, *at, copy, 0, *bytes);
         }
-        {
+        if let Some(resident) = &self.resident {
+            // The batch's steps, counted down on the GPU by dispatches of at most
+            // STEPS_PER_DISPATCH.
+            self.queue.write_buffer(
+                &self.status,
+                4 * STEPS_LEFT_WORD,
+                bytemuck::bytes_of(&(steps as u32)),
+            );
+            let mut pass = encoder.begin_compute_pass(&Default::default());
+            pass.set_pipeline(&resident.pipeline);
+            pass.set_bind_group(0, &resident.bind_group, &[]);
+            for _ in 0..steps.div_ceil(STEPS_PER_DISPATCH) {
+                pass.dispatch_workgroups(1, 1, 1);
+            }
+        } else {
             let mut pass = encoder.begin_compute_pass(&Default::default());
             let mut in_a = self.in_a;
             for _ in 0..steps {

@@ -5,8 +5,10 @@
 // so a run gives the same result every time.
 //
 // The module is this file (the model as the shader sees it: uniforms, buffers, helpers), then
-// forces.wgsl, grid.wgsl (the broad phase of contacts between bodies) and step.wgsl (the entry
-// points), concatenated by the crate.
+// stage.wgsl (where the forces read the stage), forces.wgsl, grid.wgsl (the broad phase of
+// contacts between bodies) and step.wgsl (the entry points), concatenated by the crate. A second
+// module steps small lattices inside one workgroup: this file, forces.wgsl, grid.wgsl and
+// resident.wgsl.
 //
 // State buffers hold two vec4 per point: position (w unused), velocity (w unused).
 // Every entry point reads the stage it evaluates from `state_in` and writes its own point only,
@@ -86,7 +88,7 @@ struct Params {
 @group(0) @binding(7) var<storage, read> grid: array<u32>;
 // [0]: 1 once a step ended unsound; [1]: the lowest point found at fault; [2]: the deepest
 // penetration into a wall, the plane or an obstacle at a step's end (m, the bits of a
-// non-negative f32).
+// non-negative f32); [4]: the steps left in a submission of resident.wgsl.
 @group(0) @binding(8) var<storage, read_write> status: array<atomic<u32>>;
 // The contact grid as the grid passes build it, and the scene as the anchor pass updates it.
 @group(0) @binding(9) var<storage, read_write> grid_rw: array<atomic<u32>>;
@@ -107,10 +109,3 @@ fn scene_f(at: u32) -> vec4<f32> {
     return bitcast<vec4<f32>>(scene[at]);
 }
 
-fn position(i: u32) -> vec3<f32> {
-    return state_in[2u * i].xyz;
-}
-
-fn velocity(i: u32) -> vec3<f32> {
-    return state_in[2u * i + 1u].xyz;
-}
