@@ -8,12 +8,14 @@
 //! through a hashed grid rebuilt before every force pass, control forces, pulls and gravity) and
 //! applies one stage of Euler, symplectic Euler, RK2 or RK4. Many steps go into one submission;
 //! the last stage of every step checks the state (finite, not past the escape margin) into a
-//! status word, and the state at the start of each submission is kept, so that a blow-up is found
-//! to the step and reported like the core's [`BlowUp`](jello_core::BlowUp), the state left at the
-//! last good step.
+//! status word and puts the pins that move on paths where their paths say (from a table of the
+//! paths' offsets at each step's end, computed in f64 on the host as the core computes them),
+//! and the state at the start of each submission is kept, so that a blow-up is found to the step
+//! and reported like the core's [`BlowUp`](jello_core::BlowUp), the state left at the last good
+//! step.
 //!
 //! The f64 CPU core stays the reference; results here agree with it to f32 rounding (tests in
-//! `tests/agreement.rs`). Models the shader does not cover yet (pins that move on paths, the
+//! `tests/agreement.rs` and `tests/scenes.rs`). Models the shader does not cover yet (the
 //! implicit integrators, more than [`MAX_BODIES`] bodies) are refused by [`GpuSimulation::new`]
 //! with a message that names what is missing.
 //!
