@@ -82,21 +82,41 @@ fn several_bodies_and_an_obstacle_run_on_the_gpu_as_on_the_core() {
     assert_same_outcome(&gpu, &cpu);
 }
 
+/// A cube with a shaken pin (as `jello create --shake` writes one).
+const SHAKEN: &str = "[[body]]\ncube = { points = [4, 4, 4], size = [1.0, 1.0, 1.0] }\n\
+    pins = [{ at = [0.0, 0.0, 0.5], radius = 0.0, shake = { amplitude = [0.1, 0.0, 0.0], \
+    frequency = 2.0 } }]\n";
+
+#[test]
+fn a_shaken_pin_runs_on_the_gpu_as_on_the_core() {
+    let dir = TempDir::new("gpu-shaken");
+    std::fs::write(dir.path("shaken.toml"), SHAKEN).unwrap();
+    let gpu = dir.succeeds(&[
+        "run",
+        "shaken.toml",
+        "--device",
+        "gpu",
+        "--steps",
+        "600",
+        "-q",
+    ]);
+    let cpu = dir.succeeds(&["run", "shaken.toml", "--steps", "600", "-q"]);
+    assert_same_outcome(&gpu, &cpu);
+}
+
 #[test]
 fn what_the_gpu_does_not_cover_is_refused_with_a_reason() {
     let dir = TempDir::new("gpu-refused");
     std::fs::write(
-        dir.path("shaken.toml"),
-        "[[body]]\ncube = { points = [4, 4, 4], size = [1.0, 1.0, 1.0] }\n\
-         pins = [{ at = [0.0, 0.0, 0.5], radius = 0.0, shake = { amplitude = [0.1, 0.0, 0.0], \
-         frequency = 2.0 } }]\n",
+        dir.path("implicit.toml"),
+        format!("[simulation]\nintegrator = \"BackwardEuler\"\n\n{SHAKEN}"),
     )
     .unwrap();
-    let out = dir.run(&["run", "shaken.toml", "--device", "gpu", "--steps", "5"]);
+    let out = dir.run(&["run", "implicit.toml", "--device", "gpu", "--steps", "5"]);
     assert_eq!(out.status.code(), Some(1));
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(
-        err.contains("shaken.toml") && err.contains("pins that move"),
+        err.contains("implicit.toml") && err.contains("implicit integrator BackwardEuler"),
         "{err}"
     );
     let world = example("jello.w");

@@ -8,12 +8,19 @@
 //! through a hashed grid rebuilt before every force pass, control forces, pulls and gravity) and
 //! applies one stage of Euler, symplectic Euler, RK2 or RK4. Many steps go into one submission;
 //! the last stage of every step checks the state (finite, not past the escape margin) into a
-//! status word, and the state at the start of each submission is kept, so that a blow-up is found
-//! to the step and reported like the core's [`BlowUp`](jello_core::BlowUp), the state left at the
-//! last good step.
+//! status word and puts the pins that move on paths where their paths say (from a table of the
+//! paths' offsets at each step's end, computed in f64 on the host as the core computes them),
+//! and the state at the start of each submission is kept, so that a blow-up is found to the step
+//! and reported like the core's [`BlowUp`](jello_core::BlowUp), the state left at the last good
+//! step.
+//!
+//! Small models (one body of at most [`RESIDENT_POINTS`] points, without friction anchors or
+//! pins on paths, the classic cube among them) step with [`Kernel::Resident`] instead: the whole
+//! lattice inside one workgroup ([`RESIDENT_SHADER`]), the stages separated by workgroup
+//! barriers, up to 64 steps per dispatch, with the same f32 operations.
 //!
 //! The f64 CPU core stays the reference; results here agree with it to f32 rounding (tests in
-//! `tests/agreement.rs`). Models the shader does not cover yet (pins that move on paths, the
+//! `tests/agreement.rs` and `tests/scenes.rs`). Models the shader does not cover yet (the
 //! implicit integrators, more than [`MAX_BODIES`] bodies) are refused by [`GpuSimulation::new`]
 //! with a message that names what is missing.
 //!
@@ -23,7 +30,8 @@
 //! futures exist: the browser viewer steps with them (`jello-wasm`'s `JelloGpu`).
 //!
 //! Layout: `scene` packs a model into the buffers the shader reads, `simulation` drives the
-//! device, and `shader/` holds the WGSL (`model.wgsl`, `forces.wgsl`, `grid.wgsl`, `step.wgsl`).
+//! device, and `shader/` holds the WGSL (`model.wgsl`, `stage.wgsl`, `forces.wgsl`, `grid.wgsl`,
+//! `check.wgsl`, `step.wgsl`, `resident.wgsl`).
 
 use std::fmt;
 
@@ -40,6 +48,7 @@ pub const SHADER: &str = concat!(
     include_str!("shader/stage.wgsl"),
     include_str!("shader/forces.wgsl"),
     include_str!("shader/grid.wgsl"),
+    include_str!("shader/check.wgsl"),
     include_str!("shader/step.wgsl"),
 );
 
@@ -49,6 +58,7 @@ pub const RESIDENT_SHADER: &str = concat!(
     include_str!("shader/model.wgsl"),
     include_str!("shader/forces.wgsl"),
     include_str!("shader/grid.wgsl"),
+    include_str!("shader/check.wgsl"),
     include_str!("shader/resident.wgsl"),
 );
 

@@ -1,7 +1,7 @@
 //! A model as the shader reads it (see `shader/model.wgsl`): the uniform block with every body's
 //! stencil, the per-point links and flags, and the scene buffer of obstacles, field nodes,
-//! control forces, per-spring values and friction anchors. Here is the only place that knows
-//! those layouts on the host.
+//! control forces, per-spring values, friction anchors, and the pins on paths with the table of
+//! their steps. Here is the only place that knows those layouts on the host.
 
 use jello_core::lattice::STENCIL;
 use jello_core::{Control, Model, Obstacle, State, Vec3};
@@ -16,6 +16,10 @@ const NONE: u32 = u32::MAX;
 /// Point flags above the body index (the shader's `MOVES` and `ACTIVE`).
 const MOVES: u32 = 1 << 31;
 const ACTIVE: u32 = 1 << 30;
+
+/// Bytes the pin table may take, at most (1 MiB: a batch of 512 steps for up to 64 paths); a
+/// model with more paths steps in shorter batches (of one step at least).
+const PIN_TABLE_MAX_BYTES: usize = 1 << 20;
 
 /// Obstacle kinds (the shader's `PLANE`, `SPHERE` and `SOLID_BOX`).
 const PLANE: u32 = 0;
@@ -39,6 +43,7 @@ struct Header {
     at: [u32; 4],
     field_res: [u32; 4],
     grid_cell: [f32; 4],
+    pins: [u32; 4],
 }
 
 /// One body in the uniform block (`Body` in `model.wgsl`).
@@ -82,13 +87,12 @@ fn bits(v: [f32; 4]) -> [u32; 4] {
     v.map(f32::to_bits)
 }
 
-/// What in `model` (with `control`) the shader does not cover, if anything.
+/// What in `model` (with `control`) the shader does not cover, if anything: more than
+/// [`MAX_BODIES`] bodies, or an implicit integrator.
 pub fn unsupported(model: &Model, _control: &Control) -> Option<String> {
     let bodies = model.bodies().len();
     if bodies > MAX_BODIES {
         Some(format!("{bodies} bodies (it steps at most {MAX_BODIES})"))
-    } else if !model.pin_motions.is_empty() {
-        Some("pins that move on paths".to_string())
     } else if model.integrator.is_implicit() {
         Some(format!(
             "the implicit integrator {} (the GPU steps Euler, SymplecticEuler, RK2 and RK4)",
@@ -111,6 +115,10 @@ pub struct Packed {
     /// (`None` without obstacle friction).
     pub control_at: usize,
     pub anchors_at: Option<usize>,
+    /// Where the points' paths start in `scene` (vec4; see [`pin_points`]), where the pin table
+    /// does, and the steps it has rows for, which a batch may not exceed (`None` without pins on
+    /// paths).
+    pub pins: Option<(usize, usize, usize)>,
     /// Hash buckets of the contact grid (0: a model of one body).
     pub buckets: usize,
     /// A uniform field's force (N), added to every point's control force.
@@ -121,8 +129,9 @@ pub struct Packed {
 
 impl Packed {
     /// Packs `model` with `control`'s forces and pulls (which must be covered: see
-    /// [`unsupported`]).
-    pub fn new(model: &Model, control: &Control) -> Packed {
+    /// [`unsupported`]) and its pins on paths as they are in `state` (which has a point for each
+    /// of the model's), with room in the pin table for batches of up to `batch` steps.
+    pub fn new(model: &Model, control: &Control, state: &State, batch: usize) -> Packed {
         let bodies = model.bodies();
         let n = model.point_count();
         let mut header = Header {
@@ -248,6 +257,20 @@ impl Packed {
             at
         });
 
+        // Pins on paths: each point's, then the table, filled before every batch (see
+        // `pin_steps`).
+        let on_paths = model.pin_motions.iter().any(|m| !m.points.is_empty());
+        let pins = on_paths.then(|| {
+            let points_at = scene.len();
+            scene.extend(pin_points(model, state));
+            let row = 2 * model.pin_motions.len();
+            let rows = (PIN_TABLE_MAX_BYTES / (16 * row)).clamp(1, batch.max(1));
+            let table_at = scene.len();
+            scene.resize(table_at + rows * row, [0; 4]);
+            header.pins = [points_at as u32, table_at as u32, row as u32, 0];
+            (points_at, table_at, rows)
+        });
+
         // Contacts between bodies: as many buckets as the core's grid.
         let buckets = if bodies.len() < 2 {
             0
@@ -281,6 +304,7 @@ impl Packed {
                 "SPRING_VALUES",
                 flag(bodies.iter().any(|b| b.spring_table().is_some())),
             ),
+            ("PINS", flag(on_paths)),
         ];
         header.at = [
             0,
@@ -297,6 +321,7 @@ impl Packed {
             scene,
             control_at,
             anchors_at,
+            pins,
             buckets,
             uniform_field,
             overrides,
@@ -329,6 +354,43 @@ pub fn control_words(model: &Model, control: &Control, uniform_field: Vec3) -> V
         ];
     }
     words.iter().map(|w| bits(w.map(|c| c as f32))).collect()
+}
+
+/// The points' paths as `model.wgsl` reads them, for `state` (which has a point for each of the
+/// model's): per point on a path (the last that names it, as the core applies them in order),
+/// where the path has it at offset zero (its position less the path's offset at the state's
+/// time, in f64, then in f32) and the path's index; `NONE` for the others.
+pub fn pin_points(model: &Model, state: &State) -> Vec<[u32; 4]> {
+    let mut words = vec![[0, 0, 0, NONE]; model.point_count()];
+    for (index, m) in model.pin_motions.iter().enumerate() {
+        let offset = m.motion.offset(state.time);
+        for &p in &m.points {
+            let p = p as usize;
+            if let (Some(word), Some(&pos)) = (words.get_mut(p), state.pos.get(p)) {
+                let [x, y, z, _] = bits(vec4(pos - offset));
+                *word = [x, y, z, index as u32];
+            }
+        }
+    }
+    words
+}
+
+/// The pin table's rows for `steps` steps from `time` (see `model.wgsl`): per step and path, the
+/// path's offset and velocity at the step's end, in f64 as the core computes them (the time
+/// summed step by step, as the core sums it), then in f32.
+pub fn pin_steps(model: &Model, time: f64, steps: usize) -> Vec<[u32; 4]> {
+    let mut words = Vec::with_capacity(steps * 2 * model.pin_motions.len());
+    let mut t = time;
+    for _ in 0..steps {
+        t += model.dt;
+        for m in &model.pin_motions {
+            words.extend([
+                bits(vec4(m.motion.offset(t))),
+                bits(vec4(m.motion.velocity(t))),
+            ]);
+        }
+    }
+    words
 }
 
 /// Whether `control` has pulls: the uniform block's flag, which [`Packed::new`] set from the

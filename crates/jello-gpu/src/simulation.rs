@@ -22,7 +22,8 @@ const MAX_GROUPS_X: u32 = 65_535;
 const BATCH: u64 = 512;
 
 /// The status words at the start of a submission (see `status` in the shader): sound, no point
-/// at fault, no penetration; the rest are zero. The first four are read back.
+/// at fault, no penetration, the pin table's first row; the rest are zero. The first four are
+/// read back.
 const STATUS_START: [u32; 8] = [0, u32::MAX, 0, 0, 0, 0, 0, 0];
 const STATUS_BYTES: u64 = 16;
 
@@ -128,6 +129,11 @@ pub struct GpuSimulation {
     scene: wgpu::Buffer,
     control_at: u64,
     anchors: Option<(u64, u64, wgpu::Buffer)>,
+    /// Where the points' paths and the pin table start in the scene (bytes; `None` without pins
+    /// on paths).
+    pins: Option<(u64, u64)>,
+    /// Steps in one submission, at most: [`BATCH`], or fewer when the pin table has fewer rows.
+    batch: u64,
     /// The passes of one step; for Euler and symplectic Euler, the steps from `x` into `a` and
     /// back, taken in turn.
     steps_from_x: Vec<Pass>,
@@ -144,7 +150,9 @@ pub struct GpuSimulation {
     deepest: f64,
     /// A uniform field's force, added to every control force.
     uniform_field: Vec3,
-    /// Simulated time (s) and steps, as the core counts them.
+    /// Simulated time (s) and steps, as the core counts them. Pins on paths are placed by the
+    /// time, from where they were at the time of the state last loaded: change it with
+    /// [`GpuSimulation::set_state`], not by assigning it.
     pub time: f64,
     /// Steps taken since the state was loaded.
     pub steps: u64,
@@ -212,7 +220,7 @@ impl GpuSimulation {
             .await
             .map_err(|e| GpuError::Device(e.to_string()))?;
         let info = adapter.get_info();
-        let packed = Packed::new(model, control);
+        let packed = Packed::new(model, control, state, BATCH as usize);
         let limits = device.limits();
         let n = model.point_count();
         for (what, bytes) in [
@@ -470,13 +478,20 @@ impl GpuSimulation {
                 unreachable!("refused by GpuSimulation::new")
             }
         };
-        // After each step, the friction anchors move with the step's end.
+        // After each step, the friction anchors move with the step's end (the pins on paths
+        // already placed by its last stage), and the next step reads the pin table's next row.
+        let two_buffers = !steps_from_a.is_empty();
         if anchors.is_some() {
-            let two_buffers = !steps_from_a.is_empty();
             let end_of_x = if two_buffers { &a } else { &x };
             steps_from_x.push(pass("anchors", &[(1, end_of_x), (10, &scene)], per_point));
             if two_buffers {
                 steps_from_a.push(pass("anchors", &[(1, &x), (10, &scene)], per_point));
+            }
+        }
+        if packed.pins.is_some() {
+            steps_from_x.push(pass("pins_next", &[(8, &status)], (1, 1)));
+            if two_buffers {
+                steps_from_a.push(pass("pins_next", &[(8, &status)], (1, 1)));
             }
         }
         GpuSimulation {
@@ -495,6 +510,10 @@ impl GpuSimulation {
             scene,
             control_at: (packed.control_at * 16) as u64,
             anchors,
+            pins: packed
+                .pins
+                .map(|(points_at, table_at, _)| ((points_at * 16) as u64, (table_at * 16) as u64)),
+            batch: packed.pins.map_or(BATCH, |(_, _, rows)| rows as u64),
             steps_from_x,
             steps_from_a,
             in_a: false,
@@ -541,7 +560,7 @@ impl GpuSimulation {
     pub async fn step_async(&mut self, steps: u64) -> Result<(), StepError> {
         let mut left = steps;
         while left > 0 {
-            let batch = left.min(BATCH);
+            let batch = left.min(self.batch);
             if !self.run_batch(batch).await? {
                 // Back to the batch's start, then step by step to the one that fails (the
                 // shader is deterministic, so one does).
@@ -559,14 +578,19 @@ impl GpuSimulation {
         Ok(())
     }
 
-    /// Encodes `steps` steps after saving the state (and the friction anchors) as the
-    /// checkpoint, runs them and reads the status: whether every step ended sound. The time and
-    /// step count advance either way.
+    /// Encodes `steps` steps (at most `self.batch`) after saving the state (and the friction
+    /// anchors) as the checkpoint and writing the pin table's rows for them, runs them and reads
+    /// the status: whether every step ended sound. The time and step count advance either way.
     async fn run_batch(&mut self, steps: u64) -> Result<bool, GpuError> {
         let size = self.points as u64 * 32;
         self.checkpoint_at = (self.in_a, self.time, self.steps);
         self.queue
             .write_buffer(&self.status, 0, bytemuck::cast_slice(&STATUS_START));
+        if let Some((_, table_at)) = self.pins {
+            let rows = scene::pin_steps(&self.model, self.time, steps as usize);
+            self.queue
+                .write_buffer(&self.scene, table_at, bytemuck::cast_slice(&rows));
+        }
         let mut encoder = self.device.create_command_encoder(&Default::default());
         encoder.copy_buffer_to_buffer(self.live(), 0, &self.checkpoint, 0, size);
         if let Some((at, bytes, copy)) = &self.anchors {
@@ -624,7 +648,7 @@ impl GpuSimulation {
     }
 
     /// Replaces the state (positions, velocities, time and step count) with `state`, which has
-    /// a point for each of the model's.
+    /// a point for each of the model's; pins on paths go on from where `state` has them.
     pub fn set_state(&mut self, state: &State) -> Result<(), GpuError> {
         check_state(&self.model, state)?;
         self.queue.write_buffer(
@@ -632,6 +656,11 @@ impl GpuSimulation {
             0,
             bytemuck::cast_slice(&scene::pack_state(state)),
         );
+        if let Some((points_at, _)) = self.pins {
+            let words = scene::pin_points(&self.model, state);
+            self.queue
+                .write_buffer(&self.scene, points_at, bytemuck::cast_slice(&words));
+        }
         (self.time, self.steps) = (state.time, state.steps);
         Ok(())
     }

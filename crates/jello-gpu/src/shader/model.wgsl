@@ -6,9 +6,9 @@
 //
 // The module is this file (the model as the shader sees it: uniforms, buffers, helpers), then
 // stage.wgsl (where the forces read the stage), forces.wgsl, grid.wgsl (the broad phase of
-// contacts between bodies) and step.wgsl (the entry points), concatenated by the crate. A second
-// module steps small lattices inside one workgroup: this file, forces.wgsl, grid.wgsl and
-// resident.wgsl.
+// contacts between bodies), check.wgsl (a step's end) and step.wgsl (the entry points),
+// concatenated by the crate. A second module steps small lattices inside one workgroup: this
+// file, forces.wgsl, grid.wgsl, check.wgsl and resident.wgsl.
 //
 // State buffers hold two vec4 per point: position (w unused), velocity (w unused).
 // Every entry point reads the stage it evaluates from `state_in` and writes its own point only,
@@ -31,7 +31,8 @@ const MAX_BODIES: u32 = 224u;
 
 // What the model has, fixed when its pipelines are made, so that the code of what it does not
 // have is compiled out: a single body; contacts between bodies; obstacles; friction (on
-// obstacles and between bodies); a sampled field; the classic plane (CLASSIC_PLANE); per-spring values.
+// obstacles and between bodies); a sampled field; the classic plane (CLASSIC_PLANE); per-spring
+// values; pins that move on paths.
 override ONE_BODY: bool = true;
 override CONTACTS: bool = false;
 override OBSTACLES: bool = false;
@@ -39,6 +40,7 @@ override FRICTION: bool = false;
 override FIELD: bool = false;
 override CLASSIC_PLANE: bool = false;
 override SPRING_VALUES: bool = false;
+override PINS: bool = false;
 const NONE: u32 = 0xffffffffu;
 
 struct Params {
@@ -63,6 +65,9 @@ struct Params {
     field_res: vec4<u32>,
     // side of a contact grid cell (m), its inverse, 0, 0
     grid_cell: vec4<f32>,
+    // Pins on paths (PINS): where the points' paths start in `scene`, where the pin table does
+    // (in vec4), a row of the table (vec4: two per path), 0
+    pins: vec4<u32>,
     bodies: array<Body, MAX_BODIES>,
 }
 
@@ -82,13 +87,19 @@ struct Params {
 //   [Σ pull stiffness × target (N), Σ pull stiffness (N/m)];
 // - per-spring values of bodies that have them: for the point p of a body and stencil entry s,
 //   at 16 (p − first) + s, the rest length, stiffness and damping of the spring to +offset[s];
-// - friction anchors, per obstacle and point: where the point is tied, and 1 (or 0: not tied).
+// - friction anchors, per obstacle and point: where the point is tied, and 1 (or 0: not tied);
+// - pins on paths (PINS), one per point: [where its path has it at offset zero (m), the index
+//   of its path] (w NONE: on no path);
+// - the pin table (PINS), rewritten before every batch of steps: a row per step of the batch,
+//   in it per path [its offset at the step's end (m), 0], [its velocity there (m/s), 0].
 @group(0) @binding(6) var<storage, read> scene: array<vec4<u32>>;
 // The contact grid (see grid.wgsl), read by the force passes.
 @group(0) @binding(7) var<storage, read> grid: array<u32>;
 // [0]: 1 once a step ended unsound; [1]: the lowest point found at fault; [2]: the deepest
 // penetration into a wall, the plane or an obstacle at a step's end (m, the bits of a
-// non-negative f32); [4]: the steps left in a submission of resident.wgsl.
+// non-negative f32); [3]: where the current step's row starts in the pin table (vec4 from the
+// table's start; 0 at a batch's start, advanced by pins_next after every step); [4]: the steps
+// left in a submission of resident.wgsl.
 @group(0) @binding(8) var<storage, read_write> status: array<atomic<u32>>;
 // The contact grid as the grid passes build it, and the scene as the anchor pass updates it.
 @group(0) @binding(9) var<storage, read_write> grid_rw: array<atomic<u32>>;

@@ -7,7 +7,7 @@
 //
 // The module is model.wgsl, forces.wgsl (whose `position` and `velocity` read workgroup memory
 // here, defined below), grid.wgsl (which forces.wgsl names, though a model of one body never
-// reaches it) and this file. The state is read from and written back to `base`. A submission's
+// reaches it), check.wgsl and this file. The state is read from and written back to `base`. A submission's
 // steps are counted down in status[4]: each dispatch takes at most STEPS_PER_DISPATCH of them.
 // After a step that ends unsound the workgroup stops, with that step's state written back, as
 // the per-stage passes leave it, and zeroes the count, so later dispatches take no step.
@@ -42,40 +42,14 @@ fn set_stage(i: u32, p: vec3<f32>, v: vec3<f32>) {
     stage_vel[3u * i + 2u] = v.z;
 }
 
-fn not_finite(x: f32) -> bool {
-    return (bitcast<u32>(x) & 0x7f800000u) == 0x7f800000u;
-}
-
-// As `check` in step.wgsl, and marks the workgroup to stop after this step.
+// As the per-stage kernel's step end (check.wgsl), and marks the workgroup to stop after this
+// step when the point is at fault.
 fn check_end(i: u32, p: vec3<f32>, v: vec3<f32>) {
-    let m = P.flags.x;
-    let lo = P.box_lo.xyz - vec3<f32>(m);
-    let hi = P.box_hi.xyz + vec3<f32>(m);
-    let inside = all(p >= lo) && all(p <= hi);
-    let bad = !inside || not_finite(p.x) || not_finite(p.y) || not_finite(p.z)
-        || not_finite(v.x) || not_finite(v.y) || not_finite(v.z);
-    if (bad) {
-        atomicOr(&status[0], 1u);
-        atomicMin(&status[1], i);
+    if (!sound(i, p, v)) {
         atomicOr(&unsound, 1u);
         return;
     }
-    if ((points[i].y & ACTIVE) == 0u) {
-        return;
-    }
-    var depth = max(max(max(P.box_lo.x - p.x, p.x - P.box_hi.x), max(P.box_lo.y - p.y, p.y - P.box_hi.y)),
-        max(max(P.box_lo.z - p.z, p.z - P.box_hi.z), 0.0));
-    if (CLASSIC_PLANE) {
-        depth = max(depth, plane_depth(p));
-    }
-    if (OBSTACLES) {
-        for (var o = 0u; o < P.counts.z; o = o + 1u) {
-            depth = max(depth, obstacle_depth(o, p).w);
-        }
-    }
-    if (depth > 0.0) {
-        atomicMax(&status[2], bitcast<u32>(depth));
-    }
+    record_depth(i, p);
 }
 
 // One point of a thread: the step's start, the RK sums, the slope just evaluated and the stage's

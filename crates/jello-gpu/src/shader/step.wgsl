@@ -1,5 +1,6 @@
-// The entry points: one stage of an integrator per dispatch (see model.wgsl), and the friction
-// anchors' update after a step.
+// The entry points: one stage of an integrator per dispatch (see model.wgsl), the last one
+// placing the pins on paths; after a step, the friction anchors' update and the pin table's
+// next row.
 
 // Point i's position and velocity into the stage written.
 fn write_out(i: u32, p: vec3<f32>, v: vec3<f32>) {
@@ -13,44 +14,32 @@ fn write_base(i: u32, p: vec3<f32>, v: vec3<f32>) {
     base[2u * i + 1u] = vec4<f32>(v, 0.0);
 }
 
-fn not_finite(x: f32) -> bool {
-    return (bitcast<u32>(x) & 0x7f800000u) == 0x7f800000u;
+struct End {
+    p: vec3<f32>,
+    v: vec3<f32>,
 }
 
-// A step's end state is sound when every number is finite and the point is no further outside
-// the box than the escape margin (the CPU core's rule).
-fn check(i: u32, p: vec3<f32>, v: vec3<f32>) {
-    let m = P.flags.x;
-    let lo = P.box_lo.xyz - vec3<f32>(m);
-    let hi = P.box_hi.xyz + vec3<f32>(m);
-    let inside = all(p >= lo) && all(p <= hi);
-    let bad = !inside || not_finite(p.x) || not_finite(p.y) || not_finite(p.z)
-        || not_finite(v.x) || not_finite(v.y) || not_finite(v.z);
-    if (bad) {
-        atomicOr(&status[0], 1u);
-        atomicMin(&status[1], i);
-        return;
+// Point i's step integrated to (p, v), as the core accepts it: checked as integrated; then,
+// when it is sound, a pin on a path put where its path says at the step's end, at the path's
+// velocity (a point at fault keeps what was integrated, which the blow-up report reads, as the
+// core's does), and its depth recorded there. The core moves such a pin from the step's start
+// by the path's change of offset over the step; from its origin on the path (its position less
+// the path's offset when it was loaded) to the path's offset now is the same place, without
+// the f32 rounding of every step adding up.
+fn step_end(i: u32, p: vec3<f32>, v: vec3<f32>) -> End {
+    var end = End(p, v);
+    if (!sound(i, p, v)) {
+        return end;
     }
-    // A point outside its body (a lattice's corner beyond a mesh) is in no contact, as in the
-    // core's max_penetration.
-    if ((points[i].y & ACTIVE) == 0u) {
-        return;
-    }
-    // How deep the point is into a wall (the furthest it is outside on any axis), the plane or
-    // an obstacle.
-    var depth = max(max(max(P.box_lo.x - p.x, p.x - P.box_hi.x), max(P.box_lo.y - p.y, p.y - P.box_hi.y)),
-        max(max(P.box_lo.z - p.z, p.z - P.box_hi.z), 0.0));
-    if (CLASSIC_PLANE) {
-        depth = max(depth, plane_depth(p));
-    }
-    if (OBSTACLES) {
-        for (var o = 0u; o < P.counts.z; o = o + 1u) {
-            depth = max(depth, obstacle_depth(o, p).w);
+    if (PINS) {
+        let on_path = scene[P.pins.x + i];
+        if (on_path.w != NONE) {
+            let at = P.pins.y + atomicLoad(&status[3]) + 2u * on_path.w;
+            end = End(bitcast<vec3<f32>>(on_path.xyz) + scene_f(at).xyz, scene_f(at + 1u).xyz);
         }
     }
-    if (depth > 0.0) {
-        atomicMax(&status[2], bitcast<u32>(depth));
-    }
+    record_depth(i, end.p);
+    return end;
 }
 
 // RK4 stage 1: k1 at y (in `state_in`, the step's start); the sums start with it, and
@@ -99,7 +88,7 @@ fn rk4_3(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups)
 }
 
 // RK4 stage 4: k4 at the stage in `state_in`; the step's end, y + dt/6·(k1 + 2k2 + 2k3 + k4),
-// replaces the start in `base`, checked.
+// checked, replaces the start in `base`.
 @compute @workgroup_size(64)
 fn rk4_4(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
     let i = point_index(gid, groups);
@@ -111,8 +100,8 @@ fn rk4_4(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups)
     let w = P.law.x / 6.0;
     let p = base[2u * i].xyz + (sums[2u * i].xyz + sv) * w;
     let v = base[2u * i + 1u].xyz + (sums[2u * i + 1u].xyz + a) * w;
-    write_base(i, p, v);
-    check(i, p, v);
+    let end = step_end(i, p, v);
+    write_base(i, end.p, end.v);
 }
 
 // RK2 (midpoint), first stage: `state_out` gets y + dt/2·f(y).
@@ -141,8 +130,8 @@ fn rk2_2(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups)
     let dt = P.law.x;
     let p = base[2u * i].xyz + sv * dt;
     let v = base[2u * i + 1u].xyz + a * dt;
-    write_base(i, p, v);
-    check(i, p, v);
+    let end = step_end(i, p, v);
+    write_base(i, end.p, end.v);
 }
 
 // Euler: the position moves with the old velocity, the velocity with the acceleration; into
@@ -157,8 +146,8 @@ fn euler(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups)
     let dt = P.law.x;
     let p = state_in[2u * i].xyz + state_in[2u * i + 1u].xyz * dt;
     let v = state_in[2u * i + 1u].xyz + a * dt;
-    write_out(i, p, v);
-    check(i, p, v);
+    let end = step_end(i, p, v);
+    write_out(i, end.p, end.v);
 }
 
 // Symplectic Euler: the velocity first, then the position with the new velocity.
@@ -172,8 +161,8 @@ fn symplectic(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgr
     let dt = P.law.x;
     let v = state_in[2u * i + 1u].xyz + a * dt;
     let p = state_in[2u * i].xyz + v * dt;
-    write_out(i, p, v);
-    check(i, p, v);
+    let end = step_end(i, p, v);
+    write_out(i, end.p, end.v);
 }
 
 // After a step, with the step's end in `state_in` (the core's friction::Anchors::update): a
@@ -209,4 +198,11 @@ fn anchors(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroup
             scene_rw[at] = bitcast<vec4<u32>>(vec4<f32>(p - offset * (reach / size), 1.0));
         }
     }
+}
+
+// After each step of a model with pins on paths (one thread): the next step reads the pin
+// table's next row.
+@compute @workgroup_size(1)
+fn pins_next() {
+    atomicAdd(&status[3], P.pins.z);
 }
