@@ -49,6 +49,11 @@ impl Gpu {
         self.0.adapter()
     }
 
+    /// How the shader steps: `resident` (a small lattice in one workgroup) or `stages`.
+    pub fn kernel(&self) -> String {
+        self.0.kernel().to_string()
+    }
+
     /// The deepest penetration at the end of any step taken (m).
     pub fn max_penetration(&self) -> f64 {
         self.0.max_penetration()
@@ -77,6 +82,11 @@ impl Gpu {
 
     /// Never called: no `Gpu` exists in this build.
     pub fn adapter(&self) -> String {
+        match *self {}
+    }
+
+    /// Never called: no `Gpu` exists in this build.
+    pub fn kernel(&self) -> String {
         match *self {}
     }
 

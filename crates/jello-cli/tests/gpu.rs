@@ -50,7 +50,7 @@ fn a_world_runs_on_the_gpu_and_ends_where_the_core_does() {
 }
 
 #[test]
-fn bench_on_the_gpu_names_its_adapter() {
+fn bench_on_the_gpu_names_its_adapter_and_kernel() {
     let dir = TempDir::new("gpu-bench");
     let out = dir.succeeds(&[
         "bench",
@@ -69,6 +69,11 @@ fn bench_on_the_gpu_names_its_adapter() {
     ] {
         assert!(out.contains(key), "{key} missing: {out}");
     }
+    // The classic cube fits one workgroup, which a GPU steps resident; lavapipe per stage.
+    assert!(
+        out.contains("\"gpu_kernel\": \"resident\"") || out.contains("\"gpu_kernel\": \"stages\""),
+        "no kernel named: {out}"
+    );
 }
 
 #[test]

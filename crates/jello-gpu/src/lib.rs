@@ -15,9 +15,10 @@
 //! step.
 //!
 //! Small models (one body of at most [`RESIDENT_POINTS`] points, without friction anchors or
-//! pins on paths, the classic cube among them) step with [`Kernel::Resident`] instead: the whole
-//! lattice inside one workgroup ([`RESIDENT_SHADER`]), the stages separated by workgroup
-//! barriers, up to 64 steps per dispatch, with the same f32 operations.
+//! pins on paths, the classic cube among them) step on a GPU with [`Kernel::Resident`] instead:
+//! the whole lattice inside one workgroup ([`RESIDENT_SHADER`]), the stages separated by
+//! workgroup barriers, up to 64 steps per dispatch, with the same f32 operations. (Not on an
+//! adapter that runs on the CPU, where one workgroup is one thread.)
 //!
 //! The f64 CPU core stays the reference; results here agree with it to f32 rounding (tests in
 //! `tests/agreement.rs` and `tests/scenes.rs`). Models the shader does not cover yet (the

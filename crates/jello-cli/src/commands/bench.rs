@@ -55,16 +55,16 @@ pub fn bench(args: BenchArgs) -> Result<(), CliError> {
         .num_threads(threads)
         .build()
         .map_err(|e| CliError::input(format!("cannot start {threads} threads: {e}")))?;
-    let (m, adapter) = match args.device {
+    let (m, adapter, kernel) = match args.device {
         Device::Cpu => {
             let m = pool
                 .install(|| measure(args.size as usize, args.integrator, args.dt, args.seconds))?;
-            (m, None)
+            (m, None, None)
         }
         Device::Gpu => {
-            let (m, adapter) =
+            let (m, adapter, kernel) =
                 measure_gpu(args.size as usize, args.integrator, args.dt, args.seconds)?;
-            (m, Some(adapter))
+            (m, Some(adapter), Some(kernel))
         }
     };
 
@@ -85,9 +85,10 @@ pub fn bench(args: BenchArgs) -> Result<(), CliError> {
         let adapter_json = adapter.as_ref().map_or("null".to_string(), |a| {
             format!("\"{}\"", a.replace('\\', "\\\\").replace('"', "\\\""))
         });
+        let kernel_json = kernel.map_or("null".to_string(), |k| format!("\"{k}\""));
         println!(
             "{{\"impl\": \"jello\", \"size\": {}, \"points\": {}, \"springs\": {}, \"integrator\": \"{}\", \
-             \"device\": \"{device}\", \"adapter\": {adapter_json}, \"precision\": \"{precision}\", \
+             \"device\": \"{device}\", \"adapter\": {adapter_json}, \"gpu_kernel\": {kernel_json}, \"precision\": \"{precision}\", \
              \"threads\": {threads}, \"simd\": \"{tier}\", \"dt\": {}, \"steps\": {}, \"seconds\": {:.3}, \"steps_per_s\": {:.1}, \
              \"real_time\": {:.4}, \"split_steps\": {}, \"spring_evals_per_s\": {}, \"peak_rss_mib\": {}, \"version\": \"{}\"}}",
             args.size,
@@ -107,7 +108,7 @@ pub fn bench(args: BenchArgs) -> Result<(), CliError> {
     } else {
         let on = match &adapter {
             None => format!("{threads} thread(s), {tier}"),
-            Some(a) => format!("GPU {a}, f32"),
+            Some(a) => format!("GPU {a}, f32, {} kernel", kernel.unwrap_or_default()),
         };
         println!(
             "{n}³ lattice ({} points, {} springs), {}, dt {} s, {on}: {:.0} steps/s, {:.3}× real time{} \
@@ -205,13 +206,14 @@ fn measure(
 }
 
 /// [`measure`] on the GPU: after the warm-up (which also compiles the shaders' pipelines), the
-/// measured run goes on from the warmed-up state. Returns the measurement and the adapter.
+/// measured run goes on from the warmed-up state. Returns the measurement, the adapter and the
+/// kernel (`resident` or `stages`).
 fn measure_gpu(
     n: usize,
     integrator: Integrator,
     dt: Option<f64>,
     seconds: f64,
-) -> Result<(Measurement, String), CliError> {
+) -> Result<(Measurement, String, String), CliError> {
     let (model, state) = scene(n, integrator, dt)?;
     let (points, springs) = (model.point_count(), model.spring_count());
     let name = format!("the {n}³ benchmark scene");
@@ -244,6 +246,7 @@ fn measure_gpu(
             split_steps: 0,
         },
         gpu.adapter(),
+        gpu.kernel(),
     ))
 }
 
