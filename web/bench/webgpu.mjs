@@ -38,19 +38,20 @@ try {
         const t0 = performance.now();
         let steps = 0;
         while (performance.now() - t0 < seconds * 1000) steps += await j.runner.stepExactly(chunk);
-        return { rate: steps / ((performance.now() - t0) / 1000), backend: j.sim.backend.kind, dt: j.sim.dt, chunk };
+        const b = j.sim.backend;
+        return { rate: steps / ((performance.now() - t0) / 1000), backend: b.kind, kernel: b.kernel, dt: j.sim.dt, chunk };
       },
       { n, device, seconds },
     );
 
-  console.log('| cube | dt (s) | WebGPU steps/s | wasm steps/s | WebGPU / wasm |');
-  console.log('| --- | ---: | ---: | ---: | ---: |');
+  console.log('| cube | dt (s) | WebGPU kernel | WebGPU steps/s | wasm steps/s | WebGPU / wasm |');
+  console.log('| --- | ---: | --- | ---: | ---: | ---: |');
   for (const n of [8, 16, 24, 32]) {
     const gpu = await exact(n, 'auto');
     const cpu = await exact(n, 'cpu');
     if (gpu.backend !== 'webgpu' || cpu.backend !== 'wasm') throw new Error(`backends: ${gpu.backend}, ${cpu.backend}`);
     const ratio = gpu.rate / cpu.rate;
-    console.log(`| ${n}³ | ${gpu.dt.toPrecision(3)} | ${gpu.rate.toFixed(1)} | ${cpu.rate.toFixed(1)} | ${ratio.toFixed(2)}× |`);
+    console.log(`| ${n}³ | ${gpu.dt.toPrecision(3)} | ${gpu.kernel} | ${gpu.rate.toFixed(1)} | ${cpu.rate.toFixed(1)} | ${ratio.toFixed(2)}× |`);
   }
 
   console.log('\n| classic jello.w, running | real-time factor |');

@@ -14,6 +14,8 @@ export type Device = 'auto' | 'cpu';
 export interface Backend {
   kind: 'webgpu' | 'wasm';
   adapter?: string;
+  /** On WebGPU: `resident` (a small lattice inside one workgroup) or `stages`. */
+  kernel?: string;
   why?: string;
 }
 

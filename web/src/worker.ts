@@ -113,7 +113,7 @@ async function chooseBackend(): Promise<void> {
   } else {
     try {
       gpu = await JelloGpu.create(sim);
-      backend = { kind: 'webgpu', adapter: webgpu };
+      backend = { kind: 'webgpu', adapter: webgpu, kernel: gpu.kernel };
       gpuChunk = 16;
     } catch (e) {
       backend = { kind: 'wasm', why: errorText(e) };

@@ -37,6 +37,7 @@ struct Shared {
 #[wasm_bindgen]
 pub struct JelloGpu {
     shared: Rc<RefCell<Shared>>,
+    kernel: String,
 }
 
 const BUSY: &str = "the GPU is still busy with the last request";
@@ -68,7 +69,9 @@ impl JelloGpu {
             let gpu = GpuSimulation::create(&model, &state, &control)
                 .await
                 .map_err(|e| JsValue::from(js_err(e)))?;
+            let kernel = gpu.kernel().to_string();
             Ok(JelloGpu {
+                kernel,
                 shared: Rc::new(RefCell::new(Shared {
                     gpu: Some(gpu),
                     outcome: Outcome::default(),
@@ -76,6 +79,13 @@ impl JelloGpu {
             }
             .into())
         })
+    }
+
+    /// How the shader steps: `resident` (a small lattice inside one workgroup, on a GPU) or
+    /// `stages` (a dispatch per stage).
+    #[wasm_bindgen(getter)]
+    pub fn kernel(&self) -> String {
+        self.kernel.clone()
     }
 
     /// Takes `n` steps, then reads the state back; resolves to the steps taken, fewer than `n`
