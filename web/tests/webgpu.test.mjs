@@ -143,6 +143,54 @@ describe('with WebGPU', () => {
     await page.waitForSelector('.banner-blowup', { state: 'attached' });
     await done();
   });
+
+  test('pulls reach the GPU as the core takes them, and saving writes the GPU state', async () => {
+    const { page, done } = await open(browser);
+    const pulled = (device) =>
+      page.evaluate(async (device) => {
+        const j = window.jello;
+        j.paused = true;
+        j.device = device;
+        j.loadCube(8);
+        await j.settled();
+        // The top corner and its neighbour, pulled up and sideways by damped springs.
+        const p = j.sim.positions();
+        const points = new Uint32Array([511, 510]);
+        const targets = new Float64Array([...points].flatMap((i) => [p[3 * i] + 0.3, p[3 * i + 1], p[3 * i + 2] + 0.5]));
+        j.sim.setPulls(points, targets, new Float64Array([2, 2]), new Float64Array([0.05, 0.05]));
+        await j.runner.stepExactly(200);
+        // How far the corner rose over the centre (which falls).
+        const q = j.sim.positions();
+        const meanZ = (a) => a.filter((_, k) => k % 3 === 2).reduce((s, z) => s + z, 0) / (a.length / 3);
+        const rise = q[3 * 511 + 2] - meanZ(q) - (p[3 * 511 + 2] - meanZ(p));
+        return { positions: Array.from(q), backend: j.sim.backend.kind, rise };
+      }, device);
+    const gpu = await pulled('auto');
+    const cpu = await pulled('cpu');
+    assert.equal(gpu.backend, 'webgpu');
+    assert.ok(gpu.rise > 0.005, `the pulled corner rose ${gpu.rise} m over the centre`);
+    const gap = largestGap(gpu.positions, cpu.positions);
+    assert.ok(gap < 1e-4, `GPU and core differ by ${gap} m`);
+
+    const saved = await page.evaluate(async () => {
+      const j = window.jello;
+      j.device = 'auto';
+      j.loadCube(8);
+      await j.settled();
+      await j.runner.stepExactly(100);
+      const before = Array.from(j.sim.positions());
+      const { text, time } = await j.runner.save();
+      j.paused = true;
+      const loaded = j.loadText(text, 'saved.w');
+      await j.settled();
+      return { backend: j.sim.backend.kind, before, after: Array.from(j.sim.positions()), time, loaded };
+    });
+    assert.equal(saved.backend, 'webgpu');
+    assert.ok(saved.loaded, 'the saved world loads');
+    assert.ok(Math.abs(saved.time - 0.05) < 1e-12, `saved at t = ${saved.time}`);
+    assert.deepEqual(saved.after, saved.before, 'the saved state is the GPU state shown');
+    await done();
+  });
 });
 
 describe('without WebGPU', () => {
