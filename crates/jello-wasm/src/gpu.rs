@@ -56,7 +56,7 @@ impl Shared {
 impl JelloGpu {
     /// Uploads `sim`'s model, state and control forces to the first WebGPU adapter; resolves to
     /// the GPU copy. Rejects, with the reason, when this browser has no WebGPU adapter or the
-    /// GPU does not step this model (an implicit integrator, pins on paths, ...): the page then
+    /// GPU does not step this model (an implicit integrator, more than 224 bodies): the page then
     /// steps on the CPU.
     #[wasm_bindgen(unchecked_return_type = "Promise<JelloGpu>")]
     pub fn create(sim: &JelloSim) -> js_sys::Promise {
