@@ -37,8 +37,9 @@ let owed = 0;
 let lastClock = performance.now();
 /** Wall time of one step on the CPU (ms), a moving average: calls into the core are sized by it. */
 let msPerStep = 0.05;
-/** Steps per call to the GPU, sized by how long calls take. */
-let gpuChunk = 16;
+/** Steps per call to the GPU, sized by how long calls take: from one, so that a slow adapter
+ *  (SwiftShader: 22 ms a step of 8³) keeps the worker answering from its first call. */
+let gpuChunk = 1;
 /** Whether the page drew the last state sent; steps taken since it was sent. */
 let acked = true;
 let taken = 0;
@@ -114,7 +115,7 @@ async function chooseBackend(): Promise<void> {
     try {
       gpu = await JelloGpu.create(sim);
       backend = { kind: 'webgpu', adapter: webgpu, kernel: gpu.kernel };
-      gpuChunk = 16;
+      gpuChunk = 1;
     } catch (e) {
       backend = { kind: 'wasm', why: errorText(e) };
     }
