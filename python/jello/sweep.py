@@ -46,6 +46,7 @@ PARAMETERS: tuple[str, ...] = (
     "integrator",
     "dt",
     "cutbacks",
+    "tolerance",
     "stiffness",
     "damping",
     "mass",
@@ -83,7 +84,9 @@ def sweep(
     ``cases``, a list of name → value mappings, each one case per world. The names:
 
     - ``integrator`` (``"RK4"``, ``"BackwardEuler"``…) and ``dt`` (s); ``cutbacks``, how many
-      times an implicit step that fails may be halved (see ``Simulation.cutbacks``);
+      times an implicit step that fails may be halved (see ``Simulation.cutbacks``), and
+      ``tolerance``, the residual an implicit step is solved to (m/s, see
+      ``Simulation.tolerance``);
     - ``stiffness`` (N/m) and ``damping`` (N·s/m) of every spring, a number or one per kind,
       and ``mass`` (kg per point), of every body;
     - ``collision_stiffness`` (N/m) and ``collision_damping`` (N·s/m);
@@ -251,6 +254,8 @@ def apply_parameters(sim: Simulation, params: Mapping[str, Any]) -> None:
         sim.dt = float(params["dt"])
     if "cutbacks" in params:
         sim.cutbacks = int(params["cutbacks"])
+    if "tolerance" in params:
+        sim.tolerance = float(params["tolerance"])
     material = {k: params[k] for k in ("stiffness", "damping", "mass") if k in params}
     if material:
         sim.set_material(**material)

@@ -409,6 +409,23 @@ impl Simulation {
         self.replace_model(self.sim.model.to_builder().newton(newton))
     }
 
+    /// The residual an implicit integrator solves each step to, per point (m/s, times the
+    /// fastest point's speed when that is above 1 m/s). 1e-9 by default; assign a looser one
+    /// (at most 0.1) to trade exactness for speed. Not used by the explicit integrators.
+    #[getter]
+    fn tolerance(&self) -> f64 {
+        self.sim.model.newton.tolerance
+    }
+
+    #[setter]
+    fn set_tolerance(&mut self, tolerance: f64) -> PyResult<()> {
+        let newton = Newton {
+            tolerance,
+            ..self.sim.model.newton
+        };
+        self.replace_model(self.sim.model.to_builder().newton(newton))
+    }
+
     /// Steps an implicit integrator took in parts (see `cutbacks`) since the model last changed.
     #[getter]
     fn split_steps(&self) -> u64 {

@@ -135,6 +135,11 @@ def test_an_implicit_step_that_fails_is_cut_back_or_raises(shared_worlds: Path, 
     with pytest.raises(ValueError, match="halved at most 20 times, not 21"):
         sim.cutbacks = 21
     sim.cutbacks = 6
+    assert sim.tolerance == 1e-9
+    for bad in (0.0, -1e-6, 0.2, float("nan")):
+        with pytest.raises(ValueError, match="Newton tolerance"):
+            sim.tolerance = bad
+    assert sim.tolerance == 1e-9
     sim.step(2)
     assert sim.steps == 2 and sim.split_steps >= 1
     run = subprocess.run(

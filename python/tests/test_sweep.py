@@ -97,3 +97,16 @@ def test_cutbacks_are_a_parameter_and_split_steps_a_metric(shared_worlds: Path) 
     assert (strict["cutbacks"], lenient["cutbacks"]) == (0, 6)
     assert strict["blew_up"] and strict["steps"] == 0 and strict["split_steps"] == 0
     assert not lenient["blew_up"] and lenient["steps"] == 2 and lenient["split_steps"] >= 1
+
+
+def test_tolerance_is_a_parameter(shared_worlds: Path) -> None:
+    """jello.w under backward Euler at 1/60 s: a looser tolerance is another case of the table,
+    whose final energy after 30 steps is within 0.1 % of the default solve's."""
+    table = jello.sweep(shared_worlds / "jello.w",
+                        {"integrator": ["BackwardEuler"], "dt": [1 / 60], "tolerance": [1e-9, 1e-5]},
+                        steps=30, metrics=("blew_up", "steps", "final_energy"), scheduler="serial",
+                        progress=False)
+    strict, loose = table.iloc[0], table.iloc[1]
+    assert (strict["tolerance"], loose["tolerance"]) == (1e-9, 1e-5)
+    assert not strict["blew_up"] and not loose["blew_up"] and strict["steps"] == loose["steps"] == 30
+    assert loose["final_energy"] == pytest.approx(strict["final_energy"], rel=1e-3)

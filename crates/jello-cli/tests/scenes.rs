@@ -617,3 +617,47 @@ fn cutbacks_given_to_a_scene_run_are_saved_and_kept() {
     ]);
     assert_eq!(t.scene("c2.toml").simulation.cutbacks, 3);
 }
+
+/// `--tolerance` on a scene: saved into the scene's `[simulation]` and kept by a later run of
+/// that file; refused (exit 2, nothing saved) for an explicit integrator and outside (0, 0.1].
+#[test]
+fn tolerance_given_to_a_scene_run_is_saved_and_kept() {
+    let t = TempDir::new("tolerance");
+    t.jello(&[
+        "create",
+        "c.toml",
+        "--cube",
+        "3",
+        "--integrator",
+        "BackwardEuler",
+        "--dt",
+        "0.01",
+    ]);
+    assert_eq!(t.scene("c.toml").simulation.tolerance, 1e-9);
+    let run = ["run", "c.toml", "--steps", "2", "-q"];
+    t.jello(&[&run[..], &["--tolerance", "1e-5", "--save", "a.toml"]].concat());
+    assert_eq!(t.scene("a.toml").simulation.tolerance, 1e-5);
+    t.jello(&["run", "a.toml", "--steps", "2", "--save", "b.toml", "-q"]);
+    assert_eq!(t.scene("b.toml").simulation.tolerance, 1e-5);
+    for bad in ["0", "-1e-6", "0.2", "nan"] {
+        let flag = format!("--tolerance={bad}");
+        t.fails(&[&run[..], &[&flag]].concat(), 2, "at most 0.1 m/s");
+    }
+    t.fails(
+        &[
+            &run[..],
+            &[
+                "--tolerance",
+                "1e-5",
+                "--integrator",
+                "RK4",
+                "--save",
+                "e.toml",
+            ],
+        ]
+        .concat(),
+        2,
+        "--tolerance: RK4 is explicit",
+    );
+    assert!(!t.path("e.toml").exists());
+}

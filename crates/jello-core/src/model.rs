@@ -442,6 +442,13 @@ impl ModelBuilder {
             }
         }
         positive("Newton tolerance", self.newton.tolerance)?;
+        if self.newton.tolerance > crate::implicit::MAX_TOLERANCE {
+            return Err(ModelError::new(format!(
+                "Newton tolerance must be at most {} m/s (got {})",
+                crate::implicit::MAX_TOLERANCE,
+                self.newton.tolerance
+            )));
+        }
         if self.newton.max_iterations == 0 {
             return Err(ModelError::new("Newton iterations must be at least 1"));
         }

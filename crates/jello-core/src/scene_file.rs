@@ -10,6 +10,8 @@
 //! gravity = [0.0, 0.0, -9.81] # m/s², on every point whatever its mass
 //! cutbacks = 6                # implicit methods: halvings of a step that fails (0–20; see
 //!                             # jello_core::cutback)
+//! tolerance = 1e-9            # implicit methods: residual allowed per point (m/s, times the
+//!                             # largest speed above 1 m/s; up to 0.1; see jello_core::implicit)
 //!
 //! [collision]                 # the penalty springs of walls, obstacles and contacts
 //! stiffness = 400.0           # N/m
@@ -152,6 +154,10 @@ pub struct Settings {
     /// written only when not the default.
     #[serde(skip_serializing_if = "is_default_cutbacks")]
     pub cutbacks: u32,
+    /// The residual an implicit step is solved to (m/s; see [`crate::implicit::Newton`]);
+    /// written only when not the default.
+    #[serde(skip_serializing_if = "is_default_tolerance")]
+    pub tolerance: f64,
     /// Simulated time of the start state (s): 0 for a new scene, the run's end time in a saved
     /// one (so moving pins carry on in step with their paths).
     #[serde(skip_serializing_if = "is_zero")]
@@ -166,6 +172,10 @@ fn is_default_cutbacks(n: &u32) -> bool {
     *n == crate::implicit::CUTBACKS
 }
 
+fn is_default_tolerance(t: &f64) -> bool {
+    *t == crate::implicit::TOLERANCE
+}
+
 impl Default for Settings {
     fn default() -> Self {
         Settings {
@@ -174,6 +184,7 @@ impl Default for Settings {
             steps_per_frame: defaults::STEPS_PER_FRAME,
             gravity: [0.0; 3],
             cutbacks: crate::implicit::CUTBACKS,
+            tolerance: crate::implicit::TOLERANCE,
             time: 0.0,
         }
     }
@@ -677,6 +688,16 @@ impl SceneFile {
                 self.simulation.cutbacks
             )));
         }
+        let tolerance = self.simulation.tolerance;
+        if !(tolerance.is_finite()
+            && tolerance > 0.0
+            && tolerance <= crate::implicit::MAX_TOLERANCE)
+        {
+            return Err(error(format!(
+                "[simulation] tolerance must be a number above 0 and at most {} m/s (got {tolerance})",
+                crate::implicit::MAX_TOLERANCE,
+            )));
+        }
         let mut model = ModelBuilder::new()
             .bodies(bodies)
             .integrator(integrator)
@@ -690,6 +711,7 @@ impl SceneFile {
             .field(field)
             .newton(crate::implicit::Newton {
                 cutbacks: self.simulation.cutbacks,
+                tolerance,
                 ..Default::default()
             })
             .build()
@@ -782,13 +804,14 @@ impl SceneFile {
     }
 
     /// This scene with every body's state replaced by `state`, and the model's integrator, time
-    /// step and cutbacks (for saving a run's end, which may have changed them).
+    /// step, cutbacks and tolerance (for saving a run's end, which may have changed them).
     pub fn with_state(&self, model: &Model, state: &State) -> SceneFile {
         let mut scene = self.clone();
         scene.simulation.time = state.time;
         scene.simulation.integrator = model.integrator.name().to_string();
         scene.simulation.dt = model.dt;
         scene.simulation.cutbacks = model.newton.cutbacks;
+        scene.simulation.tolerance = model.newton.tolerance;
         for (spec, body) in scene.bodies.iter_mut().zip(model.bodies()) {
             let r = body.points();
             spec.state = Some(StateSpec {

@@ -100,6 +100,34 @@ fn cutbacks_read_write_and_check() {
     );
 }
 
+/// `[simulation] tolerance` reaches the model, is written only when not the default, and a run's
+/// end saved keeps the model's; zero, a negative or a tolerance above the core's limit is an
+/// error naming the key.
+#[test]
+fn tolerance_read_write_and_check() {
+    let cube = "[[body]]\ncube = { points = [3, 3, 3], size = [1.0, 1.0, 1.0] }\n";
+    let read = |text: &str| parse(text).unwrap().to_scene("s.toml").unwrap();
+    assert_eq!(read(cube).model.newton.tolerance, 1e-9);
+    let file = parse(&format!("[simulation]\ntolerance = 1e-5\n{cube}")).unwrap();
+    let scene = file.to_scene("s.toml").unwrap();
+    assert_eq!(scene.model.newton.tolerance, 1e-5);
+    assert!(file.to_toml().contains("tolerance = "));
+    assert_eq!(read(&file.to_toml()).model.newton.tolerance, 1e-5);
+    assert!(!parse(cube).unwrap().to_toml().contains("tolerance"));
+    let mut model = scene.model.clone();
+    model.newton.tolerance = 2e-7;
+    let saved = file.with_state(&model, &scene.state).to_toml();
+    assert_eq!(read(&saved).model.newton.tolerance, 2e-7);
+    for bad in ["0.0", "-1e-6", "0.5", "nan"] {
+        assert_error(
+            &format!("[simulation]\ntolerance = {bad}\n{cube}"),
+            0,
+            0,
+            "[simulation] tolerance must be a number above 0 and at most 0.1 m/s",
+        );
+    }
+}
+
 /// A shaken pin and a pin on a path read and write back; the scene starts them at their path's
 /// velocity, and a run's end saved into the scene carries its time, so the pins resume in step.
 #[test]

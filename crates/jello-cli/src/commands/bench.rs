@@ -5,7 +5,7 @@ use std::time::{Duration, Instant};
 use clap::Args;
 use jello_core::{scenes, simd, Integrator, Model, Simulation, State};
 
-use super::{parse_integrator, parse_positive, Device};
+use super::{parse_integrator, parse_positive, parse_tolerance, require_implicit, Device};
 use crate::error::CliError;
 use crate::gpu::Gpu;
 
@@ -21,6 +21,10 @@ pub struct BenchArgs {
     /// Time step (s) [default: the scene's 0.0005].
     #[arg(long, value_parser = parse_positive)]
     pub dt: Option<f64>,
+    /// Implicit integrators: the residual each step is solved to (m/s per point, times the
+    /// fastest point's speed above 1 m/s; at most 0.1) [default: 1e-9].
+    #[arg(long, value_name = "M/S", value_parser = parse_tolerance)]
+    pub tolerance: Option<f64>,
     /// Worker threads (1 = the calling thread only).
     #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u64).range(1..=256))]
     pub threads: u64,
@@ -46,10 +50,15 @@ struct Measurement {
     wall: f64,
     /// Measured steps that an implicit integrator took in parts (see `jello_core::cutback`).
     split_steps: u64,
+    /// The implicit integrator's tolerance (m/s); `None` for an explicit one.
+    tolerance: Option<f64>,
 }
 
 /// Runs the benchmark scene (see [`scenes::benchmark`]) and prints the rates.
 pub fn bench(args: BenchArgs) -> Result<(), CliError> {
+    if args.tolerance.is_some() {
+        require_implicit(args.integrator, "--tolerance")?;
+    }
     let threads = args.threads as usize;
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
@@ -57,8 +66,15 @@ pub fn bench(args: BenchArgs) -> Result<(), CliError> {
         .map_err(|e| CliError::input(format!("cannot start {threads} threads: {e}")))?;
     let (m, adapter, kernel) = match args.device {
         Device::Cpu => {
-            let m = pool
-                .install(|| measure(args.size as usize, args.integrator, args.dt, args.seconds))?;
+            let m = pool.install(|| {
+                measure(
+                    args.size as usize,
+                    args.integrator,
+                    args.dt,
+                    args.tolerance,
+                    args.seconds,
+                )
+            })?;
             (m, None, None)
         }
         Device::Gpu => {
@@ -87,7 +103,7 @@ pub fn bench(args: BenchArgs) -> Result<(), CliError> {
         });
         let kernel_json = kernel.map_or("null".to_string(), |k| format!("\"{k}\""));
         println!(
-            "{{\"impl\": \"jello\", \"size\": {}, \"points\": {}, \"springs\": {}, \"integrator\": \"{}\", \
+            "{{\"impl\": \"jello\", \"size\": {}, \"points\": {}, \"springs\": {}, \"integrator\": \"{}\", \"tolerance\": {}, \
              \"device\": \"{device}\", \"adapter\": {adapter_json}, \"gpu_kernel\": {kernel_json}, \"precision\": \"{precision}\", \
              \"threads\": {threads}, \"simd\": \"{tier}\", \"dt\": {}, \"steps\": {}, \"seconds\": {:.3}, \"steps_per_s\": {:.1}, \
              \"real_time\": {:.4}, \"split_steps\": {}, \"spring_evals_per_s\": {}, \"peak_rss_mib\": {}, \"version\": \"{}\"}}",
@@ -95,6 +111,7 @@ pub fn bench(args: BenchArgs) -> Result<(), CliError> {
             m.points,
             m.springs,
             args.integrator,
+            m.tolerance.map_or("null".to_string(), |t| format!("{t:e}")),
             m.dt,
             m.steps,
             m.wall,
@@ -115,7 +132,10 @@ pub fn bench(args: BenchArgs) -> Result<(), CliError> {
              ({} steps in {:.2} s{}{})",
             m.points,
             m.springs,
-            args.integrator,
+            match m.tolerance {
+                Some(t) => format!("{} (tolerance {t:e} m/s)", args.integrator),
+                None => args.integrator.to_string(),
+            },
             m.dt,
             steps_per_s,
             real_time,
@@ -133,11 +153,17 @@ pub fn bench(args: BenchArgs) -> Result<(), CliError> {
     Ok(())
 }
 
-/// The benchmark scene (see [`scenes::benchmark`]) of `n³` points, at `dt` if given.
-fn scene(n: usize, integrator: Integrator, dt: Option<f64>) -> Result<(Model, State), CliError> {
+/// The benchmark scene (see [`scenes::benchmark`]) of `n³` points, at `dt` and solved to
+/// `tolerance` if given.
+fn scene(
+    n: usize,
+    integrator: Integrator,
+    dt: Option<f64>,
+    tolerance: Option<f64>,
+) -> Result<(Model, State), CliError> {
     let (model, state) =
         scenes::benchmark(n, integrator).map_err(|e| CliError::input(e.to_string()))?;
-    let model = match dt {
+    let mut model = match dt {
         Some(dt) => model
             .to_builder()
             .dt(dt)
@@ -145,6 +171,9 @@ fn scene(n: usize, integrator: Integrator, dt: Option<f64>) -> Result<(Model, St
             .map_err(|e| CliError::usage(format!("--dt: {e}")))?,
         None => model,
     };
+    if let Some(tolerance) = tolerance {
+        model.newton.tolerance = tolerance;
+    }
     Ok((model, state))
 }
 
@@ -155,9 +184,11 @@ fn measure(
     n: usize,
     integrator: Integrator,
     dt: Option<f64>,
+    tolerance: Option<f64>,
     seconds: f64,
 ) -> Result<Measurement, CliError> {
-    let (model, state) = scene(n, integrator, dt)?;
+    let (model, state) = scene(n, integrator, dt, tolerance)?;
+    let tolerance = integrator.is_implicit().then_some(model.newton.tolerance);
     let dt = model.dt;
     let (points, springs) = (model.point_count(), model.spring_count());
     let mut sim = Simulation::new(model, state);
@@ -202,6 +233,7 @@ fn measure(
         steps,
         wall: start.elapsed().as_secs_f64(),
         split_steps: sim.cutbacks().split_steps - split_before,
+        tolerance,
     })
 }
 
@@ -214,7 +246,7 @@ fn measure_gpu(
     dt: Option<f64>,
     seconds: f64,
 ) -> Result<(Measurement, String, String), CliError> {
-    let (model, state) = scene(n, integrator, dt)?;
+    let (model, state) = scene(n, integrator, dt, None)?;
     let (points, springs) = (model.point_count(), model.spring_count());
     let name = format!("the {n}³ benchmark scene");
     let mut gpu = Gpu::open(&model, &state, &Default::default(), &name)?;
@@ -244,6 +276,7 @@ fn measure_gpu(
             steps,
             wall,
             split_steps: 0,
+            tolerance: None,
         },
         gpu.adapter(),
         gpu.kernel(),

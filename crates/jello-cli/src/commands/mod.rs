@@ -32,6 +32,33 @@ pub fn parse_positive(s: &str) -> Result<f64, String> {
     }
 }
 
+/// Parses an implicit integrator's tolerance (m/s) for clap: above 0 and at most
+/// [`jello_core::implicit::MAX_TOLERANCE`].
+pub fn parse_tolerance(s: &str) -> Result<f64, String> {
+    let max = jello_core::implicit::MAX_TOLERANCE;
+    match s.parse::<f64>() {
+        Ok(v) if v.is_finite() && v > 0.0 && v <= max => Ok(v),
+        _ => Err(format!(
+            "expected a tolerance above 0 and at most {max} m/s, found \"{s}\""
+        )),
+    }
+}
+
+/// A usage error unless `integrator` is implicit: `flag` only means something to those.
+pub fn require_implicit(
+    integrator: jello_core::Integrator,
+    flag: &str,
+) -> Result<(), crate::error::CliError> {
+    if integrator.is_implicit() {
+        Ok(())
+    } else {
+        Err(crate::error::CliError::usage(format!(
+            "{flag}: {integrator} is explicit; only the implicit integrators (BackwardEuler, \
+             SDIRK2) solve their steps to a tolerance"
+        )))
+    }
+}
+
 /// Parses a finite number that is at least 0 for clap.
 pub fn parse_non_negative(s: &str) -> Result<f64, String> {
     match s.parse::<f64>() {

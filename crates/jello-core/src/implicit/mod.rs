@@ -103,6 +103,10 @@ macro_rules! fine_operator {
 /// Converged when `max |g| ≤ TOLERANCE · max(1, max |v₁|)` (m/s), by default.
 pub const TOLERANCE: f64 = 1e-9;
 
+/// The loosest tolerance a model may set: a residual of a tenth of the speed is no longer
+/// the method's solution in any useful sense.
+pub const MAX_TOLERANCE: f64 = 0.1;
+
 /// Newton iterations before a step is reported as not converged, by default.
 pub const MAX_NEWTON: u32 = 200;
 
@@ -119,7 +123,8 @@ pub const MAX_CUTBACKS: u32 = 20;
 /// reported (see [`crate::cutback`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Newton {
-    /// m/s (> 0).
+    /// m/s, above 0 and at most [`MAX_TOLERANCE`]: the residual allowed at a point, times the
+    /// fastest point's speed when that is above 1 m/s.
     pub tolerance: f64,
     /// At least 1.
     pub max_iterations: u32,
