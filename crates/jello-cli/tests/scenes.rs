@@ -574,11 +574,8 @@ fn regions_of_springs_from_the_command_line() {
     assert!(!dir.path("s.toml").exists());
 }
 
-/// `--cutbacks` on a scene: saved into the scene's `[simulation]`, and the saved value is what a
-/// later run of that file uses when the flag is not given.
-#[test]
-fn cutbacks_given_to_a_scene_run_are_saved_and_kept() {
-    let t = TempDir::new("cutbacks");
+/// Writes `c.toml`: a 3³ cube stepped by backward Euler at 0.01 s.
+fn implicit_cube(t: &TempDir) {
     t.jello(&[
         "create",
         "c.toml",
@@ -589,6 +586,14 @@ fn cutbacks_given_to_a_scene_run_are_saved_and_kept() {
         "--dt",
         "0.01",
     ]);
+}
+
+/// `--cutbacks` on a scene: saved into the scene's `[simulation]`, and the saved value is what a
+/// later run of that file uses when the flag is not given.
+#[test]
+fn cutbacks_given_to_a_scene_run_are_saved_and_kept() {
+    let t = TempDir::new("cutbacks");
+    implicit_cube(&t);
     assert_eq!(t.scene("c.toml").simulation.cutbacks, 6);
     t.jello(&[
         "run",
@@ -623,16 +628,7 @@ fn cutbacks_given_to_a_scene_run_are_saved_and_kept() {
 #[test]
 fn tolerance_given_to_a_scene_run_is_saved_and_kept() {
     let t = TempDir::new("tolerance");
-    t.jello(&[
-        "create",
-        "c.toml",
-        "--cube",
-        "3",
-        "--integrator",
-        "BackwardEuler",
-        "--dt",
-        "0.01",
-    ]);
+    implicit_cube(&t);
     assert_eq!(t.scene("c.toml").simulation.tolerance, 1e-9);
     let run = ["run", "c.toml", "--steps", "2", "-q"];
     t.jello(&[&run[..], &["--tolerance", "1e-5", "--save", "a.toml"]].concat());
