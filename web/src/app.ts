@@ -151,6 +151,10 @@ export class App implements PanelHost {
     return this.runner.parameters();
   }
 
+  get isImplicit(): boolean {
+    return this.sim.copy.isImplicit;
+  }
+
   setParameters(p: Parameters): string | undefined {
     try {
       this.runner.setParameters(p);
@@ -301,7 +305,7 @@ export class App implements PanelHost {
     const fewer = Math.round(this.startParameters.dt / own.dt);
     this.banners.show(
       'integrator',
-      `${this.sim.name} has ${points} points: running ${this.startParameters.integrator} at dt = 1/60 s, the viewer's choice above 8³ points (its own ${own.integrator} at dt = ${own.dt} s takes ${fewer}× as many steps).`,
+      `${this.sim.name} has ${points} points: running ${this.startParameters.integrator} at dt = 1/60 s (tolerance ${this.startParameters.tolerance.toExponential()} m/s), the viewer's choice above 8³ points (its own ${own.integrator} at dt = ${own.dt} s takes ${fewer}× as many steps).`,
       [{ label: `Use ${own.integrator} at dt = ${own.dt} s`, run: () => this.useOwnParameters() }],
     );
   }
@@ -325,7 +329,7 @@ export class App implements PanelHost {
     if (!chosen || !own || now.integrator !== chosen.integrator || now.dt !== chosen.dt) return false;
     const why = this.sim.blowUpMessage() ?? 'it stopped';
     this.startParameters = undefined;
-    this.runner.setParameters({ ...now, integrator: own.integrator, dt: own.dt });
+    this.runner.setParameters({ ...now, integrator: own.integrator, dt: own.dt, tolerance: own.tolerance });
     this.panel.refresh();
     this.banners.show(
       'integrator',

@@ -12,6 +12,8 @@ export interface PanelHost {
   /** Name of the loaded world (selected in the examples list when it is one). */
   readonly worldName: string;
   parameters(): Parameters;
+  /** True when the integrator in use is implicit (the tolerance applies). */
+  readonly isImplicit: boolean;
   /** Applies parameters; returns an error message (and changes nothing) when they are invalid. */
   setParameters(p: Parameters): string | undefined;
   speed: number;
@@ -37,12 +39,23 @@ export interface PanelHost {
   readonly canRecordVideo: boolean;
 }
 
+/** The implicit integrators' tolerances offered (m/s): from the core's default, exact to
+ *  rounding in practice, to one that steps several times faster (README, "Large steps"). A
+ *  scene's own value is shown as it is. */
+const TOLERANCES: Record<string, number> = {
+  '1e-9 (default)': 1e-9,
+  '1e-7': 1e-7,
+  '1e-5': 1e-5,
+  '1e-3 (fastest)': 1e-3,
+};
+
 export class Panel {
   readonly gui: GUI;
   private readonly params: Parameters;
   private readonly paramControllers: Controller[] = [];
   private readonly view: { mode: RenderMode; structural: boolean; shear: boolean; bend: boolean; field: boolean };
   private readonly fieldController: Controller;
+  private readonly toleranceController: Controller;
   private readonly sequenceButton: Controller;
   private readonly videoButton: Controller;
   private readonly choice = { example: '' };
@@ -63,6 +76,9 @@ export class Panel {
       sim.add(this.params, 'damping').name('d elastic (N·s/m)').decimals(4).onFinishChange(apply),
       sim.add(this.params, 'mass').name('mass/point (kg)').decimals(7).onFinishChange(apply),
     );
+    this.toleranceController = sim.add(this.params, 'tolerance', TOLERANCES).name('tolerance (m/s)').onChange(apply);
+    this.toleranceController.domElement.title = 'Residual allowed per point by the implicit integrators; unused by explicit ones';
+    this.paramControllers.push(this.toleranceController);
     sim
       .add(host, 'device', { 'GPU (WebGPU) when it can': 'auto', 'CPU (wasm, f64)': 'cpu' })
       .name('device')
@@ -133,14 +149,19 @@ export class Panel {
   private applyParameters(): void {
     const error = this.host.setParameters({ ...this.params });
     if (error) Object.assign(this.params, this.host.parameters());
+    this.showParameters();
+  }
+
+  private showParameters(): void {
     this.paramControllers.forEach((c) => c.updateDisplay());
+    this.toleranceController.enable(this.host.isImplicit);
   }
 
   /** Shows the app's current values (after a load, a reset or a key press). */
   refresh(): void {
     this.choice.example = this.host.examples.includes(this.host.worldName) ? this.host.worldName : '';
     Object.assign(this.params, this.host.parameters());
-    this.paramControllers.forEach((c) => c.updateDisplay());
+    this.showParameters();
     Object.assign(this.view, {
       mode: this.host.mode,
       structural: this.host.showKind[0],

@@ -2,6 +2,8 @@
 // simulation that steps; the page keeps a copy that never steps, for what does not change while
 // stepping (the mesh, the springs drawn, the bodies), and draws the latest state the worker sent.
 
+import type { JelloSim } from './wasm/jello_wasm.js';
+
 /** Where a simulation comes from: world or scene text, or the panel's cube. */
 export type Source = { kind: 'text'; text: string; name: string } | { kind: 'cube'; n: number };
 
@@ -26,6 +28,14 @@ export interface Parameters {
   stiffness: number;
   damping: number;
   mass: number;
+  /** Residual allowed per point by the implicit integrators (m/s); kept, unused, by explicit ones. */
+  tolerance: number;
+}
+
+/** Sets `p` on `sim` (the page's copy, or the worker's); throws (with the core's message) and
+ *  changes nothing when a value is out of range. */
+export function applyParameters(sim: JelloSim, p: Parameters): void {
+  sim.setParameters(p.integrator, p.dt, p.stiffness, p.damping, p.mass, p.tolerance);
 }
 
 /** From the page to the worker. `epoch` numbers the requests that change the state at once

@@ -7,7 +7,7 @@
 // `JelloSim` holds the state the page is sent: after each call the GPU's state is read back into
 // it, so saving, the skin and a switch of backend carry on from the same state.
 import init, { JelloGpu, JelloSim } from './wasm/jello_wasm.js';
-import type { Backend, Device, FromWorker, Parameters, Snapshot, ToWorker } from './protocol';
+import { applyParameters, type Backend, type Device, type FromWorker, type Snapshot, type ToWorker } from './protocol';
 
 /** The most simulated time owed to the wall clock (s, at speed 1): a scene too heavy to keep up
  *  runs slower than real time instead of racing to catch up later, and after a stall (a hidden
@@ -95,10 +95,6 @@ function sendState(now: boolean): void {
   taken = 0;
   acked = false;
   pendingState = false;
-}
-
-function applyParameters(s: JelloSim, p: Parameters): void {
-  s.setParameters(p.integrator, p.dt, p.stiffness, p.damping, p.mass);
 }
 
 /** Puts `sim` on the GPU when the device setting, the browser and the model allow it, else on
@@ -199,6 +195,14 @@ function restartClock(): void {
   lastClock = performance.now();
 }
 
+/** After a load, new parameters, a reset or a device change: the backend is chosen again, the
+ *  clock starts afresh, and the page gets the state. */
+async function modelChanged(): Promise<void> {
+  await chooseBackend();
+  restartClock();
+  sendState(true);
+}
+
 async function handle(m: ToWorker): Promise<void> {
   switch (m.type) {
     case 'load': {
@@ -208,9 +212,7 @@ async function handle(m: ToWorker): Promise<void> {
       sim = next;
       epoch = m.epoch;
       taken = 0;
-      await chooseBackend();
-      restartClock();
-      sendState(true);
+      await modelChanged();
       break;
     }
     case 'run':
@@ -224,9 +226,7 @@ async function handle(m: ToWorker): Promise<void> {
       if (!sim) return;
       epoch = m.epoch;
       applyParameters(sim, m.parameters);
-      await chooseBackend();
-      restartClock();
-      sendState(true);
+      await modelChanged();
       break;
     case 'reset':
       if (!sim) return;
@@ -234,16 +234,12 @@ async function handle(m: ToWorker): Promise<void> {
       sim.reset();
       if (m.parameters) applyParameters(sim, m.parameters);
       taken = 0;
-      await chooseBackend();
-      restartClock();
-      sendState(true);
+      await modelChanged();
       break;
     case 'device':
       epoch = m.epoch;
       device = m.device;
-      await chooseBackend();
-      restartClock();
-      sendState(true);
+      await modelChanged();
       break;
     case 'step':
       if (!sim) return;

@@ -229,6 +229,32 @@ describe('scenes in the viewer', () => {
     await done();
   });
 
+  test('the tolerance row sets how closely implicit steps are solved, and a saved scene keeps it', async () => {
+    const { page, done, showOverlays } = await open();
+    await showOverlays();
+    await page.keyboard.press('p');
+    const integrator = page.locator('#panel select:has(option:text-is("BackwardEuler"))');
+    const tolerance = page.locator('#panel select:has(option:text-is("1e-3 (fastest)"))');
+    // RK4 has no tolerance to set.
+    assert.equal(await tolerance.isDisabled(), true);
+    await integrator.selectOption({ label: 'BackwardEuler' });
+    assert.equal(await tolerance.isDisabled(), false);
+    await tolerance.selectOption({ label: '1e-5' });
+    assert.equal((await page.evaluate(() => window.jello.parameters())).tolerance, 1e-5);
+    // The worker steps with it: a few steps, then its state saved as a scene carries it.
+    await page.evaluate(() => window.jello.runner.stepExactly(3));
+    const download = page.waitForEvent('download');
+    await page.evaluate(() => window.jello.save());
+    const text = readFileSync(await (await download).path(), 'utf8');
+    assert.match(text, /^integrator = "BackwardEuler"$/m);
+    assert.match(text, /^tolerance = (1e-5|0\.00001)$/m);
+    // A value out of range is refused with the core's reason, and nothing changes.
+    const message = await page.evaluate(() => window.jello.setParameters({ ...window.jello.parameters(), tolerance: 0.5 }));
+    assert.match(message, /tolerance must be at most 0\.1/);
+    assert.equal((await page.evaluate(() => window.jello.parameters())).tolerance, 1e-5);
+    await done();
+  });
+
   test('a bad scene shows its file, line and column, and the running scene goes on', async () => {
     const { page, done } = await open();
     await page.setInputFiles('#world-file', {

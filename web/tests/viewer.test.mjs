@@ -209,8 +209,9 @@ describe('jello view', () => {
     const p = await page.evaluate(() => window.jello.parameters());
     assert.equal(p.integrator, 'BackwardEuler');
     assert.ok(Math.abs(p.dt - 1 / 60) < 1e-12, `dt ${p.dt}`);
+    assert.equal(p.tolerance, 1e-5);
     const banner = page.locator('.banner-integrator');
-    assert.match(await banner.textContent(), /1728 points: running BackwardEuler at dt = 1\/60 s/);
+    assert.match(await banner.textContent(), /1728 points: running BackwardEuler at dt = 1\/60 s \(tolerance 1e-5 m\/s\)/);
     // It runs (how fast is for web/bench/measure.mjs, not a test).
     const t0 = await simTime(page);
     await page.waitForFunction((t0) => window.jello.sim.time > t0 + 0.1, t0);
@@ -220,7 +221,8 @@ describe('jello view', () => {
     assert.equal((await page.evaluate(() => window.jello.parameters())).integrator, 'BackwardEuler');
     await showOverlays();
     await banner.getByRole('button', { name: /Use RK4/ }).click();
-    assert.equal((await page.evaluate(() => window.jello.parameters())).integrator, 'RK4');
+    const own = await page.evaluate(() => window.jello.parameters());
+    assert.deepEqual([own.integrator, own.tolerance], ['RK4', 1e-9]);
     // The classic cube keeps its own integrator.
     await page.evaluate(() => window.jello.loadCube(8));
     assert.equal((await page.evaluate(() => window.jello.parameters())).integrator, 'RK4');

@@ -18,6 +18,7 @@
 
 #![warn(missing_docs)]
 
+use jello_core::implicit::Newton;
 use jello_core::scene_file::SceneFile;
 use jello_core::stability;
 use jello_core::surface::{CageVertices, Surface};
@@ -425,6 +426,13 @@ impl JelloSim {
         self.sim.model.body(0).material.mass
     }
 
+    /// How closely an implicit integrator solves each step: the residual allowed per point
+    /// (m/s, times the fastest point's speed above 1 m/s). Carried, and unused, by explicit ones.
+    #[wasm_bindgen(getter)]
+    pub fn tolerance(&self) -> f64 {
+        self.sim.model.newton.tolerance
+    }
+
     /// Simulated time (s) since load or reset.
     #[wasm_bindgen(getter)]
     pub fn time(&self) -> f64 {
@@ -444,8 +452,9 @@ impl JelloSim {
         stability::stable_dt(&self.sim.model, self.sim.model.integrator)
     }
 
-    /// Sets integrator and time step, and the springs' stiffness and damping (every kind) and
-    /// the point mass, by building a new model that keeps everything else; the state (positions,
+    /// Sets integrator, time step and the implicit integrators' tolerance (m/s; above 0, at most
+    /// `jello_core::implicit::MAX_TOLERANCE`), and the springs' stiffness and damping (every
+    /// kind) and the point mass, by building a new model that keeps everything else; the state (positions,
     /// velocities, time) carries on. Stiffness, damping and mass are shown as the first body's;
     /// one that differs from that is given to every body, one that does not leaves the bodies'
     /// own values alone (a scene's bodies may differ, and its kinds too). Clears a blow-up, so
@@ -459,37 +468,10 @@ impl JelloSim {
         stiffness: f64,
         damping: f64,
         mass: f64,
+        tolerance: f64,
     ) -> Result<(), JsError> {
-        let integrator = integrator.parse::<Integrator>().map_err(js_err)?;
-        let (k0, d0, m0) = (self.stiffness(), self.damping(), self.mass());
-        let mut bodies = self.sim.model.bodies().to_vec();
-        for body in &mut bodies {
-            let m = &mut body.material;
-            if stiffness != k0 {
-                m.stiffness = [stiffness; 3];
-            }
-            if damping != d0 {
-                m.damping = [damping; 3];
-            }
-            if mass != m0 {
-                m.mass = mass;
-            }
-        }
-        let model = self
-            .sim
-            .model
-            .to_builder()
-            .bodies(bodies)
-            .integrator(integrator)
-            .dt(dt)
-            .build()
-            .map_err(js_err)?;
-        let control = std::mem::take(&mut self.sim.control);
-        let state = self.sim.state.clone();
-        self.sim = Simulation::new(model, state);
-        self.sim.control = control;
-        self.blow_up = None;
-        Ok(())
+        self.try_set_parameters(integrator, dt, stiffness, damping, mass, tolerance)
+            .map_err(js_err)
     }
 
     /// Pulls points toward targets: point `points[i]` by a spring of stiffness `stiffness[i]`
@@ -645,6 +627,54 @@ impl JelloSim {
             ));
         }
         Ok(self.surface.vertex_point(&self.sim.model, v) as u32)
+    }
+
+    /// [`JelloSim::set_parameters`], its error as text (a `JsError` is made only in wasm).
+    fn try_set_parameters(
+        &mut self,
+        integrator: &str,
+        dt: f64,
+        stiffness: f64,
+        damping: f64,
+        mass: f64,
+        tolerance: f64,
+    ) -> Result<(), String> {
+        let integrator = integrator
+            .parse::<Integrator>()
+            .map_err(|e| e.to_string())?;
+        let (k0, d0, m0) = (self.stiffness(), self.damping(), self.mass());
+        let mut bodies = self.sim.model.bodies().to_vec();
+        for body in &mut bodies {
+            let m = &mut body.material;
+            if stiffness != k0 {
+                m.stiffness = [stiffness; 3];
+            }
+            if damping != d0 {
+                m.damping = [damping; 3];
+            }
+            if mass != m0 {
+                m.mass = mass;
+            }
+        }
+        let model = self
+            .sim
+            .model
+            .to_builder()
+            .bodies(bodies)
+            .integrator(integrator)
+            .dt(dt)
+            .newton(Newton {
+                tolerance,
+                ..self.sim.model.newton
+            })
+            .build()
+            .map_err(|e| e.to_string())?;
+        let control = std::mem::take(&mut self.sim.control);
+        let state = self.sim.state.clone();
+        self.sim = Simulation::new(model, state);
+        self.sim.control = control;
+        self.blow_up = None;
+        Ok(())
     }
 
     fn try_set_pulls(
@@ -862,8 +892,15 @@ mod tests {
         let mut s = JelloSim::try_load(STACK, "stack.toml").unwrap();
         assert!(s.sim.to_world().is_err());
         s.step(50);
-        s.set_parameters("RK4", 0.0005, s.stiffness(), s.damping(), s.mass())
-            .unwrap();
+        s.set_parameters(
+            "RK4",
+            0.0005,
+            s.stiffness(),
+            s.damping(),
+            s.mass(),
+            s.tolerance(),
+        )
+        .unwrap();
         let text = s.try_scene_text().unwrap();
         let again = JelloSim::try_load(&text, "saved.toml").unwrap();
         assert_eq!(again.sim.state.pos, s.sim.state.pos);
@@ -879,7 +916,7 @@ mod tests {
         let mut s = sim();
         assert_eq!(s.step(10), 10);
         let before = s.sim.state.clone();
-        s.set_parameters("symplectic", 0.0002, 300.0, 0.5, 0.002)
+        s.set_parameters("symplectic", 0.0002, 300.0, 0.5, 0.002, 1e-6)
             .unwrap();
         assert_eq!(s.sim.state, before);
         let m = &s.sim.model;
@@ -893,6 +930,7 @@ mod tests {
             ),
             (0.0002, [300.0; 3], [0.5; 3], 0.002)
         );
+        assert_eq!(s.tolerance(), 1e-6);
         assert!(m.plane.is_some() && m.field.is_some());
         s.reset();
         assert_eq!(s.sim.model.dt, 0.0005);
@@ -900,9 +938,23 @@ mod tests {
     }
 
     #[test]
+    fn a_tolerance_out_of_range_changes_nothing() {
+        let mut s = sim();
+        s.set_parameters("BackwardEuler", 0.01, 200.0, 0.25, 1.0 / 512.0, 1e-5)
+            .unwrap();
+        let model = s.sim.model.clone();
+        for bad in [0.0, -1e-6, 0.2, f64::NAN, f64::INFINITY] {
+            let error = s.try_set_parameters("BackwardEuler", 0.02, 200.0, 0.25, 1.0 / 512.0, bad);
+            assert!(error.unwrap_err().contains("tolerance"), "{bad}");
+            assert_eq!(s.sim.model, model);
+        }
+        assert_eq!(s.tolerance(), 1e-5);
+    }
+
+    #[test]
     fn a_blow_up_stops_stepping_and_suggests_a_dt() {
         let mut s = sim();
-        s.set_parameters("RK4", 0.01, 200.0, 0.25, 1.0 / 512.0)
+        s.set_parameters("RK4", 0.01, 200.0, 0.25, 1.0 / 512.0, 1e-9)
             .unwrap();
         let taken = s.step(10_000);
         assert!(taken < 10_000);
