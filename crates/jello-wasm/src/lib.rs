@@ -454,12 +454,12 @@ impl JelloSim {
 
     /// Sets integrator, time step and the implicit integrators' tolerance (m/s; above 0, at most
     /// `jello_core::implicit::MAX_TOLERANCE`), and the springs' stiffness and damping (every
-    /// kind) and the point mass, by building a new model that keeps everything else; the state (positions,
-    /// velocities, time) carries on. Stiffness, damping and mass are shown as the first body's;
-    /// one that differs from that is given to every body, one that does not leaves the bodies'
-    /// own values alone (a scene's bodies may differ, and its kinds too). Clears a blow-up, so
-    /// stepping resumes from the last good state. Throws, and changes nothing, when a value is
-    /// out of range or the integrator is unknown.
+    /// kind) and the point mass, by building a new model that keeps everything else; the state
+    /// (positions, velocities, time) carries on. Stiffness, damping and mass are shown as the
+    /// first body's; one that differs from that is given to every body, one that does not leaves
+    /// the bodies' own values alone (a scene's bodies may differ, and its kinds too). Clears a
+    /// blow-up, so stepping resumes from the last good state. Throws, and changes nothing, when
+    /// a value is out of range or the integrator is unknown.
     #[wasm_bindgen(js_name = setParameters)]
     pub fn set_parameters(
         &mut self,

@@ -23,12 +23,12 @@
 //!
 //! Newton's method, from `v₀` shifted by each body's change of momentum where that lowers the
 //! residual (`shift_by_momentum`): each iteration solves `A·Δv = −M·g` with
-//! `A = M + h·D₀ + h²·K`, `K` the stiffness matrix of the springs (with a compressed spring's negative transverse stiffness;
-//! when that leaves `A` not positive definite, the masses in `A` are scaled up by a
-//! Levenberg–Marquardt shift until it is, and only when no shift up to ~40 will do is that
-//! stiffness clamped at zero), of the penalty springs the
-//! point is in at the iterate (with an obstacle's friction ties along its surface: their full
-//! stiffness while they hold, their sliding stiffness once they slide), of the contacts between
+//! `A = M + h·D₀ + h²·K`, `K` the stiffness matrix of the springs (with a compressed spring's
+//! negative transverse stiffness; when that leaves `A` not positive definite, the masses in `A`
+//! are scaled up by a Levenberg–Marquardt shift until it is, and only when no shift up to ~40
+//! will do is that stiffness clamped at zero), of the penalty springs the point is in at the
+//! iterate (with an obstacle's friction ties along its surface: their full stiffness while they
+//! hold, their sliding stiffness once they slide), of the contacts between
 //! bodies at the iterate (each pair of overlapping balls a pushing spring), of the
 //! pulls and of the field (the symmetric part of minus its gradient, made positive
 //! semi-definite), by conjugate gradients preconditioned with a multigrid cycle over aggregates
