@@ -319,7 +319,8 @@ fn blow_up_exits_3_and_saves_nothing() {
 /// stops there, saving nothing. More halvings than the core allows are refused.
 #[test]
 fn implicit_steps_that_fail_are_cut_back_and_said() {
-    let world = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/worlds/washingMachine.w");
+    let world =
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/worlds/washingMachine.w");
     if !world.is_file() {
         eprintln!(
             "skipping: {} is absent (the shared world corpus is not here)",
