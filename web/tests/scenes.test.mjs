@@ -143,6 +143,12 @@ describe('scenes in the viewer', () => {
   test('dragging a point of one body pulls that body, not the others', async () => {
     const { page, done } = await open();
     await page.keyboard.press('p');
+    // Paused for good (a state the worker sent before the pause may still arrive), and drawn:
+    // the point is found where the press will look for it.
+    await page.evaluate(async () => {
+      await window.jello.settled();
+      await new Promise(requestAnimationFrame);
+    });
     // The top cube's point nearest the camera, on the skin the ray picks.
     const grab = await page.evaluate(() => {
       const app = window.jello;
