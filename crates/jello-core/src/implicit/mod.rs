@@ -517,12 +517,7 @@ fn backward_euler(
     // times the force on them, which internal forces do not change): take the small mean
     // residual the tolerance allows out of their velocities, so that internal forces conserve
     // momentum to rounding rather than to the tolerance.
-    let (mut mg, mut m) = (Vec3::ZERO, 0.0);
-    for ((&g, &mass), &free) in s.g.iter().zip(&s.mass).zip(&s.free) {
-        mg += g * (mass * free);
-        m += mass * free;
-    }
-    let shift = if m > 0.0 { mg / m } else { Vec3::ZERO };
+    let shift = mean_residual(s, 0..s.g.len());
     for ((((np, nv), &x), &v), &free) in next_pos
         .iter_mut()
         .zip(next_vel.iter_mut())
@@ -656,19 +651,8 @@ fn shift_by_momentum(
     norm2: f64,
 ) -> f64 {
     for body in model.bodies() {
-        let points = body.points();
-        let (mut momentum, mut mass) = (Vec3::ZERO, 0.0);
-        for p in points.clone() {
-            let m = s.mass[p] * s.free[p];
-            momentum += s.g[p] * m;
-            mass += m;
-        }
-        let shift = if mass > 0.0 {
-            momentum / -mass
-        } else {
-            Vec3::ZERO
-        };
-        for p in points {
+        let shift = -mean_residual(s, body.points());
+        for p in body.points() {
             s.dv[p] = shift * s.free[p];
         }
     }
@@ -679,6 +663,21 @@ fn shift_by_momentum(
         shifted
     } else {
         norm2
+    }
+}
+
+/// The mass-weighted mean residual `Σ m·g / Σ m` of the moving points among `points` (zero
+/// when none moves).
+fn mean_residual(s: &ImplicitScratch, points: std::ops::Range<usize>) -> Vec3 {
+    let (mut mg, mut m) = (Vec3::ZERO, 0.0);
+    for p in points {
+        mg += s.g[p] * (s.mass[p] * s.free[p]);
+        m += s.mass[p] * s.free[p];
+    }
+    if m > 0.0 {
+        mg / m
+    } else {
+        Vec3::ZERO
     }
 }
 
