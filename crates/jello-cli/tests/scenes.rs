@@ -657,3 +657,67 @@ fn tolerance_given_to_a_scene_run_is_saved_and_kept() {
     );
     assert!(!t.path("e.toml").exists());
 }
+
+/// `jello create` writes `--tolerance` and `--cutbacks` into a scene's `[simulation]`, where a
+/// run takes them; it refuses them for an explicit integrator, out of range, and for a `.w`
+/// world (which has no place for them), writing nothing.
+#[test]
+fn create_writes_the_tolerance_and_cutbacks_of_a_scene() {
+    let t = TempDir::new("create-tolerance");
+    let cube = [
+        "create",
+        "c.toml",
+        "--cube",
+        "3",
+        "--integrator",
+        "SDIRK2",
+        "--dt",
+        "0.01",
+    ];
+    t.jello(&[&cube[..], &["--tolerance", "1e-4", "--cutbacks", "2"]].concat());
+    let scene = t.scene("c.toml");
+    assert_eq!(scene.simulation.tolerance, 1e-4);
+    assert_eq!(scene.simulation.cutbacks, 2);
+    let text = fs::read_to_string(t.path("c.toml")).unwrap();
+    assert!(text.contains("tolerance = 0.0001"), "{text}");
+    assert!(text.contains("cutbacks = 2"), "{text}");
+    // A run of the file keeps them (and saves them again).
+    t.jello(&["run", "c.toml", "--steps", "2", "--save", "d.toml", "-q"]);
+    let saved = t.scene("d.toml");
+    assert_eq!(saved.simulation.tolerance, 1e-4);
+    assert_eq!(saved.simulation.cutbacks, 2);
+
+    let refused: [(&[&str], &str); 5] = [
+        (
+            &["create", "e.toml", "--cube", "3", "--tolerance", "1e-4"],
+            "--tolerance: RK4 is explicit",
+        ),
+        (
+            &["create", "e.toml", "--cube", "3", "--cutbacks", "2"],
+            "--cutbacks: RK4 is explicit",
+        ),
+        (
+            &["create", "e.toml", "--cube", "3", "--tolerance", "0.5"],
+            "at most 0.1 m/s",
+        ),
+        (
+            &["create", "e.toml", "--cube", "3", "--cutbacks", "21"],
+            "--cutbacks",
+        ),
+        (
+            &[
+                "create",
+                "e.w",
+                "--integrator",
+                "BackwardEuler",
+                "--tolerance",
+                "1e-4",
+            ],
+            "--tolerance makes a scene",
+        ),
+    ];
+    for (args, message) in refused {
+        t.fails(args, 2, message);
+    }
+    assert!(!t.path("e.toml").exists() && !t.path("e.w").exists());
+}

@@ -12,7 +12,7 @@ use jello_core::field_preset::parse_numbers;
 use jello_core::scene_file::RegionSpec;
 use jello_core::{defaults, Aabb, FieldPreset, Integrator, Lattice, Vec3, World};
 
-use super::{parse_integrator, parse_non_negative, parse_positive};
+use super::{parse_integrator, parse_non_negative, parse_positive, parse_tolerance};
 use crate::error::CliError;
 use jello_io::{check_new_output, is_scene, write_atomic};
 
@@ -31,6 +31,15 @@ pub struct CreateArgs {
     /// Time step (s).
     #[arg(long, value_parser = parse_positive, default_value_t = defaults::DT)]
     pub dt: f64,
+    /// Scene, implicit integrators: the residual each step is solved to (m/s per point, times
+    /// the fastest point's speed when that is above 1 m/s; at most 0.1) [default: 1e-9].
+    #[arg(long, value_name = "M/S", value_parser = parse_tolerance)]
+    pub tolerance: Option<f64>,
+    /// Scene, implicit integrators: how many times a step whose solve fails may be halved
+    /// before the run stops [default: 6].
+    #[arg(long, value_name = "N",
+          value_parser = clap::value_parser!(u32).range(0..=jello_core::implicit::MAX_CUTBACKS as i64))]
+    pub cutbacks: Option<u32>,
     /// Simulation steps per displayed frame (the `n` of the file).
     #[arg(short = 'n', long, default_value_t = defaults::STEPS_PER_FRAME, value_parser = clap::value_parser!(u32).range(1..))]
     pub steps_per_frame: u32,
@@ -338,6 +347,8 @@ pub fn create(args: CreateArgs, matches: &clap::ArgMatches) -> Result<(), CliErr
         ("--box", !args.solid_box.is_empty()),
         ("--gravity", args.gravity.is_some()),
         ("--bounds", args.bounds.is_some()),
+        ("--tolerance", args.tolerance.is_some()),
+        ("--cutbacks", args.cutbacks.is_some()),
     ];
     if let Some((flag, _)) = scene_only.iter().find(|(_, given)| *given) {
         return Err(CliError::usage(format!(

@@ -13,6 +13,7 @@ use jello_core::scene_file::{
 use jello_core::{Aabb, TriMesh, Vec3};
 
 use super::create::CreateArgs;
+use super::require_implicit;
 use crate::error::CliError;
 use jello_io::{read_bounded, write_atomic};
 
@@ -68,6 +69,15 @@ fn per_body<T: Clone>(
 pub fn create_scene(args: &CreateArgs, matches: &ArgMatches) -> Result<(), CliError> {
     let out = &args.out;
     let out_name = out.display().to_string();
+    // Only implicit methods solve their steps to a tolerance (and cut them back).
+    for (flag, given) in [
+        ("--tolerance", args.tolerance.is_some()),
+        ("--cutbacks", args.cutbacks.is_some()),
+    ] {
+        if given {
+            require_implicit(args.integrator, flag)?;
+        }
+    }
     if !args.drag.is_empty() || args.scale != 1.0 {
         return Err(CliError::usage(
             "--drag and --scale shape the classic world's cube; in a scene use --cube N --size S",
@@ -229,11 +239,14 @@ pub fn create_scene(args: &CreateArgs, matches: &ArgMatches) -> Result<(), CliEr
         }
     }));
     let mut scene = SceneFile::new(bodies);
+    let defaults = Settings::default();
     scene.simulation = Settings {
         integrator: args.integrator.name().to_string(),
         dt: args.dt,
         steps_per_frame: args.steps_per_frame,
-        ..Settings::default()
+        tolerance: args.tolerance.unwrap_or(defaults.tolerance),
+        cutbacks: args.cutbacks.unwrap_or(defaults.cutbacks),
+        ..defaults
     };
     scene.collision = Collision {
         stiffness: args.k_collision,
