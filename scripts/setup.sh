@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
-# Makes sure what `make test` needs is here: cargo with rustfmt and clippy (added when missing),
-# and a Vulkan loader with a driver for the GPU backend's tests (Mesa's lavapipe, which runs the
-# shaders on the CPU, installed from Debian when there is no Vulkan driver at all).
+# Makes sure what `make test` needs is here: cargo with rustfmt and clippy and the wasm32 target
+# (added when missing), and a Vulkan loader with a driver for the GPU backend's tests (Mesa's
+# lavapipe, which runs the shaders on the CPU, installed from Debian when there is no Vulkan
+# driver at all).
 set -euo pipefail
 export PATH="$HOME/.cargo/bin:$PATH"
 if ! command -v cargo >/dev/null 2>&1; then
@@ -12,6 +13,9 @@ if command -v rustup >/dev/null 2>&1; then
   for component in rustfmt clippy; do
     rustup component list --installed 2>/dev/null | grep -q "^$component" || rustup component add "$component"
   done
+  # `make test` lints the browser core for wasm32 before scripts/web.sh builds it.
+  rustup target list --installed | grep -qx wasm32-unknown-unknown \
+    || rustup target add wasm32-unknown-unknown
 fi
 
 # A Vulkan driver: any (a GPU's), else lavapipe.
