@@ -589,7 +589,7 @@ fn implicit_cube(t: &TempDir) {
 }
 
 /// `--cutbacks` on a scene: saved into the scene's `[simulation]`, and the saved value is what a
-/// later run of that file uses when the flag is not given.
+/// later run of that file uses when the flag is not given; refused for an explicit integrator.
 #[test]
 fn cutbacks_given_to_a_scene_run_are_saved_and_kept() {
     let t = TempDir::new("cutbacks");
@@ -621,6 +621,24 @@ fn cutbacks_given_to_a_scene_run_are_saved_and_kept() {
         "-q",
     ]);
     assert_eq!(t.scene("c2.toml").simulation.cutbacks, 3);
+    // Only implicit methods cut steps back: refused for an explicit one, nothing saved.
+    t.fails(
+        &[
+            "run",
+            "c.toml",
+            "--steps",
+            "2",
+            "--integrator",
+            "RK4",
+            "--cutbacks",
+            "3",
+            "--save",
+            "e.toml",
+        ],
+        2,
+        "--cutbacks: RK4 is explicit",
+    );
+    assert!(!t.path("e.toml").exists());
 }
 
 /// `--tolerance` on a scene: saved into the scene's `[simulation]` and kept by a later run of

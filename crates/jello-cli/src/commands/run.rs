@@ -86,6 +86,7 @@ pub struct RunArgs {
 pub fn run(args: RunArgs) -> Result<(), CliError> {
     let (mut sim, source) = load(&args.world, args.integrator, args.dt)?;
     if let Some(n) = args.cutbacks {
+        require_implicit(sim.model.integrator, "--cutbacks")?;
         sim.model.newton.cutbacks = n;
     }
     if let Some(tolerance) = args.tolerance {
