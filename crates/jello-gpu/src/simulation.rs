@@ -157,12 +157,11 @@ pub struct GpuSimulation {
     deepest: f64,
     /// A uniform field's force, added to every control force.
     uniform_field: Vec3,
-    /// Simulated time (s) and steps, as the core counts them. Pins on paths are placed by the
-    /// time, from where they were at the time of the state last loaded: change it with
-    /// [`GpuSimulation::set_state`], not by assigning it.
-    pub time: f64,
-    /// Steps taken since the state was loaded.
-    pub steps: u64,
+    /// Simulated time (s), as the core counts it. Pins on paths are placed by it, so it changes
+    /// only by stepping and through [`GpuSimulation::set_state`].
+    time: f64,
+    /// Steps taken, as the core counts them (the loaded state's, plus those since).
+    steps: u64,
 }
 
 impl GpuSimulation {
@@ -652,6 +651,16 @@ impl GpuSimulation {
             self.deepest = self.deepest.max(f32::from_bits(deepest) as f64);
         }
         Ok(unsound == 0)
+    }
+
+    /// Simulated time (s) of the state on the device, as the core counts it.
+    pub fn time(&self) -> f64 {
+        self.time
+    }
+
+    /// Steps of the state on the device, as the core counts them.
+    pub fn steps(&self) -> u64 {
+        self.steps
     }
 
     /// The deepest any point has been into a wall, the plane or an obstacle at the end of a step

@@ -96,10 +96,10 @@ impl JelloGpu {
         let shared = Rc::clone(&self.shared);
         future_to_promise(async move {
             let mut gpu = Shared::take(&shared)?;
-            let start = gpu.steps;
+            let start = gpu.steps();
             let stepped = gpu.step_async(n as u64).await;
             let read = gpu.read_state_async().await;
-            let taken = (gpu.steps - start) as u32;
+            let taken = (gpu.steps() - start) as u32;
             shared.borrow_mut().gpu = Some(gpu);
             let blow_up = match stepped {
                 Ok(()) => None,
