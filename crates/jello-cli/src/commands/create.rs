@@ -12,7 +12,9 @@ use jello_core::field_preset::parse_numbers;
 use jello_core::scene_file::RegionSpec;
 use jello_core::{defaults, Aabb, FieldPreset, Integrator, Lattice, Vec3, World};
 
-use super::{parse_integrator, parse_non_negative, parse_positive, parse_tolerance};
+use super::{
+    cutbacks_range, parse_integrator, parse_non_negative, parse_positive, parse_tolerance,
+};
 use crate::error::CliError;
 use jello_io::{check_new_output, is_scene, write_atomic};
 
@@ -37,8 +39,7 @@ pub struct CreateArgs {
     pub tolerance: Option<f64>,
     /// Scene, implicit integrators: how many times a step whose solve fails may be halved
     /// before the run stops [default: 6].
-    #[arg(long, value_name = "N",
-          value_parser = clap::value_parser!(u32).range(0..=jello_core::implicit::MAX_CUTBACKS as i64))]
+    #[arg(long, value_name = "N", value_parser = cutbacks_range())]
     pub cutbacks: Option<u32>,
     /// Simulation steps per displayed frame (the `n` of the file).
     #[arg(short = 'n', long, default_value_t = defaults::STEPS_PER_FRAME, value_parser = clap::value_parser!(u32).range(1..))]

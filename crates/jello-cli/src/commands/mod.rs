@@ -44,6 +44,11 @@ pub fn parse_tolerance(s: &str) -> Result<f64, String> {
     }
 }
 
+/// The values clap takes for `--cutbacks`: 0 to [`jello_core::implicit::MAX_CUTBACKS`] halvings.
+pub fn cutbacks_range() -> clap::builder::RangedI64ValueParser<u32> {
+    clap::value_parser!(u32).range(0..=jello_core::implicit::MAX_CUTBACKS as i64)
+}
+
 /// A usage error unless `integrator` is implicit: `flag` only means something to those.
 pub fn require_implicit(
     integrator: jello_core::Integrator,
@@ -54,7 +59,7 @@ pub fn require_implicit(
     } else {
         Err(crate::error::CliError::usage(format!(
             "{flag}: {integrator} is explicit; only the implicit integrators (BackwardEuler, \
-             SDIRK2) solve their steps to a tolerance"
+             SDIRK2) solve their steps to a tolerance, and cut back those that fail"
         )))
     }
 }

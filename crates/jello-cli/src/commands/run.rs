@@ -7,7 +7,9 @@ use clap::Args;
 use jello_core::diagnostics::{energy, max_penetration};
 use jello_core::Integrator;
 
-use super::{parse_integrator, parse_positive, parse_tolerance, require_implicit, Device};
+use super::{
+    cutbacks_range, parse_integrator, parse_positive, parse_tolerance, require_implicit, Device,
+};
 use crate::error::CliError;
 use crate::export::GlbExport;
 use crate::frames::{FrameFormat, FrameWriter};
@@ -43,8 +45,7 @@ pub struct RunArgs {
     /// Implicit integrators: how many times a step whose solve fails may be halved (taken again
     /// as 2, 4, … 2^N substeps of the same method) before the run stops; 0 stops at once
     /// [default: the scene file's `cutbacks`, else 6].
-    #[arg(long, value_name = "N",
-          value_parser = clap::value_parser!(u32).range(0..=jello_core::implicit::MAX_CUTBACKS as i64))]
+    #[arg(long, value_name = "N", value_parser = cutbacks_range())]
     pub cutbacks: Option<u32>,
     /// Implicit integrators: the residual each step is solved to, per point (m/s, times the
     /// fastest point's speed when that is above 1 m/s; at most 0.1). Looser is faster: 1e-5
