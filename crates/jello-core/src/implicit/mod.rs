@@ -405,13 +405,15 @@ impl ImplicitScratch {
             .build(model, &self.spring_pairs, self.pair_rows.capacity());
     }
 
-    /// The dampers at `x0` (the step's start): the springs' directions and the contacts each
+    /// The dampers at `x0` (the step's start): the springs' directions (also into the stencil
+    /// matrix, whose product gives the dampers' force in each residual) and the contacts each
     /// point is in.
     fn start_dampers(&mut self, model: &Model, x0: &[Vec3]) {
-        for (row, u) in self.rows.iter().zip(self.start_dir.iter_mut()) {
+        for (s, (row, u)) in self.rows.iter().zip(self.start_dir.iter_mut()).enumerate() {
             let d = x0[row.a as usize] - x0[row.b as usize];
             let l = d.length();
             *u = if l > 0.0 { d / l } else { Vec3::ZERO };
+            self.springs.set_damper(s, *u, row.d);
         }
         for ((d, &p), &free) in self.start_damping.iter_mut().zip(x0).zip(&self.free) {
             *d = [0.0; 6];
@@ -850,7 +852,11 @@ fn residual(
     // The dampers' force −D₀·v, into the residual buffer first.
     let mut g = std::mem::take(if trial { &mut s.g_trial } else { &mut s.g });
     let v = if trial { &s.trial } else { &s.v };
-    damper_force(control, s, v, &mut g);
+    s.springs.damper_force(&s.start_damping, v, &mut g);
+    for pull in &control.pulls {
+        let p = pull.point as usize;
+        g[p] -= v[p] * pull.damping;
+    }
     let (ax, ay, az) = (s.acc.x(), s.acc.y(), s.acc.z());
     for i in 0..g.len() {
         let a = Vec3::new(ax[i], ay[i], az[i]) + g[i] * (s.free[i] / s.mass[i]);
@@ -870,23 +876,6 @@ fn residual(
         norm
     } else {
         f64::INFINITY
-    }
-}
-
-/// `out = −D₀·v`: the dampers' force at velocities `v` (N).
-fn damper_force(control: &Control, s: &ImplicitScratch, v: &[Vec3], out: &mut [Vec3]) {
-    for ((o, d), &v) in out.iter_mut().zip(&s.start_damping).zip(v) {
-        *o = sym_mul(d, v) * -1.0;
-    }
-    for (row, &u) in s.rows.iter().zip(&s.start_dir) {
-        let (a, b) = (row.a as usize, row.b as usize);
-        let f = u * (row.d * u.dot(v[a] - v[b]));
-        out[a] -= f;
-        out[b] += f;
-    }
-    for pull in &control.pulls {
-        let p = pull.point as usize;
-        out[p] -= v[p] * pull.damping;
     }
 }
 

@@ -71,6 +71,10 @@ pub(super) struct SpringMatrix {
     slot: Vec<u32>,
     /// The blocks' six components (`[xx, yy, zz, xy, xz, yz]`), each `16·n` long.
     blocks: [Vec<f64>; 6],
+    /// The springs' dampers by the same slots: the direction `u` (three components) and the
+    /// damping `d` of the block `d·uuᵀ`, kept apart so that the dampers' force is computed as
+    /// the force routine computes it, `u·(d·(u·Δv))`.
+    dampers: [Vec<f64>; 4],
     /// `x` and `A·x` as structure of arrays.
     x: [Vec<f64>; 3],
     y: [Vec<f64>; 3],
@@ -91,6 +95,7 @@ impl SpringMatrix {
             rank: Vec::with_capacity(model.spring_count()),
             slot: Vec::with_capacity(model.spring_count()),
             blocks: std::array::from_fn(|_| vec![0.0; 16 * n]),
+            dampers: std::array::from_fn(|_| vec![0.0; 16 * n]),
             x: std::array::from_fn(|_| vec![0.0; n]),
             y: std::array::from_fn(|_| vec![0.0; n]),
             forces: Vec::new(),
@@ -140,6 +145,7 @@ impl SpringMatrix {
             return;
         }
         self.blocks.iter_mut().for_each(|b| b.fill(0.0));
+        self.dampers.iter_mut().for_each(|b| b.fill(0.0));
         // The slots are distinct: mark each with its spring, then read them in order.
         let mut spring_at = vec![u32::MAX; 16 * self.n];
         for (j, &slot) in self.listed.iter().enumerate() {
@@ -167,8 +173,33 @@ impl SpringMatrix {
         }
     }
 
+    /// Sets the damper of spring `s` (its place in slot order): direction `u`, damping `d`.
+    pub fn set_damper(&mut self, s: usize, u: Vec3, d: f64) {
+        let slot = self.slot[s] as usize;
+        let [ux, uy, uz, dd] = &mut self.dampers;
+        (ux[slot], uy[slot], uz[slot], dd[slot]) = (u.x, u.y, u.z, d);
+    }
+
     /// `y = (own·x + springs·x)`, then scaled by `free` per point.
     pub fn apply(&mut self, own: &[Sym], free: &[f64], x: &[Vec3], y: &mut [Vec3]) {
+        self.product(Layer::Blocks, own, x);
+        let [y0, y1, y2] = &self.y;
+        for (i, (y, &f)) in y.iter_mut().zip(free).enumerate() {
+            *y = Vec3::new(y0[i], y1[i], y2[i]) * f;
+        }
+    }
+
+    /// `y = −(own·v + dampers·v)`: the force of the dampers (and of `own`) at velocities `v`.
+    pub fn damper_force(&mut self, own: &[Sym], v: &[Vec3], y: &mut [Vec3]) {
+        self.product(Layer::Dampers, own, v);
+        let [y0, y1, y2] = &self.y;
+        for (i, y) in y.iter_mut().enumerate() {
+            *y = Vec3::new(-y0[i], -y1[i], -y2[i]);
+        }
+    }
+
+    /// `self.y = own·x + (the layer's springs)·x`.
+    fn product(&mut self, layer: Layer, own: &[Sym], x: &[Vec3]) {
         {
             let [x0, x1, x2] = &mut self.x;
             for (i, v) in x.iter().enumerate() {
@@ -189,10 +220,14 @@ impl SpringMatrix {
         if self.forces.len() < ranges || self.forces.iter().any(|f| f[0].len() < room) {
             self.forces = vec![std::array::from_fn(|_| vec![0.0; room]); ranges];
         }
-        let (blocks, xs, spans) = (&self.blocks, &self.x, &self.spans[..]);
+        let (xs, spans) = (&self.x, &self.spans[..]);
+        let layer = match layer {
+            Layer::Blocks => Springs::Blocks(&self.blocks),
+            Layer::Dampers => Springs::Dampers(&self.dampers),
+        };
         let [y0, y1, y2] = &mut self.y;
         let rows = |start: usize, out: [&mut [f64]; 3], forces: &mut [Vec<f64>; 3]| {
-            rows(spans, n, blocks, own, xs, start, out, forces);
+            rows(spans, n, layer, own, xs, start, out, forces);
         };
         #[cfg(feature = "parallel")]
         if ranges > 1 {
@@ -208,11 +243,23 @@ impl SpringMatrix {
         }
         #[cfg(not(feature = "parallel"))]
         rows(0, [y0, y1, y2], &mut self.forces[0]);
-        let [y0, y1, y2] = &self.y;
-        for (i, (y, &f)) in y.iter_mut().zip(free).enumerate() {
-            *y = Vec3::new(y0[i], y1[i], y2[i]) * f;
-        }
     }
+}
+
+/// Which springs' matrix a product takes.
+#[derive(Clone, Copy, Debug)]
+enum Layer {
+    /// Their blocks of `A`.
+    Blocks,
+    /// Their dampers.
+    Dampers,
+}
+
+/// A layer's arrays.
+#[derive(Clone, Copy)]
+enum Springs<'a> {
+    Blocks(&'a [Vec<f64>; 6]),
+    Dampers(&'a [Vec<f64>; 4]),
 }
 
 /// Rows `start .. start + out.len()` of `own·x + springs·x` into `out` (see the module
@@ -226,7 +273,7 @@ impl SpringMatrix {
 fn rows(
     spans: &[Span],
     n: usize,
-    blocks: &[Vec<f64>; 6],
+    springs: Springs,
     own: &[Sym],
     x: &[Vec<f64>; 3],
     start: usize,
@@ -239,9 +286,9 @@ fn rows(
         let v = sym_mul(&own[p], Vec3::new(x[0][p], x[1][p], x[2][p]));
         (o0[p - start], o1[p - start], o2[p - start]) = (v.x, v.y, v.z);
     }
-    let block = |at: usize, len: usize| -> [&[f64]; 6] {
-        std::array::from_fn(|c| &blocks[c][at..at + len])
-    };
+    fn part<const C: usize>(arrays: &[Vec<f64>; C], at: usize, len: usize) -> [&[f64]; C] {
+        std::array::from_fn(|c| &arrays[c][at..at + len])
+    }
     let xs =
         |at: usize, len: usize| -> [&[f64]; 3] { std::array::from_fn(|c| &x[c][at..at + len]) };
     let [f0, f1, f2] = forces;
@@ -267,7 +314,11 @@ fn rows(
             }
             let len = q1 - q0;
             let f = [&mut f0[..len], &mut f1[..len], &mut f2[..len]];
-            spring_forces(f, xs(q0, len), xs(q0 + o, len), block(e * n + q0, len));
+            let (x, xn, at) = (xs(q0, len), xs(q0 + o, len), e * n + q0);
+            match springs {
+                Springs::Blocks(b) => spring_forces(f, x, xn, part(b, at, len)),
+                Springs::Dampers(d) => damper_forces(f, x, xn, part(d, at, len)),
+            }
             // Their first ends among the rows…
             let a = q0.max(lo);
             if a < q1 {
@@ -309,6 +360,24 @@ crate::simd::multiversion! {
             f0[i] = bxx[i] * dx + bxy[i] * dy + bxz[i] * dz;
             f1[i] = bxy[i] * dx + byy[i] * dy + byz[i] * dz;
             f2[i] = bxz[i] * dx + byz[i] * dy + bzz[i] * dz;
+        }
+    }
+}
+
+crate::simd::multiversion! {
+    /// `f = u·(d·(u·(v − vn)))` element by element: a damper's force, `u` its direction and
+    /// `d` its damping (`ud = [ux, uy, uz, d]`).
+    fn damper_forces(f: [&mut [f64]; 3], v: [&[f64]; 3], vn: [&[f64]; 3], ud: [&[f64]; 4]) {
+        let [f0, f1, f2] = f;
+        let n = f0.len();
+        let (f1, f2) = (&mut f1[..n], &mut f2[..n]);
+        let (v0, v1, v2) = (&v[0][..n], &v[1][..n], &v[2][..n]);
+        let (n0, n1, n2) = (&vn[0][..n], &vn[1][..n], &vn[2][..n]);
+        let (ux, uy, uz, d) = (&ud[0][..n], &ud[1][..n], &ud[2][..n], &ud[3][..n]);
+        for i in 0..n {
+            let (dx, dy, dz) = (v0[i] - n0[i], v1[i] - n1[i], v2[i] - n2[i]);
+            let w = d[i] * (ux[i] * dx + uy[i] * dy + uz[i] * dz);
+            (f0[i], f1[i], f2[i]) = (ux[i] * w, uy[i] * w, uz[i] * w);
         }
     }
 }
@@ -383,6 +452,26 @@ mod tests {
             );
         }
 
+        // The dampers' force, from the same springs.
+        let mut next = values(19);
+        let dampers: Vec<(Vec3, f64)> = springs
+            .iter()
+            .map(|_| (Vec3::new(next(), next(), next()), next()))
+            .collect();
+        for (i, &(u, d)) in dampers.iter().enumerate() {
+            matrix.set_damper(matrix.rank(i), u, d);
+        }
+        let mut want: Vec<Vec3> = own.iter().zip(&x).map(|(m, &x)| sym_mul(m, x)).collect();
+        for (&[a, b], &(u, d)) in springs.iter().zip(&dampers) {
+            let f = u * (d * u.dot(x[a] - x[b]));
+            want[a] += f;
+            want[b] -= f;
+        }
+        matrix.damper_force(&own, &x, &mut y);
+        for p in 0..n {
+            assert!((y[p] + want[p]).max_abs() < 1e-12, "point {p}: {:?}", y[p]);
+        }
+
         // A spring list that changes leaves no stale block behind.
         matrix.begin();
         matrix.push(0, 2);
@@ -417,42 +506,41 @@ mod tests {
         let mut next = values(17);
         for s in 0..matrix.slot.len() {
             matrix.set(s, &std::array::from_fn(|_| next()));
+            matrix.set_damper(s, Vec3::new(next(), next(), next()), next());
         }
         let own: Vec<Sym> = (0..n).map(|_| std::array::from_fn(|_| next())).collect();
         let x: [Vec<f64>; 3] = std::array::from_fn(|_| (0..n).map(|_| next()).collect());
         let mut forces = std::array::from_fn(|_| vec![0.0; n]);
-        let rows_of = |range: std::ops::Range<usize>, forces: &mut [Vec<f64>; 3]| {
-            let mut out: [Vec<f64>; 3] = std::array::from_fn(|_| vec![0.0; range.len()]);
-            let [a, b, c] = &mut out;
-            let spans = &matrix.spans;
-            rows(
-                spans,
-                n,
-                &matrix.blocks,
-                &own,
-                &x,
-                range.start,
-                [a, b, c],
-                forces,
-            );
-            out
-        };
-        let whole = rows_of(0..n, &mut forces);
         let second = model.body(1).points().start;
-        for cuts in [
+        let cuts = [
             vec![1],
             vec![7, 8, 40],
             vec![second - 1, second + 3],
             vec![n / 2],
-        ] {
-            let mut bounds = vec![0];
-            bounds.extend(cuts);
-            bounds.push(n);
-            for w in bounds.windows(2) {
-                let part = rows_of(w[0]..w[1], &mut forces);
-                for (c, (part, whole)) in part.iter().zip(&whole).enumerate() {
-                    for (i, (a, b)) in part.iter().zip(&whole[w[0]..w[1]]).enumerate() {
-                        assert_eq!(a.to_bits(), b.to_bits(), "row {}, axis {c}", w[0] + i);
+        ];
+        let layers = [
+            Springs::Blocks(&matrix.blocks),
+            Springs::Dampers(&matrix.dampers),
+        ];
+        for layer in layers {
+            let mut rows_of = |range: std::ops::Range<usize>| {
+                let mut out: [Vec<f64>; 3] = std::array::from_fn(|_| vec![0.0; range.len()]);
+                let [a, b, c] = &mut out;
+                let (spans, start) = (&matrix.spans, range.start);
+                rows(spans, n, layer, &own, &x, start, [a, b, c], &mut forces);
+                out
+            };
+            let whole = rows_of(0..n);
+            for cuts in &cuts {
+                let mut bounds = vec![0];
+                bounds.extend(cuts);
+                bounds.push(n);
+                for w in bounds.windows(2) {
+                    let part = rows_of(w[0]..w[1]);
+                    for (c, (part, whole)) in part.iter().zip(&whole).enumerate() {
+                        for (i, (a, b)) in part.iter().zip(&whole[w[0]..w[1]]).enumerate() {
+                            assert_eq!(a.to_bits(), b.to_bits(), "row {}, axis {c}", w[0] + i);
+                        }
                     }
                 }
             }
