@@ -362,6 +362,18 @@ impl Body {
         self.for_each_spring_entry(|spring, _| f(spring));
     }
 
+    /// True when [`Body::for_each_spring_entry`] lists the same springs for `other` as for this
+    /// body, at the same place in the model: the same lattice, springs, factors, stiffnesses and
+    /// dampings (its mass, placement and skin may differ).
+    pub(crate) fn has_springs_of(&self, other: &Body) -> bool {
+        self.first == other.first
+            && self.lattice == other.lattice
+            && self.links == other.links
+            && self.table == other.table
+            && self.material.stiffness == other.material.stiffness
+            && self.material.damping == other.material.damping
+    }
+
     /// [`Body::for_each_spring`], also passing each spring's stencil entry (its index in
     /// [`crate::lattice::STENCIL`]).
     pub fn for_each_spring_entry(&self, mut f: impl FnMut(&Spring, usize)) {
