@@ -416,6 +416,9 @@ impl ImplicitScratch {
         for (j, row) in self.listed_rows.iter().enumerate() {
             self.rows[self.springs.rank(j)] = *row;
         }
+        for (s, r) in self.rows.iter().enumerate() {
+            self.springs.set_spring(s, r.rest, r.k, r.d);
+        }
         self.spring_pairs.clear();
         self.spring_pairs
             .extend(self.rows.iter().map(|r| [r.a, r.b]));
@@ -434,12 +437,7 @@ impl ImplicitScratch {
     /// matrix, whose product gives the dampers' force in each residual) and the contacts each
     /// point is in.
     fn start_dampers(&mut self, model: &Model, x0: &[Vec3]) {
-        for (s, (row, u)) in self.rows.iter().zip(self.start_dir.iter_mut()).enumerate() {
-            let d = x0[row.a as usize] - x0[row.b as usize];
-            let l = d.length();
-            *u = if l > 0.0 { d / l } else { Vec3::ZERO };
-            self.springs.set_damper(s, *u, row.d);
-        }
+        self.springs.start_dampers(x0, &mut self.start_dir);
         for ((d, &p), &free) in self.start_damping.iter_mut().zip(x0).zip(&self.free) {
             *d = [0.0; 6];
             if free == 0.0 {
@@ -1081,25 +1079,8 @@ fn assemble(
         *e = [0.0; 6];
         e[..3].fill(s.mass[i] * (1.0 + shift));
     }
-    for ((row, block), &u0) in s
-        .rows
-        .iter()
-        .zip(s.spring_blocks.iter_mut())
-        .zip(&s.start_dir)
-    {
-        let d = at(row.a as usize, &s.v) - at(row.b as usize, &s.v);
-        let l = d.length();
-        *block = [0.0; 6];
-        if l > 0.0 {
-            let transverse =
-                h2 * row.k * (1.0 - row.rest / l).max(if clamp { 0.0 } else { f64::MIN });
-            *block = spring_block(d / l, h2 * row.k, transverse);
-        }
-        add_outer(block, u0, h * row.d);
-    }
-    for (i, block) in s.spring_blocks.iter().enumerate() {
-        s.springs.set(i, block);
-    }
+    let floor = if clamp { 0.0 } else { f64::MIN };
+    s.springs.assemble(x0, &s.v, h, floor, &mut s.spring_blocks);
     // Penalty springs of walls, plane and obstacles where the iterate is, with the obstacles'
     // friction ties, their dampers as at the start, and pulls.
     let kc = model.k_collision;

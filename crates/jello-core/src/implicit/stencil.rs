@@ -66,15 +66,19 @@ pub(super) struct SpringMatrix {
     cursor: usize,
     changed: bool,
     /// Each listed spring's place in slot order, and the slots in that order: the solver keeps
-    /// its springs in slot order, so that setting their blocks writes each array in order.
+    /// its springs in slot order, and the blocks it reads back by spring
+    /// ([`SpringMatrix::assemble`]) come from each array in order.
     rank: Vec<u32>,
     slot: Vec<u32>,
     /// The blocks' six components (`[xx, yy, zz, xy, xz, yz]`), each `16·n` long.
     blocks: [Vec<f64>; 6],
-    /// The springs' dampers by the same slots: the direction `u` (three components) and the
-    /// damping `d` of the block `d·uuᵀ`, kept apart so that the dampers' force is computed as
-    /// the force routine computes it, `u·(d·(u·Δv))`.
+    /// The springs' dampers by the same slots: the direction `u` (three components) at the
+    /// step's start and the damping `d` of the block `d·uuᵀ`, kept apart so that the dampers'
+    /// force is computed as the force routine computes it, `u·(d·(u·Δv))`.
     dampers: [Vec<f64>; 4],
+    /// The springs' rest lengths and stiffnesses by the same slots (0 where there is none).
+    rest: Vec<f64>,
+    stiffness: Vec<f64>,
     /// `x` and `A·x` as structure of arrays.
     x: [Vec<f64>; 3],
     y: [Vec<f64>; 3],
@@ -96,6 +100,8 @@ impl SpringMatrix {
             slot: Vec::with_capacity(model.spring_count()),
             blocks: std::array::from_fn(|_| vec![0.0; 16 * n]),
             dampers: std::array::from_fn(|_| vec![0.0; 16 * n]),
+            rest: vec![0.0; 16 * n],
+            stiffness: vec![0.0; 16 * n],
             x: std::array::from_fn(|_| vec![0.0; n]),
             y: std::array::from_fn(|_| vec![0.0; n]),
             forces: Vec::new(),
@@ -146,6 +152,8 @@ impl SpringMatrix {
         }
         self.blocks.iter_mut().for_each(|b| b.fill(0.0));
         self.dampers.iter_mut().for_each(|b| b.fill(0.0));
+        self.rest.fill(0.0);
+        self.stiffness.fill(0.0);
         // The slots are distinct: mark each with its spring, then read them in order.
         let mut spring_at = vec![u32::MAX; 16 * self.n];
         for (j, &slot) in self.listed.iter().enumerate() {
@@ -160,13 +168,14 @@ impl SpringMatrix {
     }
 
     /// The place in slot order of the `j`-th listed spring: the solver keeps its springs in
-    /// that order, and [`SpringMatrix::set`] takes it.
+    /// that order, and [`SpringMatrix::set_spring`] takes it.
     pub fn rank(&self, j: usize) -> usize {
         self.rank[j] as usize
     }
 
     /// Sets the block of spring `s` (its place in slot order).
-    pub fn set(&mut self, s: usize, block: &Sym) {
+    #[cfg(test)]
+    fn set(&mut self, s: usize, block: &Sym) {
         let slot = self.slot[s] as usize;
         for (c, &v) in self.blocks.iter_mut().zip(block) {
             c[slot] = v;
@@ -174,10 +183,75 @@ impl SpringMatrix {
     }
 
     /// Sets the damper of spring `s` (its place in slot order): direction `u`, damping `d`.
-    pub fn set_damper(&mut self, s: usize, u: Vec3, d: f64) {
+    #[cfg(test)]
+    fn set_damper(&mut self, s: usize, u: Vec3, d: f64) {
         let slot = self.slot[s] as usize;
         let [ux, uy, uz, dd] = &mut self.dampers;
         (ux[slot], uy[slot], uz[slot], dd[slot]) = (u.x, u.y, u.z, d);
+    }
+
+    /// Sets spring `s` (its place in slot order): rest length, stiffness and damping.
+    pub fn set_spring(&mut self, s: usize, rest: f64, stiffness: f64, damping: f64) {
+        let slot = self.slot[s] as usize;
+        (self.rest[slot], self.stiffness[slot]) = (rest, stiffness);
+        self.dampers[3][slot] = damping;
+    }
+
+    /// The springs' directions at the step's start `x0` into the dampers (zero for a spring
+    /// of zero length), and into `directions` by spring (in slot order).
+    pub fn start_dampers(&mut self, x0: &[Vec3], directions: &mut [Vec3]) {
+        self.load_x(x0.iter().copied());
+        let (xs, n) = (&self.x, self.n);
+        let [ux, uy, uz, _] = &mut self.dampers;
+        for_each_run(&self.spans, |e, q, len, o| {
+            let at = e * n + q;
+            let u = [
+                &mut ux[at..at + len],
+                &mut uy[at..at + len],
+                &mut uz[at..at + len],
+            ];
+            spring_directions(u, part(xs, q, len), part(xs, q + o, len));
+        });
+        let [ux, uy, uz, _] = &self.dampers;
+        for (u, &slot) in directions.iter_mut().zip(&self.slot) {
+            let slot = slot as usize;
+            *u = Vec3::new(ux[slot], uy[slot], uz[slot]);
+        }
+    }
+
+    /// The springs' blocks of `A` at the end positions `x0 + h·v` (see
+    /// [`spring_blocks`]; `floor` bounds `1 − rest/l` from below), and into `blocks` by spring
+    /// (in slot order).
+    pub fn assemble(&mut self, x0: &[Vec3], v: &[Vec3], h: f64, floor: f64, blocks: &mut [Sym]) {
+        self.load_x(x0.iter().zip(v).map(|(&x, &v)| x + v * h));
+        let (xs, n) = (&self.x, self.n);
+        let (dampers, rest, stiffness) = (&self.dampers, &self.rest, &self.stiffness);
+        let [b0, b1, b2, b3, b4, b5] = &mut self.blocks;
+        for_each_run(&self.spans, |e, q, len, o| {
+            let at = e * n + q;
+            let b = [
+                &mut b0[at..at + len],
+                &mut b1[at..at + len],
+                &mut b2[at..at + len],
+                &mut b3[at..at + len],
+                &mut b4[at..at + len],
+                &mut b5[at..at + len],
+            ];
+            let springs = [&rest[at..at + len], &stiffness[at..at + len]];
+            let (x, xn) = (part(xs, q, len), part(xs, q + o, len));
+            spring_blocks(b, x, xn, part(dampers, at, len), springs, [h, floor]);
+        });
+        for (block, &slot) in blocks.iter_mut().zip(&self.slot) {
+            *block = std::array::from_fn(|c| self.blocks[c][slot as usize]);
+        }
+    }
+
+    /// `x` into the product's input.
+    fn load_x(&mut self, x: impl Iterator<Item = Vec3>) {
+        let [x0, x1, x2] = &mut self.x;
+        for (i, v) in x.enumerate() {
+            (x0[i], x1[i], x2[i]) = (v.x, v.y, v.z);
+        }
     }
 
     /// `y = (own·x + springs·x)`, then scaled by `free` per point.
@@ -200,12 +274,7 @@ impl SpringMatrix {
 
     /// `self.y = own·x + (the layer's springs)·x`.
     fn product(&mut self, layer: Layer, own: &[Sym], x: &[Vec3]) {
-        {
-            let [x0, x1, x2] = &mut self.x;
-            for (i, v) in x.iter().enumerate() {
-                (x0[i], x1[i], x2[i]) = (v.x, v.y, v.z);
-            }
-        }
+        self.load_x(x.iter().copied());
         let n = self.n;
         #[cfg(feature = "parallel")]
         let ranges = rayon::current_num_threads()
@@ -244,6 +313,24 @@ impl SpringMatrix {
         #[cfg(not(feature = "parallel"))]
         rows(0, [y0, y1, y2], &mut self.forces[0]);
     }
+}
+
+/// Calls `f(e, q, len, o)` for each run of slots of stencil entry `e` (offset `o`) that may hold
+/// a spring: its first ends `q .. q + len` of one body, whose second ends `q + o ..` are in the
+/// body too.
+fn for_each_run(spans: &[Span], mut f: impl FnMut(usize, usize, usize, usize)) {
+    for span in spans {
+        for (e, &o) in span.offset.iter().enumerate() {
+            if o != 0 && o < span.len {
+                f(e, span.first, span.len - o, o);
+            }
+        }
+    }
+}
+
+/// `arrays[c][at .. at + len]` for each `c`.
+fn part<const C: usize>(arrays: &[Vec<f64>; C], at: usize, len: usize) -> [&[f64]; C] {
+    std::array::from_fn(|c| &arrays[c][at..at + len])
 }
 
 /// Which springs' matrix a product takes.
@@ -285,9 +372,6 @@ fn rows(
     for p in start..end {
         let v = sym_mul(&own[p], Vec3::new(x[0][p], x[1][p], x[2][p]));
         (o0[p - start], o1[p - start], o2[p - start]) = (v.x, v.y, v.z);
-    }
-    fn part<const C: usize>(arrays: &[Vec<f64>; C], at: usize, len: usize) -> [&[f64]; C] {
-        std::array::from_fn(|c| &arrays[c][at..at + len])
     }
     let xs =
         |at: usize, len: usize| -> [&[f64]; 3] { std::array::from_fn(|c| &x[c][at..at + len]) };
@@ -378,6 +462,81 @@ crate::simd::multiversion! {
             let (dx, dy, dz) = (v0[i] - n0[i], v1[i] - n1[i], v2[i] - n2[i]);
             let w = d[i] * (ux[i] * dx + uy[i] * dy + uz[i] * dz);
             (f0[i], f1[i], f2[i]) = (ux[i] * w, uy[i] * w, uz[i] * w);
+        }
+    }
+}
+
+crate::simd::multiversion! {
+    /// `u = (x − xn)/|x − xn|` element by element (zero where `x = xn`).
+    fn spring_directions(u: [&mut [f64]; 3], x: [&[f64]; 3], xn: [&[f64]; 3]) {
+        let [u0, u1, u2] = u;
+        let n = u0.len();
+        let (u1, u2) = (&mut u1[..n], &mut u2[..n]);
+        let (x0, x1, x2) = (&x[0][..n], &x[1][..n], &x[2][..n]);
+        let (n0, n1, n2) = (&xn[0][..n], &xn[1][..n], &xn[2][..n]);
+        for i in 0..n {
+            let (dx, dy, dz) = (x0[i] - n0[i], x1[i] - n1[i], x2[i] - n2[i]);
+            let l = (dx * dx + dy * dy + dz * dz).sqrt();
+            (u0[i], u1[i], u2[i]) = if l > 0.0 {
+                (dx / l, dy / l, dz / l)
+            } else {
+                (0.0, 0.0, 0.0)
+            };
+        }
+    }
+}
+
+crate::simd::multiversion! {
+    /// Each spring's block of `A` (`[xx, yy, zz, xy, xz, yz]`), its ends at `x` and `xn`:
+    /// `axial·ûûᵀ + transverse·(I − ûûᵀ)`, `axial = h²·k`, `transverse = axial·max(1 − rest/l,
+    /// floor)` (zero for a spring of zero length), plus its damper `h·d·u₀u₀ᵀ`
+    /// (`damper = [u₀x, u₀y, u₀z, d]`, `springs = [rest, k]`, `hf = [h, floor]`). Zero where there is no spring (`k` and
+    /// `d` zero).
+    fn spring_blocks(
+        b: [&mut [f64]; 6],
+        x: [&[f64]; 3],
+        xn: [&[f64]; 3],
+        damper: [&[f64]; 4],
+        springs: [&[f64]; 2],
+        hf: [f64; 2],
+    ) {
+        let [b0, b1, b2, b3, b4, b5] = b;
+        let n = b0.len();
+        let (b1, b2, b3, b4, b5) = (&mut b1[..n], &mut b2[..n], &mut b3[..n], &mut b4[..n], &mut b5[..n]);
+        let (x0, x1, x2) = (&x[0][..n], &x[1][..n], &x[2][..n]);
+        let (n0, n1, n2) = (&xn[0][..n], &xn[1][..n], &xn[2][..n]);
+        let (u0, u1, u2, d) = (&damper[0][..n], &damper[1][..n], &damper[2][..n], &damper[3][..n]);
+        let (rest, k) = (&springs[0][..n], &springs[1][..n]);
+        let [h, floor] = hf;
+        let h2 = h * h;
+        for i in 0..n {
+            let (dx, dy, dz) = (x0[i] - n0[i], x1[i] - n1[i], x2[i] - n2[i]);
+            let l = (dx * dx + dy * dy + dz * dz).sqrt();
+            let axial = h2 * k[i];
+            let transverse = axial * (1.0 - rest[i] / l).max(floor);
+            let (ux, uy, uz) = (dx / l, dy / l, dz / l);
+            let c = axial - transverse;
+            let mut m = if l > 0.0 {
+                [
+                    transverse + c * ux * ux,
+                    transverse + c * uy * uy,
+                    transverse + c * uz * uz,
+                    0.0 + c * ux * uy,
+                    0.0 + c * ux * uz,
+                    0.0 + c * uy * uz,
+                ]
+            } else {
+                [0.0; 6]
+            };
+            let cd = h * d[i];
+            m[0] += cd * u0[i] * u0[i];
+            m[1] += cd * u1[i] * u1[i];
+            m[2] += cd * u2[i] * u2[i];
+            m[3] += cd * u0[i] * u1[i];
+            m[4] += cd * u0[i] * u2[i];
+            m[5] += cd * u1[i] * u2[i];
+            (b0[i], b1[i], b2[i]) = (m[0], m[1], m[2]);
+            (b3[i], b4[i], b5[i]) = (m[3], m[4], m[5]);
         }
     }
 }
@@ -486,6 +645,71 @@ mod tests {
         want[b] = x[b] - x[0];
         for p in 0..n {
             assert!((y[p] - want[p] * free[p]).max_abs() < 1e-15, "point {p}");
+        }
+    }
+
+    /// The blocks assembled by slot are each spring's block as [`super::super::spring_block`]
+    /// forms it with its damper at the start, to the bit (a spring of zero length too), and the
+    /// start directions are each spring's.
+    #[test]
+    fn blocks_by_slot_are_the_blocks_of_each_spring() {
+        use super::super::spring_block;
+        use super::super::sym::add_outer;
+        let model = two_bodies();
+        let n = model.point_count();
+        let mut matrix = SpringMatrix::new(&model);
+        let mut springs = Vec::new();
+        matrix.begin();
+        for body in model.bodies() {
+            let first = body.points().start;
+            body.for_each_spring_entry(|s, entry| {
+                matrix.push(first + s.a, entry);
+                springs.push([first + s.a, first + s.b]);
+            });
+        }
+        matrix.finish();
+        let mut next = values(23);
+        let values: Vec<[f64; 3]> = springs
+            .iter()
+            .map(|_| [1.0 + next(), 100.0 * (2.0 + next()), 1.0 + next()])
+            .collect();
+        for (i, &[rest, k, d]) in values.iter().enumerate() {
+            matrix.set_spring(matrix.rank(i), rest, k, d);
+        }
+        let mut random = || Vec3::new(next(), next(), next());
+        let mut x0: Vec<Vec3> = (0..n).map(|_| random()).collect();
+        let v: Vec<Vec3> = (0..n).map(|_| random()).collect();
+        let h = 0.1;
+        // The first spring has zero length at the start and at the end.
+        let [a, b] = springs[0];
+        x0[b] = x0[a];
+        let mut v = v;
+        v[b] = v[a];
+        let mut directions = vec![Vec3::ZERO; springs.len()];
+        matrix.start_dampers(&x0, &mut directions);
+        for floor in [f64::MIN, 0.0] {
+            let mut blocks = vec![[0.0; 6]; springs.len()];
+            matrix.assemble(&x0, &v, h, floor, &mut blocks);
+            for (i, (&[a, b], &[rest, k, d])) in springs.iter().zip(&values).enumerate() {
+                let s = matrix.rank(i);
+                let d0 = x0[a] - x0[b];
+                let l0 = d0.length();
+                let u0 = if l0 > 0.0 { d0 / l0 } else { Vec3::ZERO };
+                assert_eq!(directions[s], u0, "spring {i}");
+                let e = (x0[a] + v[a] * h) - (x0[b] + v[b] * h);
+                let l = e.length();
+                let mut want = [0.0; 6];
+                if l > 0.0 {
+                    let transverse = h * h * k * (1.0 - rest / l).max(floor);
+                    want = spring_block(e / l, h * h * k, transverse);
+                }
+                add_outer(&mut want, u0, h * d);
+                let bits = |m: &Sym| m.map(f64::to_bits);
+                assert_eq!(bits(&blocks[s]), bits(&want), "spring {i}, floor {floor}");
+                let slot = matrix.slot[s] as usize;
+                let by_slot: Sym = std::array::from_fn(|c| matrix.blocks[c][slot]);
+                assert_eq!(bits(&by_slot), bits(&want), "spring {i}'s slot");
+            }
         }
     }
 
