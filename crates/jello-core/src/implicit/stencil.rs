@@ -17,6 +17,12 @@
 //! (`−(B·(a − b))` is `B·(b − a)` to the bit): each block is read once, where reading it from
 //! each end cost the 16³ benchmark at 1/60 s 10–15 % more per step (blocks do not fit in L2),
 //! and the writes stay contiguous, where a loop over springs scatters them.
+//!
+//! The same slots hold each spring's rest length, stiffness, damping and direction at the step's
+//! start, from which the blocks are assembled at every Newton iteration, and the dampers' force
+//! of every residual is the same product over a second layer (`u·(d·(u·Δv))` a spring): loops
+//! over contiguous runs of slots that vectorise, where the loops over springs they replace
+//! gathered and scattered by index.
 
 use super::sym::{sym_mul, Sym};
 use crate::body::Body;
