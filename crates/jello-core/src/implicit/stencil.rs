@@ -494,10 +494,10 @@ crate::simd::multiversion! {
 
 crate::simd::multiversion! {
     /// Each spring's block of `A` (`[xx, yy, zz, xy, xz, yz]`), its ends at `x` and `xn`:
-    /// `axial·ûûᵀ + transverse·(I − ûûᵀ)`, `axial = h²·k`, `transverse = axial·max(1 − rest/l,
-    /// floor)` (zero for a spring of zero length), plus its damper `h·d·u₀u₀ᵀ`
-    /// (`damper = [u₀x, u₀y, u₀z, d]`, `springs = [rest, k]`, `hf = [h, floor]`). Zero where there is no spring (`k` and
-    /// `d` zero).
+    /// `axial·ûûᵀ + transverse·(I − ûûᵀ)`, `axial = h²·k`,
+    /// `transverse = axial·max(1 − rest/l, floor)` (zero for a spring of zero length), plus its
+    /// damper `h·d·u₀u₀ᵀ` (`damper = [u₀x, u₀y, u₀z, d]`, `springs = [rest, k]`,
+    /// `hf = [h, floor]`). Zero where there is no spring (`k` and `d` zero).
     fn spring_blocks(
         b: [&mut [f64]; 6],
         x: [&[f64]; 3],
@@ -508,7 +508,8 @@ crate::simd::multiversion! {
     ) {
         let [b0, b1, b2, b3, b4, b5] = b;
         let n = b0.len();
-        let (b1, b2, b3, b4, b5) = (&mut b1[..n], &mut b2[..n], &mut b3[..n], &mut b4[..n], &mut b5[..n]);
+        let (b1, b2, b3) = (&mut b1[..n], &mut b2[..n], &mut b3[..n]);
+        let (b4, b5) = (&mut b4[..n], &mut b5[..n]);
         let (x0, x1, x2) = (&x[0][..n], &x[1][..n], &x[2][..n]);
         let (n0, n1, n2) = (&xn[0][..n], &xn[1][..n], &xn[2][..n]);
         let (u0, u1, u2, d) = (&damper[0][..n], &damper[1][..n], &damper[2][..n], &damper[3][..n]);
@@ -574,13 +575,9 @@ mod tests {
     use super::super::test_models::{two_bodies, values};
     use super::*;
 
-    #[test]
-    fn the_stencil_product_is_the_product_over_springs() {
-        let model = two_bodies();
-        let n = model.point_count();
-        let mut next = values(11);
-        let mut sym = || -> Sym { std::array::from_fn(|_| next()) };
-        let mut matrix = SpringMatrix::new(&model);
+    /// A matrix with `model`'s springs listed, and their ends (flat indices) in listed order.
+    fn listed(model: &Model) -> (SpringMatrix, Vec<[usize; 2]>) {
+        let mut matrix = SpringMatrix::new(model);
         let mut springs = Vec::new();
         matrix.begin();
         for body in model.bodies() {
@@ -591,6 +588,16 @@ mod tests {
             });
         }
         matrix.finish();
+        (matrix, springs)
+    }
+
+    #[test]
+    fn the_stencil_product_is_the_product_over_springs() {
+        let model = two_bodies();
+        let n = model.point_count();
+        let mut next = values(11);
+        let mut sym = || -> Sym { std::array::from_fn(|_| next()) };
+        let (mut matrix, springs) = listed(&model);
         let blocks: Vec<Sym> = springs.iter().map(|_| sym()).collect();
         for (i, b) in blocks.iter().enumerate() {
             matrix.set(matrix.rank(i), b);
@@ -663,17 +670,7 @@ mod tests {
         use super::super::sym::add_outer;
         let model = two_bodies();
         let n = model.point_count();
-        let mut matrix = SpringMatrix::new(&model);
-        let mut springs = Vec::new();
-        matrix.begin();
-        for body in model.bodies() {
-            let first = body.points().start;
-            body.for_each_spring_entry(|s, entry| {
-                matrix.push(first + s.a, entry);
-                springs.push([first + s.a, first + s.b]);
-            });
-        }
-        matrix.finish();
+        let (mut matrix, springs) = listed(&model);
         let mut next = values(23);
         let values: Vec<[f64; 3]> = springs
             .iter()
@@ -726,13 +723,7 @@ mod tests {
     fn rows_in_ranges_have_the_bits_of_rows_at_once() {
         let model = two_bodies();
         let n = model.point_count();
-        let mut matrix = SpringMatrix::new(&model);
-        matrix.begin();
-        for body in model.bodies() {
-            let first = body.points().start;
-            body.for_each_spring_entry(|s, entry| matrix.push(first + s.a, entry));
-        }
-        matrix.finish();
+        let (mut matrix, _) = listed(&model);
         let mut next = values(17);
         for s in 0..matrix.slot.len() {
             matrix.set(s, &std::array::from_fn(|_| next()));
