@@ -49,7 +49,7 @@ pub struct RunArgs {
     pub cutbacks: Option<u32>,
     /// Implicit integrators: the residual each step is solved to, per point (m/s, times the
     /// fastest point's speed when that is above 1 m/s; at most 0.1). Looser is faster: 1e-5
-    /// steps the 16³ benchmark scene about 3× as fast as the default [default: the scene
+    /// steps the 16³ benchmark scene about twice as fast as the default [default: the scene
     /// file's `tolerance`, else 1e-9].
     #[arg(long, value_name = "M/S", value_parser = parse_tolerance)]
     pub tolerance: Option<f64>,

@@ -35,7 +35,14 @@
 //! of the lattice (`multigrid.rs`; `A·x` itself runs in stencil order, `stencil.rs`). They
 //! stop when their residual has fallen a hundredfold, and a hundredfold further after each
 //! Newton iteration that does not cut `|g|` tenfold (an inexact solve barely reaches soft
-//! modes, and Newton's method then creeps along them). Then a backtracking line search on the
+//! modes, and Newton's method then creeps along them). In Newton's fast regime (the last
+//! iteration took its whole step, which cut `|g|_M` tenfold, with `A` Newton's own and moved no
+//! end position by more than a thousandth of the shortest spring; in a uniform field or none)
+//! the next iteration solves
+//! with the same `A` and multigrid: `A` has changed by about that fraction, which costs the
+//! conjugate gradients no iteration, and its assembly and the multigrid's setup are saved
+//! (each iteration there still cuts `|g|` about a hundredfold, the conjugate gradients'
+//! reduction). Then a backtracking line search on the
 //! incremental potential (one body and no friction: the common case; a field that is not
 //! uniform has no potential, and its work along the line is added instead), or on `|g|²_M`
 //! otherwise; the potential's fall is computed term by term from differences, so that it stays
@@ -170,6 +177,11 @@ const SWIRL_STALLS: u32 = 5;
 /// Changes between `A` with and without the swirl, at most, in a step.
 const SWIRL_SWITCHES: u32 = 6;
 
+/// How far (times the shortest spring's rest length) the end positions may have moved in a
+/// Newton iteration in its fast regime for the next one to solve with the same `A` (see
+/// [`newton`]): a spring's block changes by about that fraction.
+const KEEP_MOVE: f64 = 1e-3;
+
 /// Halvings of the Newton step before the line search gives up.
 const MAX_HALVINGS: u32 = 30;
 
@@ -227,6 +239,14 @@ pub struct ImplicitScratch {
     /// contacts' over the mass among the moving points (1/s², see [`rounding_floor`]).
     point_stiffness: Vec<f64>,
     stiffness_over_mass: f64,
+    /// The shortest rest length of a spring of the model (m; zero when it has none): the scale
+    /// of a move that changes `A` (see [`KEEP_MOVE`]).
+    shortest_spring: f64,
+    /// Newton iterations that kept the last one's `A`, and whether they may (tests only).
+    #[cfg(test)]
+    kept: u32,
+    #[cfg(test)]
+    may_keep: bool,
     /// Per point: the damping matrix `dCollision·Σ n nᵀ` of the walls, plane and obstacles it is
     /// in at the step's start.
     start_damping: Vec<Sym>,
@@ -319,6 +339,11 @@ impl ImplicitScratch {
             free: vec![0.0; n],
             point_stiffness: vec![0.0; n],
             stiffness_over_mass: 0.0,
+            shortest_spring: 0.0,
+            #[cfg(test)]
+            kept: 0,
+            #[cfg(test)]
+            may_keep: true,
             start_damping: vec![[0.0; 6]; n],
             extra: vec![[0.0; 6]; n],
             diag_inv: vec![[0.0; 6]; n],
@@ -424,6 +449,15 @@ impl ImplicitScratch {
             .extend(self.rows.iter().map(|r| [r.a, r.b]));
         self.spring_blocks.resize(self.rows.len(), [0.0; 6]);
         self.start_dir.resize(self.rows.len(), Vec3::ZERO);
+        self.shortest_spring = self
+            .rows
+            .iter()
+            .map(|r| r.rest)
+            .filter(|&rest| rest > 0.0)
+            .fold(f64::INFINITY, f64::min);
+        if self.shortest_spring == f64::INFINITY {
+            self.shortest_spring = 0.0;
+        }
         self.point_stiffness.fill(0.0);
         for r in &self.rows {
             self.point_stiffness[r.a as usize] += r.k;
@@ -587,6 +621,8 @@ fn newton(
     let norm2 = residual(model, control, force, s, x0, v0, h, false);
     let mut norm2 = shift_by_momentum(model, control, force, s, x0, v0, h, norm2);
     let mut iterations = 0;
+    // Whether this iteration may solve with the last one's `A` and multigrid.
+    let mut keep = false;
     let mut reduction = CG_REDUCTION;
     let mut shift = 0.0;
     let (mut stalled, mut symmetric, mut switches, mut best) = (0, 0, 0, norm2);
@@ -599,19 +635,37 @@ fn newton(
             return Err(not_converged(&s.g, iterations));
         }
         iterations += 1;
-        newton_direction(
-            model,
-            control,
-            force.anchors(),
-            s,
-            x0,
-            h,
-            reduction,
-            &mut shift,
-        );
+        let own = (keep && solve(s, reduction, Preconditioner::Multigrid))
+            || newton_direction(
+                model,
+                control,
+                force.anchors(),
+                s,
+                x0,
+                h,
+                reduction,
+                &mut shift,
+            );
         let before = norm2;
         let swirled = s.swirl;
-        match line_search(model, control, force, s, x0, v0, h, norm2) {
+        let reached = line_search(model, control, force, s, x0, v0, h, norm2);
+        // In the fast regime, with `A` Newton's own and the end positions barely moved, `A` at
+        // the new iterate differs by about `KEEP_MOVE`: keep it, and save its assembly and the
+        // multigrid's setup (the conjugate gradients need as many iterations with it). Not in
+        // a field that is not uniform: its part of `A` is its gradient, which jumps at the faces
+        // of its cells however little a point moves (`leapfrog.w` at 1/60 s took 1.7× as long
+        // with `A` kept).
+        let moved = h * s.dv.iter().map(|d| d.length()).fold(0.0, f64::max);
+        keep = own
+            && model.field.as_ref().is_none_or(|f| f.uniform().is_some())
+            && matches!(reached, Some((_, true)))
+            && moved <= KEEP_MOVE * s.shortest_spring;
+        #[cfg(test)]
+        {
+            keep &= s.may_keep;
+            s.kept += u32::from(keep);
+        }
+        match reached.map(|(n2, _)| n2) {
             Some(reached) => norm2 = reached,
             // An inexact direction may not lead down at all: solve exactly before giving up.
             None if reduction > CG_REDUCTION_EXACT => reduction = CG_REDUCTION_EXACT,
@@ -649,6 +703,7 @@ fn newton(
                 norm2 = residual(model, control, force, s, x0, v0, h, false);
             }
             s.swirl_allowed = !s.swirl_allowed;
+            keep = false;
             (stalled, symmetric) = (0, 0);
             (best, reduction, shift) = (norm2, CG_REDUCTION, 0.0);
             switches += 1;
@@ -741,8 +796,9 @@ fn not_converged(g: &[Vec3], iterations: u32) -> NotConverged {
 }
 
 /// Backtracks along the Newton direction `s.dv` from the iterate until the merit falls enough
-/// (Armijo), and takes that point as the iterate; returns its `|g|²_M`, or `None` when no step
-/// along `Δv` lowers the merit or the residual. The merit is the incremental potential when the
+/// (Armijo), and takes that point as the iterate; returns its `|g|²_M` and whether that was the
+/// whole step `Δv` in the fast regime (it cut `|g|_M` tenfold), or `None` when no step along
+/// `Δv` lowers the merit or the residual. The merit is the incremental potential when the
 /// forces have one (see [`has_potential`]), else `|g|²_M`.
 #[allow(clippy::too_many_arguments)]
 fn line_search(
@@ -754,7 +810,7 @@ fn line_search(
     v0: &[Vec3],
     h: f64,
     norm2: f64,
-) -> Option<f64> {
+) -> Option<(f64, bool)> {
     // A direction from a swirling `A` need not lower the potential, only `|g|²_M`.
     let potential = has_potential(model) && !s.swirl;
     // The potential's slope along Δv is M·g·Δv (negative); for |g|²_M a plain fall is asked.
@@ -786,7 +842,7 @@ fn line_search(
         // falls as its quadratic model says, and would not be followed further.
         if alpha == 1.0 && n2 < 1e-2 * norm2 {
             s.take_trial();
-            return Some(n2);
+            return Some((n2, true));
         }
         let fall = fall_to(s, n2, norm2);
         // At a contact's kink the merit may not fall at all: a step that lowers the residual
@@ -810,7 +866,7 @@ fn line_search(
                     s.dv.iter_mut().for_each(|d| *d = *d * 2.0);
                 }
             }
-            return Some(reached);
+            return Some((reached, false));
         }
         alpha *= 0.5;
     }
@@ -1015,6 +1071,8 @@ fn contact_change(model: &Model, xv: Vec3, xt: Vec3, step: Vec3) -> f64 {
 /// it is positive, and becomes Newton's method again as the shift decays (a quarter per solve
 /// that needs none larger) near the solution. Only when no shift up to ~40 will do are the
 /// negative stiffnesses clamped at zero. `shift` carries over between iterations of a step.
+/// True when `A` was Newton's own (the true stiffness, no shift) and the multigrid
+/// preconditioned it: a matrix the next iteration may keep.
 #[allow(clippy::too_many_arguments)]
 fn newton_direction(
     model: &Model,
@@ -1025,28 +1083,36 @@ fn newton_direction(
     h: f64,
     reduction: f64,
     shift: &mut f64,
-) {
+) -> bool {
+    // The preconditioner that solved, if any.
     let mut solve_with = |curvature| {
         assemble(model, control, anchors, s, x0, h, curvature);
         // Where `A` is nearly indefinite its coarse copies may be indefinite, and the cycle with
         // them, though `A` is not: the diagonal alone then decides, as it did before the
         // multigrid.
-        solve(s, reduction, Preconditioner::Multigrid)
-            || (s.multigrid_failed && solve(s, reduction, Preconditioner::Diagonal))
+        if solve(s, reduction, Preconditioner::Multigrid) {
+            Some(Preconditioner::Multigrid)
+        } else if s.multigrid_failed && solve(s, reduction, Preconditioner::Diagonal) {
+            Some(Preconditioner::Diagonal)
+        } else {
+            None
+        }
     };
-    if solve_with(Curvature::True { shift: *shift }) {
+    if let Some(solved) = solve_with(Curvature::True { shift: *shift }) {
+        let own = *shift == 0.0 && solved == Preconditioner::Multigrid;
         *shift = if *shift < 1e-3 { 0.0 } else { *shift * 0.25 };
-        return;
+        return own;
     }
     let mut tried = if *shift == 0.0 { 1e-2 } else { *shift * 4.0 };
     for _ in 0..5 {
-        if solve_with(Curvature::True { shift: tried }) {
+        if solve_with(Curvature::True { shift: tried }).is_some() {
             *shift = tried;
-            return;
+            return false;
         }
         tried *= 8.0;
     }
     solve_with(Curvature::Clamped);
+    false
 }
 
 /// Which stiffness [`assemble`] puts in `A`.
@@ -1547,6 +1613,58 @@ mod tests {
                 assert_eq!(reached, norm2);
                 assert_eq!(s.v, v0);
             }
+        }
+    }
+
+    /// Newton's iterations in the fast regime keep the last one's `A`, and the steps end at the
+    /// same velocities as with `A` assembled every iteration, to within the tolerance: a cube
+    /// dropped onto a plane at 1/60 s, settling over 40 steps.
+    #[test]
+    fn newton_in_its_fast_regime_keeps_a_and_reaches_the_same_solution() {
+        let body = Body::lattice_box(
+            Lattice::new([6, 6, 6], Vec3::new(1.0, 1.0, 1.0)),
+            Material::classic(),
+        );
+        let mut model = ModelBuilder::new()
+            .bodies(vec![body])
+            .gravity(Vec3::new(0.0, 0.0, -9.81))
+            .plane(Some(crate::Plane::new([0.0, 0.0, 1.0, 0.05]).unwrap()))
+            .dt(1.0 / 60.0)
+            .integrator(Integrator::BackwardEuler)
+            .build()
+            .unwrap();
+        model.newton.tolerance = 1e-11;
+        let h = model.dt;
+        let start = crate::State::at_rest(&model);
+        let (control, mut force) = (Control::none(), ForceScratch::new(&model));
+        let run = |may_keep: bool, force: &mut ForceScratch| {
+            let mut s = ImplicitScratch::new(&model);
+            s.may_keep = may_keep;
+            let mut state = start.clone();
+            let mut ends = vec![];
+            let (mut pos, mut vel) = (state.pos.clone(), state.vel.clone());
+            for _ in 0..40 {
+                step(
+                    &model, &state, &control, force, &mut s, h, &mut pos, &mut vel,
+                )
+                .unwrap();
+                state.pos.copy_from_slice(&pos);
+                state.vel.copy_from_slice(&vel);
+                ends.push(state.vel.clone());
+            }
+            (ends, s.kept)
+        };
+        let (kept_a, kept) = run(true, &mut force);
+        let (fresh_a, none) = run(false, &mut force);
+        assert_eq!(none, 0);
+        assert!(kept >= 20, "{kept} iterations kept A in 40 steps");
+        for (step, (a, b)) in kept_a.iter().zip(&fresh_a).enumerate() {
+            let worst = a.iter().zip(b).map(|(a, b)| (*a - *b).length());
+            let worst = worst.fold(0.0, f64::max);
+            assert!(
+                worst < 1e-10,
+                "step {step}: velocities differ by {worst} m/s"
+            );
         }
     }
 
