@@ -178,9 +178,10 @@ const SWIRL_SWITCHES: u32 = 6;
 
 /// How far (times the shortest spring's rest length) the end positions may have moved in a
 /// Newton iteration in its fast regime for the next one to solve with the same `A` (see
-/// [`newton`]): a spring's block changes by about that fraction. At 1e-3 the kept `A` cost
-/// `world.w` (kElastic 8000) half as many conjugate-gradient iterations again as it saved in
-/// assembly (10 % slower at 1/60 s); at 1e-4 it is 5 % faster, and the 16³ benchmark as fast.
+/// [`newton`]): a spring's block changes by about that fraction. At 1e-3, `world.w`'s solves
+/// with a kept `A` (kElastic 8000, 1/60 s) took 31–34 conjugate-gradient iterations instead of
+/// 21–23, which cost more than the assembly saved (10 % slower); at 1e-4 it is 5 % faster than
+/// with no `A` kept, and the 16³ benchmark as fast as at 1e-3.
 const KEEP_MOVE: f64 = 1e-4;
 
 /// Halvings of the Newton step before the line search gives up.
@@ -657,11 +658,11 @@ fn newton(
         // a field that is not uniform: its part of `A` is its gradient, which jumps at the faces
         // of its cells however little a point moves (`leapfrog.w` at 1/60 s took 1.7× as long
         // with `A` kept).
-        let moved = h * s.dv.iter().map(|d| d.length()).fold(0.0, f64::max);
+        let moved = |dv: &[Vec3]| h * dv.iter().map(|d| d.length()).fold(0.0, f64::max);
         keep = own
             && model.field.as_ref().is_none_or(|f| f.uniform().is_some())
             && matches!(reached, Some((_, true)))
-            && moved <= KEEP_MOVE * s.shortest_spring;
+            && moved(&s.dv) <= KEEP_MOVE * s.shortest_spring;
         #[cfg(test)]
         {
             keep &= s.may_keep;
