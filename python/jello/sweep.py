@@ -38,6 +38,8 @@ METRICS: tuple[str, ...] = (
     "steps",
     "time",
     "split_steps",
+    "newton_iterations",
+    "linear_iterations",
     "wall_s",
 )
 
@@ -101,7 +103,9 @@ def sweep(
     ``metrics``: names from :data:`METRICS` (``final_energy`` (J), ``kinetic_energy``,
     ``spring_energy``, ``collision_energy``, ``max_penetration`` (the deepest over the run, m),
     ``blew_up`` (bool), ``blow_up`` (the message, or None), ``steps`` and ``time`` reached,
-    ``split_steps`` (steps an implicit integrator took in parts), ``wall_s``) or functions of
+    ``split_steps`` (steps an implicit integrator took in parts), ``newton_iterations`` and
+    ``linear_iterations`` (the implicit solver's Newton and conjugate-gradient iterations over
+    the run, failed tries included), ``wall_s``) or functions of
     the final :class:`~jello.Simulation` (their ``__name__`` heads the column). A case that blows up reports the metrics of its last good step.
 
     ``save``: a folder (created when missing) where each case's final state is written as
@@ -224,6 +228,7 @@ def run_case(job: _Job) -> dict[str, Any]:
         deepest = float(getattr(e, "max_penetration", float("nan")))
     wall = _time.perf_counter() - start
     energy = sim.energy()
+    solver = sim.solver_stats
     values: dict[str, Any] = {
         "final_energy": energy.total,
         "kinetic_energy": energy.kinetic,
@@ -235,6 +240,8 @@ def run_case(job: _Job) -> dict[str, Any]:
         "steps": sim.steps,
         "time": sim.time,
         "split_steps": sim.split_steps,
+        "newton_iterations": solver.newton_iterations,
+        "linear_iterations": solver.linear_iterations,
         "wall_s": wall,
     }
     out: dict[str, Any] = {}

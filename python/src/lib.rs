@@ -39,6 +39,7 @@ fn _jello(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("GpuError", py.get_type::<errors::GpuError>())?;
     m.add_class::<simulation::Simulation>()?;
     m.add_class::<simulation::Energy>()?;
+    m.add_class::<simulation::SolverStats>()?;
     m.add_class::<build::Body>()?;
     m.add_class::<build::Obstacle>()?;
     m.add_class::<build::Pin>()?;

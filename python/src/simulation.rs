@@ -432,6 +432,20 @@ impl Simulation {
         self.sim.cutbacks().split_steps
     }
 
+    /// The implicit solver's work since the model last changed: solves, Newton and
+    /// conjugate-gradient iterations, assemblies of its matrix (all zero under an explicit
+    /// integrator or on the GPU).
+    #[getter]
+    fn solver_stats(&self) -> SolverStats {
+        let s = self.sim.solver_stats();
+        SolverStats {
+            solves: s.solves,
+            newton_iterations: s.newton_iterations,
+            linear_iterations: s.linear_iterations,
+            assemblies: s.assemblies,
+        }
+    }
+
     /// Steps per displayed frame (the world file's `n`).
     #[getter]
     fn steps_per_frame(&self) -> u32 {
@@ -554,6 +568,32 @@ impl Energy {
             self.spring,
             self.collision,
             self.total()
+        )
+    }
+}
+
+/// The implicit solver's work (see `Simulation.solver_stats`), counted over every try of a
+/// step, those that failed and were cut back included.
+#[pyclass(module = "jello", frozen, get_all)]
+#[derive(Clone, Copy)]
+pub struct SolverStats {
+    /// Backward-Euler solves: one a step of `BackwardEuler`, two of `SDIRK2`, more where a
+    /// step was taken in parts.
+    pub solves: u64,
+    /// Newton iterations over all the solves.
+    pub newton_iterations: u64,
+    /// Conjugate-gradient (or GMRES) iterations over all the Newton iterations.
+    pub linear_iterations: u64,
+    /// Times the Newton matrix was assembled and its multigrid set up.
+    pub assemblies: u64,
+}
+
+#[pymethods]
+impl SolverStats {
+    fn __repr__(&self) -> String {
+        format!(
+            "SolverStats(solves={}, newton_iterations={}, linear_iterations={}, assemblies={})",
+            self.solves, self.newton_iterations, self.linear_iterations, self.assemblies
         )
     }
 }

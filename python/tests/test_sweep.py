@@ -110,3 +110,35 @@ def test_tolerance_is_a_parameter(shared_worlds: Path) -> None:
     assert (strict["tolerance"], loose["tolerance"]) == (1e-9, 1e-5)
     assert not strict["blew_up"] and not loose["blew_up"] and strict["steps"] == loose["steps"] == 30
     assert loose["final_energy"] == pytest.approx(strict["final_energy"], rel=1e-3)
+
+
+def test_the_implicit_solvers_work_is_a_property_and_a_metric() -> None:
+    """`solver_stats` counts the implicit solver's work: a solve a backward-Euler step, at least
+    a conjugate-gradient iteration a Newton iteration; it starts again when the model changes
+    and stays zero under RK4. The sweep's `newton_iterations` and `linear_iterations` are those
+    counts, higher at a tighter tolerance."""
+    sim = jello.load(EXAMPLES / "jello.w", integrator="BackwardEuler", dt=1 / 60)
+    assert sim.solver_stats.solves == 0
+    sim.step(5)
+    stats = sim.solver_stats
+    assert isinstance(stats, jello.SolverStats) and "newton_iterations=" in repr(stats)
+    assert stats.solves == 5 and stats.newton_iterations >= 5
+    assert stats.linear_iterations >= stats.newton_iterations and stats.assemblies >= 1
+    sim.tolerance = 1e-6
+    assert sim.solver_stats.newton_iterations == 0
+    explicit = jello.load(EXAMPLES / "jello.w")
+    explicit.step(5)
+    assert explicit.solver_stats.solves == explicit.solver_stats.linear_iterations == 0
+
+    table = jello.sweep(EXAMPLES / "jello.w", {"integrator": ["BackwardEuler"], "dt": [1 / 60],
+                                              "tolerance": [1e-10, 1e-3]},
+                        steps=5, metrics=("newton_iterations", "linear_iterations"),
+                        scheduler="serial", progress=False)
+    tight, loose = table.iloc[0], table.iloc[1]
+    assert tight["tolerance"] == 1e-10 and loose["tolerance"] == 1e-3
+    assert tight["newton_iterations"] > loose["newton_iterations"] > 0
+    assert tight["linear_iterations"] > loose["linear_iterations"]
+    again = jello.load(EXAMPLES / "jello.w", integrator="BackwardEuler", dt=1 / 60)
+    again.tolerance = 1e-10
+    again.step(5)
+    assert tight["newton_iterations"] == again.solver_stats.newton_iterations

@@ -577,3 +577,78 @@ fn device_gpu_without_the_backend_says_how_to_build_it() {
         assert!(err.contains("--features gpu"), "{command}: {err}");
     }
 }
+
+/// The value of `"key": number` in one line of JSON from `jello bench --json`; `None` for null.
+fn json_number(json: &str, key: &str) -> Option<f64> {
+    let at = json
+        .find(&format!("\"{key}\": "))
+        .unwrap_or_else(|| panic!("no {key}: {json}"));
+    let rest = &json[at + key.len() + 4..];
+    let value = &rest[..rest.find([',', '}']).unwrap()];
+    (value != "null").then(|| value.parse().unwrap())
+}
+
+/// `jello bench` and `jello run` report the implicit solver's work per step: Newton
+/// iterations (fewer than one a step once the benchmark's small cube comes to rest, where a
+/// step starts within the tolerance), at least one conjugate-gradient iteration each, more
+/// Newton iterations at a tighter tolerance; null under an explicit integrator.
+#[test]
+fn bench_and_run_report_the_implicit_solvers_work() {
+    let t = TempDir::new("solver-stats");
+    let bench = |integrator: &str, extra: &[&str]| {
+        let args = [
+            &["bench", "--size", "4", "--seconds", "0.05", "--json"][..],
+            &["--integrator", integrator],
+            extra,
+        ]
+        .concat();
+        t.succeeds(&args)
+    };
+    let per_step = |json: &str| {
+        let newton = json_number(json, "newton_iterations_per_step").unwrap();
+        let linear = json_number(json, "linear_iterations_per_step").unwrap();
+        let assemblies = json_number(json, "assemblies_per_step").unwrap();
+        assert!(
+            newton > 0.0 && linear >= newton && assemblies > 0.0,
+            "{json}"
+        );
+        newton
+    };
+    let at_60 = ["--dt", "0.0166667"];
+    let tight = bench(
+        "BackwardEuler",
+        &[&at_60[..], &["--tolerance", "1e-10"]].concat(),
+    );
+    let loose = bench(
+        "BackwardEuler",
+        &[&at_60[..], &["--tolerance", "1e-2"]].concat(),
+    );
+    assert!(per_step(&tight) > per_step(&loose), "{tight}\n{loose}");
+    per_step(&bench("SDIRK2", &at_60));
+    let explicit = bench("RK4", &[]);
+    for key in [
+        "newton_iterations_per_step",
+        "linear_iterations_per_step",
+        "assemblies_per_step",
+    ] {
+        assert_eq!(json_number(&explicit, key), None, "{explicit}");
+    }
+
+    let world = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples/jello.w");
+    let world = world.to_str().unwrap();
+    let text = t.succeeds(&[
+        "run",
+        world,
+        "-q",
+        "--steps",
+        "3",
+        "--integrator",
+        "BackwardEuler",
+    ]);
+    assert!(
+        text.contains("Newton and ") && text.contains(" assemblies"),
+        "{text}"
+    );
+    let text = t.succeeds(&["run", world, "-q", "--steps", "3"]);
+    assert!(!text.contains("Newton"), "{text}");
+}

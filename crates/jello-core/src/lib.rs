@@ -66,6 +66,7 @@ pub use cutback::CutbackStats;
 pub use diagnostics::Energy;
 pub use field::ForceField;
 pub use field_preset::FieldPreset;
+pub use implicit::SolverStats;
 pub use integrator::{Integrator, UnknownIntegrator};
 pub use lattice::{Lattice, SpringKind};
 pub use mesh::{MeshError, TriMesh};
@@ -124,6 +125,11 @@ impl Simulation {
     /// was made.
     pub fn cutbacks(&self) -> CutbackStats {
         self.scratch.cutbacks()
+    }
+
+    /// The implicit solver's work since this simulation was made (see [`SolverStats`]).
+    pub fn solver_stats(&self) -> SolverStats {
+        self.scratch.solver_stats()
     }
 
     /// `n` steps, stopping at the first blow-up.

@@ -50,6 +50,12 @@ impl Scratch {
         self.cutback.stats()
     }
 
+    /// The implicit solver's work (solves, Newton and conjugate-gradient iterations,
+    /// assemblies of its matrix) since these buffers were made; zero under explicit integrators.
+    pub fn solver_stats(&self) -> crate::SolverStats {
+        self.implicit.stats()
+    }
+
     /// Buffers for a model's point count.
     pub fn new(model: &Model) -> Self {
         // Buffers read in the same loops get different colors (cache sets, see Soa).

@@ -88,6 +88,14 @@ fn a_step_that_fails_is_taken_in_halves_until_it_converges() {
             finest: 2,
         };
         assert_eq!(sim.cutbacks(), first, "{integrator}");
+        // The solver's statistics count the failed tries' work too: a backward-Euler solve a
+        // try, each failed one after all its iterations.
+        if integrator == Integrator::BackwardEuler {
+            let solver = sim.solver_stats();
+            assert_eq!(solver.solves, first.retries + first.substeps, "{solver:?}");
+            let failed = first.retries * u64::from(hard_start(integrator).0);
+            assert!(solver.newton_iterations > failed, "{solver:?}");
+        }
         sim.step().unwrap();
         let differ = (
             max_diff(&sim.state.pos, &then_two.pos),

@@ -706,3 +706,63 @@ fn a_scratch_follows_a_model_that_changes_between_steps() {
         }
     }
 }
+
+/// The solver's statistics count its work: one solve a backward-Euler step and two an SDIRK2
+/// step (none cut back here), a Newton iteration at least a solve (each starts away from its
+/// solution), a conjugate-gradient iteration at least a Newton iteration, fewer assemblies of
+/// `A` than Newton iterations (in its fast regime Newton's method keeps `A`), and fewer Newton
+/// iterations at a looser tolerance. The explicit integrators count nothing.
+#[test]
+fn the_solver_counts_its_work() {
+    let steps = 20;
+    let run = |integrator: Integrator, tolerance: f64| {
+        let model = ModelBuilder::new()
+            .integrator(integrator)
+            .dt(1.0 / 60.0)
+            .gravity(Vec3::new(0.0, 0.0, -9.81))
+            .newton(Newton {
+                tolerance,
+                ..Newton::default()
+            })
+            .build()
+            .unwrap();
+        let mut rng = Rng(3);
+        let mut state = State::at_rest(&model);
+        for (p, v) in state.pos.iter_mut().zip(state.vel.iter_mut()) {
+            *p += rng.vec3() * 0.02;
+            *v = rng.vec3() * 0.5;
+        }
+        let mut sim = jello_core::Simulation::new(model, state);
+        sim.advance(steps).unwrap();
+        assert_eq!(sim.cutbacks().split_steps, 0, "{integrator}");
+        sim.solver_stats()
+    };
+    let explicit = ModelBuilder::new().build().unwrap();
+    let mut sim = jello_core::Simulation::new(explicit.clone(), State::at_rest(&explicit));
+    sim.advance(steps).unwrap();
+    assert_eq!(sim.solver_stats(), jello_core::SolverStats::default());
+
+    for (integrator, solves) in [(Integrator::BackwardEuler, 1), (Integrator::Sdirk2, 2)] {
+        let tight = run(integrator, 1e-9);
+        let loose = run(integrator, 1e-5);
+        for stats in [tight, loose] {
+            assert_eq!(stats.solves, solves * steps, "{integrator}: {stats:?}");
+            assert!(
+                stats.newton_iterations >= stats.solves,
+                "{integrator}: {stats:?}"
+            );
+            assert!(
+                stats.linear_iterations >= stats.newton_iterations,
+                "{integrator}: {stats:?}"
+            );
+        }
+        assert!(
+            tight.assemblies < tight.newton_iterations,
+            "{integrator}: {tight:?}"
+        );
+        assert!(
+            loose.newton_iterations < tight.newton_iterations,
+            "{integrator}: {tight:?} {loose:?}"
+        );
+    }
+}

@@ -3,7 +3,7 @@
 use std::time::{Duration, Instant};
 
 use clap::Args;
-use jello_core::{scenes, simd, Integrator, Model, Simulation, State};
+use jello_core::{scenes, simd, Integrator, Model, Simulation, SolverStats, State};
 
 use super::{parse_integrator, parse_positive, parse_tolerance, require_implicit, Device};
 use crate::error::CliError;
@@ -52,6 +52,8 @@ struct Measurement {
     split_steps: u64,
     /// The implicit integrator's tolerance (m/s); `None` for an explicit one.
     tolerance: Option<f64>,
+    /// The implicit solver's work over the measured steps; `None` for an explicit integrator.
+    solver: Option<SolverStats>,
 }
 
 /// Runs the benchmark scene (see [`scenes::benchmark`]) and prints the rates.
@@ -97,7 +99,25 @@ pub fn bench(args: BenchArgs) -> Result<(), CliError> {
         Device::Cpu => ("cpu", "f64"),
         Device::Gpu => ("gpu", "f32"),
     };
+    // The solver's work per measured step.
+    let per_step = |count: u64| count as f64 / m.steps as f64;
     if args.json {
+        let solver_json = [
+            (
+                "newton_iterations_per_step",
+                m.solver.map(|s| s.newton_iterations),
+            ),
+            (
+                "linear_iterations_per_step",
+                m.solver.map(|s| s.linear_iterations),
+            ),
+            ("assemblies_per_step", m.solver.map(|s| s.assemblies)),
+        ]
+        .map(|(key, count)| {
+            let value = count.map_or("null".to_string(), |c| format!("{:.3}", per_step(c)));
+            format!("\"{key}\": {value}")
+        })
+        .join(", ");
         let adapter_json = adapter.as_ref().map_or("null".to_string(), |a| {
             format!("\"{}\"", a.replace('\\', "\\\\").replace('"', "\\\""))
         });
@@ -106,7 +126,7 @@ pub fn bench(args: BenchArgs) -> Result<(), CliError> {
             "{{\"impl\": \"jello\", \"size\": {}, \"points\": {}, \"springs\": {}, \"integrator\": \"{}\", \"tolerance\": {}, \
              \"device\": \"{device}\", \"adapter\": {adapter_json}, \"gpu_kernel\": {kernel_json}, \"precision\": \"{precision}\", \
              \"threads\": {threads}, \"simd\": \"{tier}\", \"dt\": {}, \"steps\": {}, \"seconds\": {:.3}, \"steps_per_s\": {:.1}, \
-             \"real_time\": {:.4}, \"split_steps\": {}, \"spring_evals_per_s\": {}, \"peak_rss_mib\": {}, \"version\": \"{}\"}}",
+             \"real_time\": {:.4}, \"split_steps\": {}, {solver_json}, \"spring_evals_per_s\": {}, \"peak_rss_mib\": {}, \"version\": \"{}\"}}",
             args.size,
             m.points,
             m.springs,
@@ -128,7 +148,7 @@ pub fn bench(args: BenchArgs) -> Result<(), CliError> {
             Some(a) => format!("GPU {a}, f32, {} kernel", kernel.unwrap_or_default()),
         };
         println!(
-            "{n}³ lattice ({} points, {} springs), {}, dt {} s, {on}: {:.0} steps/s, {:.3}× real time{} \
+            "{n}³ lattice ({} points, {} springs), {}, dt {} s, {on}: {:.0} steps/s, {:.3}× real time{}{} \
              ({} steps in {:.2} s{}{})",
             m.points,
             m.springs,
@@ -140,6 +160,12 @@ pub fn bench(args: BenchArgs) -> Result<(), CliError> {
             steps_per_s,
             real_time,
             evals_per_s.map_or(String::new(), |e| format!(", {:.1} M spring evaluations/s", e / 1e6)),
+            m.solver.map_or(String::new(), |s| format!(
+                ", per step {:.2} Newton and {:.1} conjugate-gradient iterations, {:.2} assemblies",
+                per_step(s.newton_iterations),
+                per_step(s.linear_iterations),
+                per_step(s.assemblies)
+            )),
             m.steps,
             m.wall,
             match m.split_steps {
@@ -220,6 +246,7 @@ fn measure(
         .map_err(|e| CliError::input(e.to_string()))?
         .1;
     let split_before = sim.cutbacks().split_steps;
+    let solver_before = sim.solver_stats();
     let start = Instant::now();
     let mut steps = 0u64;
     while start.elapsed().as_secs_f64() < seconds {
@@ -233,6 +260,9 @@ fn measure(
         steps,
         wall: start.elapsed().as_secs_f64(),
         split_steps: sim.cutbacks().split_steps - split_before,
+        solver: integrator
+            .is_implicit()
+            .then(|| sim.solver_stats() - solver_before),
         tolerance,
     })
 }
@@ -277,6 +307,7 @@ fn measure_gpu(
             wall,
             split_steps: 0,
             tolerance: None,
+            solver: None,
         },
         gpu.adapter(),
         gpu.kernel(),

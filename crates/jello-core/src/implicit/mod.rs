@@ -213,9 +213,43 @@ pub struct NotConverged {
     pub iterations: u32,
 }
 
+/// The work the implicit solver has done since its scratch was made, failed tries included:
+/// what a step costs, and why (`jello bench` and `jello run` report it per step).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct SolverStats {
+    /// Backward-Euler solves: one a step of backward Euler, two of SDIRK2 (its stages), more
+    /// where a step was taken in parts (see [`crate::cutback`]).
+    pub solves: u64,
+    /// Newton iterations, over all the solves.
+    pub newton_iterations: u64,
+    /// Conjugate-gradient (or GMRES) iterations, over all the Newton iterations: each one
+    /// product `A·x` and one multigrid cycle.
+    pub linear_iterations: u64,
+    /// Times `A` was assembled and its multigrid set up: fewer than the Newton iterations where
+    /// Newton's method in its fast regime kept `A`, more where `A` was not positive definite
+    /// and was assembled again with a Levenberg–Marquardt shift.
+    pub assemblies: u64,
+}
+
+impl std::ops::Sub for SolverStats {
+    type Output = SolverStats;
+
+    /// The work done between two readings (`later − earlier`).
+    fn sub(self, earlier: SolverStats) -> SolverStats {
+        SolverStats {
+            solves: self.solves - earlier.solves,
+            newton_iterations: self.newton_iterations - earlier.newton_iterations,
+            linear_iterations: self.linear_iterations - earlier.linear_iterations,
+            assemblies: self.assemblies - earlier.assemblies,
+        }
+    }
+}
+
 /// The buffers of the implicit solver, sized on its first step for a model.
 #[derive(Clone, Debug, Default)]
 pub struct ImplicitScratch {
+    /// The work done so far (kept when the buffers are sized anew).
+    stats: SolverStats,
     rows: Vec<Row>,
     /// The springs as the bodies list them, before they are put in slot order.
     listed_rows: Vec<Row>,
@@ -313,6 +347,11 @@ impl ImplicitScratch {
         std::mem::swap(&mut self.field, &mut self.field_trial);
     }
 
+    /// The work done so far.
+    pub(crate) fn stats(&self) -> SolverStats {
+        self.stats
+    }
+
     fn fits(&self, model: &Model) -> bool {
         let n = model.point_count();
         self.mass.len() == n
@@ -328,6 +367,7 @@ impl ImplicitScratch {
         let swirls = can_swirl(model, model.dt);
         let zeros = vec![Vec3::ZERO; n];
         ImplicitScratch {
+            stats: SolverStats::default(),
             rows: Vec::with_capacity(model.spring_count()),
             listed_rows: Vec::with_capacity(model.spring_count()),
             loaded: None,
@@ -516,7 +556,9 @@ pub(crate) fn step(
     next_vel: &mut [Vec3],
 ) -> Result<(), NotConverged> {
     if !s.fits(model) {
+        let stats = s.stats;
         *s = ImplicitScratch::new(model);
+        s.stats = stats;
     }
     s.load(model);
     let swirls = can_swirl(model, h);
@@ -619,6 +661,7 @@ fn newton(
     s.v_soa.fill_zero();
     s.v.copy_from_slice(v0);
     s.swirl_allowed = swirls;
+    s.stats.solves += 1;
     let floor = rounding_floor(s, x0, h);
     let norm2 = residual(model, control, force, s, x0, v0, h, false);
     let mut norm2 = shift_by_momentum(model, control, force, s, x0, v0, h, norm2);
@@ -637,6 +680,7 @@ fn newton(
             return Err(not_converged(&s.g, iterations));
         }
         iterations += 1;
+        s.stats.newton_iterations += 1;
         let own = (keep && solve(s, reduction, Preconditioner::Multigrid))
             || newton_direction(
                 model,
@@ -1138,6 +1182,7 @@ fn assemble(
     h: f64,
     curvature: Curvature,
 ) {
+    s.stats.assemblies += 1;
     let h2 = h * h;
     let (clamp, shift) = match curvature {
         Curvature::True { shift } => (false, shift),
@@ -1401,6 +1446,7 @@ fn solve(s: &mut ImplicitScratch, reduction: f64, preconditioner: Preconditioner
             break;
         }
         apply(s);
+        s.stats.linear_iterations += 1;
         let pap = dot(&s.p, &s.ap);
         if pap <= 0.0 || !pap.is_finite() {
             return false;
@@ -1447,6 +1493,7 @@ fn solve_swirl(s: &mut ImplicitScratch, reduction: f64, preconditioner: Precondi
         gmres.solve(&s.r, &mut s.dv, reduction, MAX_CG, apply, precondition)
     };
     s.gmres = gmres;
+    s.stats.linear_iterations += reached.iterations as u64;
     if reached.relative_residual <= reduction {
         return true;
     }
