@@ -42,6 +42,9 @@ export class App implements PanelHost {
   /** The current world's own parameters, as loaded. */
   private ownParameters: Parameters | undefined;
   private readonly fileInput: HTMLInputElement;
+  /** The step and Newton iteration counts at the last readout, and the rate it showed. */
+  private lastSolverCount = { steps: 0, newton: 0 };
+  private lastNewtonRate: number | undefined;
 
   constructor(
     canvas: HTMLCanvasElement,
@@ -284,6 +287,8 @@ export class App implements PanelHost {
   private replaceSim(sim: JelloSim, source: Source): void {
     this.interactionHandler.cancel();
     this.runner.replace(sim, source);
+    this.lastSolverCount = { steps: 0, newton: 0 };
+    this.lastNewtonRate = undefined;
     this.banners.clear('error');
     this.applyStartingParameters();
     this.afterBlowUpCleared();
@@ -398,7 +403,25 @@ export class App implements PanelHost {
   private status(): string {
     const state = this.sim.blownUp ? 'blown up' : this.paused ? 'paused' : 'running';
     const on = this.sim.backend?.kind === 'webgpu' ? ' on WebGPU' : '';
-    return `t = ${this.sim.time.toFixed(3)} s · step ${this.sim.steps} · ${state}${on}`;
+    return `t = ${this.sim.time.toFixed(3)} s · step ${this.sim.steps} · ${state}${on}${this.newtonRate()}`;
+  }
+
+  /** The implicit solver's Newton iterations a step since the last readout (its counts start
+   *  again at a reset or a change of parameters, and so does the rate); empty under an explicit
+   *  integrator or while no step was taken. */
+  private newtonRate(): string {
+    const now = { steps: this.sim.steps, newton: this.sim.newtonIterations };
+    const last = this.lastSolverCount;
+    this.lastSolverCount = now;
+    if (!this.isImplicit) {
+      this.lastNewtonRate = undefined;
+      return '';
+    }
+    const fresh = now.steps < last.steps || now.newton < last.newton;
+    const steps = fresh ? now.steps : now.steps - last.steps;
+    const newton = fresh ? now.newton : now.newton - last.newton;
+    if (steps > 0) this.lastNewtonRate = newton / steps;
+    return this.lastNewtonRate === undefined ? '' : ` · ${this.lastNewtonRate.toFixed(1)} Newton iterations a step`;
   }
 
   private checkBlowUp(): void {

@@ -66,6 +66,9 @@ export interface Snapshot {
   steps: number;
   /** Steps taken since the previous snapshot. */
   taken: number;
+  /** The implicit solver's Newton iterations since load, reset or a change of parameters (0
+   *  under an explicit integrator or on the GPU). */
+  newtonIterations: number;
   blownUp: boolean;
   message?: string;
   suggestedDt?: number;

@@ -34,6 +34,7 @@ function snapshotOf(sim: JelloSim, epoch: number): Snapshot {
     time: sim.time,
     steps: sim.steps,
     taken: 0,
+    newtonIterations: sim.newtonIterations,
     blownUp: false,
   };
 }
@@ -65,6 +66,10 @@ export class SimView {
   }
   get blownUp(): boolean {
     return this.state.blownUp;
+  }
+  /** The implicit solver's Newton iterations since load, reset or a change of parameters. */
+  get newtonIterations(): number {
+    return this.state.newtonIterations;
   }
   blowUpMessage(): string | undefined {
     return this.state.message;

@@ -86,6 +86,7 @@ function sendState(now: boolean): void {
     time: sim.time,
     steps: sim.steps,
     taken,
+    newtonIterations: sim.newtonIterations,
     blownUp: sim.blownUp,
     message: sim.blowUpMessage(),
     suggestedDt: sim.suggestedDt(),

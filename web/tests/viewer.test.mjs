@@ -216,6 +216,13 @@ describe('jello view', () => {
     const t0 = await simTime(page);
     await page.waitForFunction((t0) => window.jello.sim.time > t0 + 0.1, t0);
     assert.equal(await page.evaluate(() => window.jello.sim.blownUp), false);
+    // The readout says how many Newton iterations a step takes: none while the cube falls
+    // freely (Newton's first iterate, the momentum shift, is then the solution), some once it
+    // lands on the floor, 2 m below.
+    await page.waitForFunction(() =>
+      /\d\.\d Newton iterations a step$/.test(document.getElementById('readout')?.textContent ?? ''),
+    );
+    await page.waitForFunction(() => window.jello.sim.newtonIterations > 0);
     // A reset keeps the choice; the banner's button goes back to the cube's own.
     await page.evaluate(() => window.jello.reset());
     assert.equal((await page.evaluate(() => window.jello.parameters())).integrator, 'BackwardEuler');
@@ -223,6 +230,8 @@ describe('jello view', () => {
     await banner.getByRole('button', { name: /Use RK4/ }).click();
     const own = await page.evaluate(() => window.jello.parameters());
     assert.deepEqual([own.integrator, own.tolerance], ['RK4', 1e-9]);
+    // An explicit integrator's readout has no Newton iterations.
+    await page.waitForFunction(() => /step \d+ · running$/.test(document.getElementById('readout')?.textContent ?? ''));
     // The classic cube keeps its own integrator.
     await page.evaluate(() => window.jello.loadCube(8));
     assert.equal((await page.evaluate(() => window.jello.parameters())).integrator, 'RK4');

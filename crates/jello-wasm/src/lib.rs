@@ -445,6 +445,13 @@ impl JelloSim {
         self.sim.state.steps as f64
     }
 
+    /// Newton iterations the implicit solver has taken since load, reset or the last change of
+    /// parameters (0 under an explicit integrator; see `jello_core::SolverStats`).
+    #[wasm_bindgen(getter, js_name = newtonIterations)]
+    pub fn newton_iterations(&self) -> f64 {
+        self.sim.solver_stats().newton_iterations as f64
+    }
+
     /// Largest stable time step (s) of the current integrator for this model at rest (see
     /// `jello_core::stability`); 0 when none is stable.
     #[wasm_bindgen(js_name = stableDt)]
