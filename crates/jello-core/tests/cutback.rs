@@ -146,24 +146,39 @@ fn a_step_that_fails_at_the_smallest_size_is_reported_and_undone() {
 /// substeps are undone, positions, velocities and all.
 #[test]
 fn a_failure_after_good_substeps_undoes_them() {
-    // One halving allowed, and the first half converges only by luck of where it starts:
-    // find a start where the first half succeeds and the second fails, at 1/120 s with
-    // cutbacks off, then check the cut-back step puts it all back.
-    let half = model(Integrator::BackwardEuler, DT / 2.0, 0);
-    let found = (0..200u64).find_map(|seed| {
-        let mut rng = Rng(seed);
-        let mut start = State::at_rest(&half);
-        let scale = 0.02 + 0.0004 * seed as f64;
-        start.pos.iter_mut().for_each(|p| *p += rng.vec3() * scale);
-        let full_fails = plain_steps(&model(Integrator::BackwardEuler, DT, 0), &start, 1).is_none();
-        let first = plain_steps(&half, &start, 1).is_some();
-        let both = plain_steps(&half, &start, 2).is_some();
-        (full_fails && first && !both).then_some(start)
+    // One halving allowed, and the first half converges only by luck of where it starts and
+    // of the iterations allowed: find a start and a number of Newton iterations where the first
+    // half succeeds and the second fails, at 1/120 s with cutbacks off, then check the cut-back
+    // step puts it all back.
+    let with = |max_iterations: u32, dt: f64, cutbacks: u32| {
+        ModelBuilder::new()
+            .integrator(Integrator::BackwardEuler)
+            .dt(dt)
+            .newton(Newton {
+                tolerance: 1e-9,
+                max_iterations,
+                cutbacks,
+            })
+            .build()
+            .unwrap()
+    };
+    let found = (5..=12u32).find_map(|iterations| {
+        let half = with(iterations, DT / 2.0, 0);
+        (0..100u64).find_map(|seed| {
+            let mut rng = Rng(seed);
+            let mut start = State::at_rest(&half);
+            let scale = 0.02 + 0.0004 * seed as f64;
+            start.pos.iter_mut().for_each(|p| *p += rng.vec3() * scale);
+            let full_fails = plain_steps(&with(iterations, DT, 0), &start, 1).is_none();
+            let first = plain_steps(&half, &start, 1).is_some();
+            let both = plain_steps(&half, &start, 2).is_some();
+            (full_fails && first && !both).then_some((iterations, start))
+        })
     });
-    let Some(start) = found else {
+    let Some((iterations, start)) = found else {
         panic!("no start found where only the first half step converges")
     };
-    let model = model(Integrator::BackwardEuler, DT, 1);
+    let model = with(iterations, DT, 1);
     let mut state = start.clone();
     let err = step(
         &model,
