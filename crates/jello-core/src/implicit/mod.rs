@@ -730,9 +730,6 @@ fn newton(
             }
             None => return Err(not_converged(&s.g, iterations)),
         }
-        // A Newton step that did not cut the residual tenfold was mostly held back by the
-        // inexact solve (a soft mode the conjugate gradients barely reached, which they then
-        // creep along): solve the next one more exactly.
         // A tighter solve whose step cut `|g|²_M` no more than the looser one's before it was
         // not held back by the solve: the direction's error is `A`'s own (a friction tie that
         // slides, whose force turns with the normal force as no symmetric `A` can; a
@@ -746,6 +743,9 @@ fn newton(
             (reduction, tightest) = (last.0, last.0);
         }
         last = (used, fall);
+        // A Newton step that did not cut the residual tenfold was mostly held back by the
+        // inexact solve (a soft mode the conjugate gradients barely reached, which they then
+        // creep along): solve the next one more exactly.
         if norm2 > 1e-2 * before {
             reduction = (reduction * 1e-2).max(tightest);
         }
