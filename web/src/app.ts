@@ -406,9 +406,8 @@ export class App implements PanelHost {
     return `t = ${this.sim.time.toFixed(3)} s · step ${this.sim.steps} · ${state}${on}${this.newtonRate()}`;
   }
 
-  /** The implicit solver's Newton iterations a step since the last readout (its counts start
-   *  again at a reset or a change of parameters, and so does the rate); empty under an explicit
-   *  integrator or while no step was taken. */
+  /** The implicit solver's Newton iterations a step since the last readout; empty under an
+   *  explicit integrator or before a step was taken. */
   private newtonRate(): string {
     const now = { steps: this.sim.steps, newton: this.sim.newtonIterations };
     const last = this.lastSolverCount;
@@ -417,10 +416,14 @@ export class App implements PanelHost {
       this.lastNewtonRate = undefined;
       return '';
     }
-    const fresh = now.steps < last.steps || now.newton < last.newton;
-    const steps = fresh ? now.steps : now.steps - last.steps;
-    const newton = fresh ? now.newton : now.newton - last.newton;
-    if (steps > 0) this.lastNewtonRate = newton / steps;
+    // After a reset both counts start again; after a change of parameters only the Newton
+    // iterations do (the steps go on), and that readout keeps the last rate.
+    const reset = now.steps < last.steps;
+    if (reset || now.newton >= last.newton) {
+      const steps = reset ? now.steps : now.steps - last.steps;
+      const newton = reset ? now.newton : now.newton - last.newton;
+      if (steps > 0) this.lastNewtonRate = newton / steps;
+    }
     return this.lastNewtonRate === undefined ? '' : ` · ${this.lastNewtonRate.toFixed(1)} Newton iterations a step`;
   }
 
