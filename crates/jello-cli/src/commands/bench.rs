@@ -5,7 +5,10 @@ use std::time::{Duration, Instant};
 use clap::Args;
 use jello_core::{scenes, simd, Integrator, Model, Simulation, SolverStats, State};
 
-use super::{parse_integrator, parse_positive, parse_tolerance, require_implicit, Device};
+use super::{
+    parse_integrator, parse_positive, parse_tolerance, require_implicit, solver_work_per_step,
+    Device,
+};
 use crate::error::CliError;
 use crate::gpu::Gpu;
 
@@ -99,9 +102,9 @@ pub fn bench(args: BenchArgs) -> Result<(), CliError> {
         Device::Cpu => ("cpu", "f64"),
         Device::Gpu => ("gpu", "f32"),
     };
-    // The solver's work per measured step.
-    let per_step = |count: u64| count as f64 / m.steps as f64;
     if args.json {
+        // The solver's work per measured step.
+        let per_step = |count: u64| count as f64 / m.steps as f64;
         let solver_json = [
             (
                 "newton_iterations_per_step",
@@ -160,12 +163,8 @@ pub fn bench(args: BenchArgs) -> Result<(), CliError> {
             steps_per_s,
             real_time,
             evals_per_s.map_or(String::new(), |e| format!(", {:.1} M spring evaluations/s", e / 1e6)),
-            m.solver.map_or(String::new(), |s| format!(
-                ", per step {:.2} Newton and {:.1} conjugate-gradient iterations, {:.2} assemblies",
-                per_step(s.newton_iterations),
-                per_step(s.linear_iterations),
-                per_step(s.assemblies)
-            )),
+            m.solver
+                .map_or(String::new(), |s| solver_work_per_step(s, m.steps)),
             m.steps,
             m.wall,
             match m.split_steps {

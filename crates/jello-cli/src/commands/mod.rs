@@ -8,7 +8,7 @@ pub mod scene;
 pub mod shape;
 pub mod view;
 
-use jello_core::Integrator;
+use jello_core::{Integrator, SolverStats};
 
 /// Where `jello run` and `jello bench` step.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
@@ -70,4 +70,17 @@ pub fn parse_non_negative(s: &str) -> Result<f64, String> {
         Ok(v) if v.is_finite() && v >= 0.0 => Ok(v),
         _ => Err(format!("expected a finite number ≥ 0, found \"{s}\"")),
     }
+}
+
+/// The implicit solver's work per step over `steps` steps, as `jello run` and `jello bench`
+/// end their line with it: ", per step N Newton and M conjugate-gradient iterations, K
+/// assemblies".
+pub fn solver_work_per_step(work: SolverStats, steps: u64) -> String {
+    let per_step = |count: u64| count as f64 / steps as f64;
+    format!(
+        ", per step {:.2} Newton and {:.1} conjugate-gradient iterations, {:.2} assemblies",
+        per_step(work.newton_iterations),
+        per_step(work.linear_iterations),
+        per_step(work.assemblies)
+    )
 }

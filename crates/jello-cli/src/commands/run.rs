@@ -243,15 +243,8 @@ pub fn run(args: RunArgs) -> Result<(), CliError> {
             1u64 << cut.finest
         ));
     }
-    let solver = sim.solver_stats();
     if gpu.is_none() && sim.model.integrator.is_implicit() && total > 0 {
-        let per_step = |count: u64| count as f64 / total as f64;
-        summary.push_str(&format!(
-            ", per step {:.2} Newton and {:.1} conjugate-gradient iterations, {:.2} assemblies",
-            per_step(solver.newton_iterations),
-            per_step(solver.linear_iterations),
-            per_step(solver.assemblies)
-        ));
+        summary.push_str(&super::solver_work_per_step(sim.solver_stats(), total));
     }
     if let Some(f) = &frames {
         summary.push_str(&format!(", {} frames", f.written()));
