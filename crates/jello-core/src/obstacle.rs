@@ -314,12 +314,14 @@ impl Obstacle {
 /// branch-free sum over [`Aabb::wall_contacts`] along that axis, for the force kernel.
 #[inline(always)]
 pub(crate) fn wall_force(c: f64, v: f64, lo: f64, hi: f64, kc: f64, dc: f64) -> f64 {
+    // Both walls' forces are computed and one is selected (no branch), so that loops over points
+    // calling this vectorise: with branches the compiler kept the point pass scalar.
+    let (below, above) = (kc * (lo - c) - dc * v, -(kc * (c - hi)) - dc * v);
+    let beyond = if c > hi { above } else { 0.0 };
     if c < lo {
-        kc * (lo - c) - dc * v
-    } else if c > hi {
-        -(kc * (c - hi)) - dc * v
+        below
     } else {
-        0.0
+        beyond
     }
 }
 
