@@ -983,8 +983,9 @@ fn block_accelerations_impl(model: &Model, point: PointInputs<'_>, acc: [&mut [f
         }
     }
     // Then walls, plane and control, over the mass: each a branch-free pass over the block (in
-    // the L1 cache), component by component, so that each vectorises. (One loop over points
-    // doing all of it stayed scalar: the compiler would not split it by its invariant options.)
+    // the L1 cache), the walls and the mass component by component, so that the compiler
+    // vectorises them. (One loop over points doing all of it stayed scalar on the AVX2 tier: the
+    // compiler would not split it by its invariant options.)
     // Every point's sum is taken in the same order as ever: spring force plus field, the wall
     // (`kCollision·depth·n − dCollision (v·n) n` with n = ±axis), the plane, the control, then
     // over the mass.
