@@ -30,10 +30,12 @@ use crate::lattice::STENCIL;
 use crate::model::Model;
 use crate::vec3::Vec3;
 
-/// Points per range below which a product is not split over threads (on 2 cores, the 16³
-/// benchmark's 4 096 points stepped no faster on two threads; 32³ 10–20 % faster).
+/// Points per range below which a product is not split over threads. On 2 cores the 16³
+/// benchmark's 4 096 points in two ranges step 5–17 % faster than in one (a Zen 3 EPYC,
+/// 2026-11-27, two sets of alternated runs; with 4 096 here, as before, they took one); 32³
+/// 10–20 % faster.
 #[cfg(feature = "parallel")]
-const MIN_POINTS_PER_RANGE: usize = 4096;
+const MIN_POINTS_PER_RANGE: usize = 2048;
 
 /// One body's place in the model's arrays and its stencil offsets (flat index differences; 0
 /// for an entry that needs an axis the lattice does not have).
