@@ -31,9 +31,9 @@ use crate::model::Model;
 use crate::vec3::Vec3;
 
 /// Points per range below which a product is not split over threads. On 2 cores the 16³
-/// benchmark's 4 096 points in two ranges step 5–17 % faster than in one (a Zen 3 EPYC,
-/// 2026-11-27, two sets of alternated runs; with 4 096 here, as before, they took one); 32³
-/// 10–20 % faster.
+/// benchmark's 4 096 points in two ranges step 5–23 % faster than in one (a Zen 3 EPYC,
+/// 2026-11-27, medians of three sets of 4–16 alternated runs; with 4 096 here, as before, they
+/// took one); 32³ 10–20 % faster.
 #[cfg(feature = "parallel")]
 const MIN_POINTS_PER_RANGE: usize = 2048;
 
