@@ -22,7 +22,8 @@ const DT: f64 = 1.0 / 60.0;
 fn hard_start(integrator: Integrator) -> (u32, f64) {
     match integrator {
         Integrator::Sdirk2 => (7, 0.08),
-        // (7 took 1/240 s too, before the solves stopped tightening when Newton's method is slow.)
+        // (With 7, since the solves stopped tightening after slow Newton iterations, not even
+        // 1/240 s converges.)
         _ => (8, 0.05),
     }
 }
