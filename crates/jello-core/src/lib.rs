@@ -57,6 +57,7 @@ pub mod stability;
 pub mod state;
 pub mod step;
 pub mod surface;
+pub mod team;
 pub mod vec3;
 pub mod voxel;
 pub mod world;

@@ -83,6 +83,7 @@ use crate::integrator::Integrator;
 use crate::model::Model;
 use crate::soa::Soa;
 use crate::state::{Control, State};
+use crate::team;
 use crate::vec3::Vec3;
 
 mod gmres;
@@ -107,6 +108,7 @@ macro_rules! fine_operator {
             more_blocks: &$s.pair_blocks,
             diag_inv: &$s.diag_inv,
             free: Some(&$s.free),
+            incidence: None,
         }
     };
 }
@@ -548,6 +550,26 @@ pub const SDIRK2_C: f64 = (1.0 - SDIRK2_GAMMA) / SDIRK2_GAMMA;
 /// method second order where the dampers turn with the springs.
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn step(
+    model: &Model,
+    state: &State,
+    control: &Control,
+    force: &mut ForceScratch,
+    s: &mut ImplicitScratch,
+    h: f64,
+    next_pos: &mut [Vec3],
+    next_vel: &mut [Vec3],
+) -> Result<(), NotConverged> {
+    // The step's many short parallel loops run on a team whose threads spin between them,
+    // where the products with `A` are split over threads at all.
+    if model.point_count() < 2 * stencil::MIN_POINTS_PER_RANGE {
+        return step_on_team(model, state, control, force, s, h, next_pos, next_vel);
+    }
+    team::run(|| step_on_team(model, state, control, force, s, h, next_pos, next_vel))
+}
+
+/// [`step`], on its team (if any).
+#[allow(clippy::too_many_arguments)]
+fn step_on_team(
     model: &Model,
     state: &State,
     control: &Control,
@@ -1451,8 +1473,19 @@ fn apply(s: &mut ImplicitScratch) {
     );
 }
 
+/// Fewest points in a chunk of a loop over points spread over threads ([`chunk_size`]):
+/// smaller ones cost more to hand out than they save.
+const MIN_CHUNK: usize = 1024;
+
+/// `a·b`, on the calling thread (in order, so the same bits on any number of threads; at 16³
+/// one costs a few microseconds of the conjugate gradients' 250 or so an iteration).
 fn dot(a: &[Vec3], b: &[Vec3]) -> f64 {
     a.iter().zip(b).map(|(a, b)| a.dot(*b)).sum()
+}
+
+/// Points per chunk of a loop over `n` points spread over the team.
+fn chunk_size(n: usize) -> usize {
+    team::chunk_size(n, MIN_CHUNK)
 }
 
 /// The preconditioner of [`solve`].
@@ -1504,10 +1537,15 @@ fn solve(s: &mut ImplicitScratch, reduction: f64, preconditioner: Preconditioner
             return false;
         }
         let alpha = rz / pap;
-        for i in 0..s.dv.len() {
-            s.dv[i] += s.p[i] * alpha;
-            s.r[i] -= s.ap[i] * alpha;
-        }
+        let (p, ap) = (&s.p, &s.ap);
+        let size = chunk_size(p.len());
+        team::for_each_chunk([&mut s.dv, &mut s.r], size, &|c, [dv, r]| {
+            let (p, ap) = (&p[c * size..], &ap[c * size..]);
+            for i in 0..dv.len() {
+                dv[i] += p[i] * alpha;
+                r[i] -= ap[i] * alpha;
+            }
+        });
         precondition(s);
         let rz_next = dot(&s.r, &s.z);
         if rz_next < 0.0 {
@@ -1515,9 +1553,12 @@ fn solve(s: &mut ImplicitScratch, reduction: f64, preconditioner: Preconditioner
         }
         let beta = rz_next / rz;
         rz = rz_next;
-        for i in 0..s.p.len() {
-            s.p[i] = s.z[i] + s.p[i] * beta;
-        }
+        let z = &s.z;
+        team::for_each_chunk([&mut s.p], size, &|c, [p]| {
+            for (p, &z) in p.iter_mut().zip(&z[c * size..]) {
+                *p = z + *p * beta;
+            }
+        });
     }
     true
 }

@@ -28,6 +28,7 @@ use std::collections::HashMap;
 
 use super::sym::{add_sym, sym_inverse, sym_mul, Sym};
 use crate::model::Model;
+use crate::team;
 use crate::vec3::Vec3;
 
 /// A node of a level: its body and its lattice coordinates (halved on each coarser level).
@@ -59,6 +60,48 @@ pub(super) struct Operator<'a> {
     /// Per node 1 when it moves, 0 when held (the finest level only; the coarse levels hold
     /// moving nodes alone).
     pub free: Option<&'a [f64]>,
+    /// Each node's pairs among `pairs`, for products by rows (the coarse levels).
+    pub incidence: Option<&'a Incidence>,
+}
+
+/// Each node's pairs, in the order of the pairs: those of node `a` are
+/// `pairs[start[a] .. start[a + 1]]`, each a pair's index, with [`SECOND_END`] set where `a`
+/// is its second end.
+#[derive(Clone, Debug, Default)]
+pub(super) struct Incidence {
+    start: Vec<u32>,
+    pairs: Vec<u32>,
+}
+
+/// Marks a pair of [`Incidence`] whose second end the node is.
+const SECOND_END: u32 = 1 << 31;
+
+/// Fewest nodes in a chunk of a loop over one level's nodes spread over threads.
+const MIN_NODES: usize = 128;
+
+impl Incidence {
+    fn of(nodes: usize, pairs: &[[u32; 2]]) -> Incidence {
+        let mut count = vec![0u32; nodes + 1];
+        for &[a, c] in pairs {
+            count[a as usize + 1] += 1;
+            count[c as usize + 1] += 1;
+        }
+        for i in 0..nodes {
+            count[i + 1] += count[i];
+        }
+        let mut next = count.clone();
+        let mut list = vec![0; 2 * pairs.len()];
+        for (k, &[a, c]) in pairs.iter().enumerate() {
+            for (end, flag) in [(a, 0), (c, SECOND_END)] {
+                list[next[end as usize] as usize] = k as u32 | flag;
+                next[end as usize] += 1;
+            }
+        }
+        Incidence {
+            start: count,
+            pairs: list,
+        }
+    }
 }
 
 impl Operator<'_> {
@@ -85,20 +128,60 @@ impl Operator<'_> {
         }
     }
 
-    /// `t = r − A·e`.
-    fn residual(&self, r: &[Vec3], e: &[Vec3], t: &mut [Vec3]) {
-        self.apply(e, t);
-        for (t, &r) in t.iter_mut().zip(r) {
-            *t = r - *t;
-        }
+    /// `t = r − A·e`, with `forces` room for a force per pair. With more than one thread in
+    /// the team, and where the level has its incidence and no pairs found at the iterate, it is
+    /// spread over the threads: each pair's force first, then each row gathers its pairs' in
+    /// the order of the pairs, as the loop over pairs adds them (the same bits either way).
+    fn residual(&self, r: &[Vec3], e: &[Vec3], t: &mut [Vec3], forces: &mut [Vec3]) {
+        let Some(incidence) = self
+            .incidence
+            .filter(|_| self.more_pairs.is_empty() && self.free.is_none() && team::threads() > 1)
+        else {
+            self.apply(e, t);
+            for (t, &r) in t.iter_mut().zip(r) {
+                *t = r - *t;
+            }
+            return;
+        };
+        let forces = &mut forces[..self.pairs.len()];
+        let size = team::chunk_size(forces.len(), MIN_NODES);
+        team::for_each_chunk([&mut *forces], size, &|chunk, [f]| {
+            let at = chunk * size;
+            let (pairs, blocks) = (&self.pairs[at..], &self.blocks[at..]);
+            for ((f, &[a, c]), b) in f.iter_mut().zip(pairs).zip(blocks) {
+                *f = sym_mul(b, e[a as usize] - e[c as usize]);
+            }
+        });
+        let forces = &*forces;
+        let size = team::chunk_size(t.len(), MIN_NODES);
+        team::for_each_chunk([t], size, &|chunk, [t]| {
+            for (i, t) in t.iter_mut().enumerate() {
+                let a = chunk * size + i;
+                let mut row = sym_mul(&self.own[a], e[a]);
+                let (from, to) = (incidence.start[a], incidence.start[a + 1]);
+                for &k in &incidence.pairs[from as usize..to as usize] {
+                    let f = forces[(k & !SECOND_END) as usize];
+                    if k & SECOND_END == 0 {
+                        row += f;
+                    } else {
+                        row -= f;
+                    }
+                }
+                *t = r[a] - row;
+            }
+        });
     }
 
     /// `e += ω·D⁻¹·r` (zero at held nodes).
     fn jacobi(&self, r: &[Vec3], omega: f64, e: &mut [Vec3]) {
-        for (i, (e, d)) in e.iter_mut().zip(self.diag_inv).enumerate() {
-            let f = self.free.map_or(1.0, |f| f[i]);
-            *e += sym_mul(d, r[i]) * (omega * f);
-        }
+        let size = team::chunk_size(e.len(), MIN_NODES);
+        team::for_each_chunk([e], size, &|chunk, [e]| {
+            for (j, e) in e.iter_mut().enumerate() {
+                let i = chunk * size + j;
+                let f = self.free.map_or(1.0, |f| f[i]);
+                *e += sym_mul(&self.diag_inv[i], r[i]) * (omega * f);
+            }
+        });
     }
 
     /// The inverses of the diagonal blocks into `diag_inv`: `own` plus the block of every
@@ -132,6 +215,9 @@ struct Level {
     diag_inv: Vec<Sym>,
     /// Each node's aggregate and each pair's pair on the next level (empty on the coarsest).
     down: Restriction,
+    incidence: Incidence,
+    /// A force per pair, for [`Operator::residual`].
+    forces: Vec<Vec3>,
     /// Right-hand side, correction, residual.
     r: Vec<Vec3>,
     e: Vec<Vec3>,
@@ -144,6 +230,9 @@ struct Level {
 struct Restriction {
     parent: Vec<u32>,
     slot: Vec<u32>,
+    /// Each aggregate's nodes, ascending: those of `J` are `nodes[start[J] .. start[J + 1]]`.
+    start: Vec<u32>,
+    nodes: Vec<u32>,
 }
 
 /// The coarse levels of `A`, built for a model's points and springs.
@@ -189,6 +278,8 @@ impl Multigrid {
                 more_blocks: Vec::with_capacity(more),
                 diag_inv: vec![[0.0; 6]; n],
                 down: Restriction::default(),
+                incidence: Incidence::of(n, &coarse_pairs),
+                forces: vec![Vec3::ZERO; coarse_pairs.len()],
                 r: vec![Vec3::ZERO; n],
                 e: vec![Vec3::ZERO; n],
                 t: vec![Vec3::ZERO; n],
@@ -228,13 +319,9 @@ impl Multigrid {
             return;
         };
         fine.jacobi(r, FINE_OMEGA, z);
-        restrict(&self.down.parent, r, &mut first.r);
+        restrict(&self.down, r, &mut first.r);
         cycle(&mut self.levels);
-        let e = &self.levels[0].e;
-        for (i, (z, &p)) in z.iter_mut().zip(&self.down.parent).enumerate() {
-            let f = fine.free.map_or(1.0, |f| f[i]);
-            *z += e[p as usize] * f;
-        }
+        prolong(&self.down, &self.levels[0].e, fine.free, z);
     }
 }
 
@@ -248,6 +335,7 @@ impl Level {
             more_blocks: &self.more_blocks,
             diag_inv: &self.diag_inv,
             free: None,
+            incidence: Some(&self.incidence),
         }
     }
 }
@@ -257,37 +345,54 @@ fn cycle(levels: &mut [Level]) {
     let Some((this, coarser)) = levels.split_first_mut() else {
         return;
     };
-    // The correction and residual leave the level while its operator is borrowed (taking a
-    // `Vec` out and back does not allocate).
+    // The correction, residual and pair forces leave the level while its operator is borrowed
+    // (taking a `Vec` out and back does not allocate).
     let (mut e, mut t) = (std::mem::take(&mut this.e), std::mem::take(&mut this.t));
+    let mut f = std::mem::take(&mut this.forces);
     let (op, r) = (this.operator(), &this.r);
     e.fill(Vec3::ZERO);
     if let Some(next) = coarser.first_mut() {
         op.jacobi(r, OMEGA, &mut e);
-        op.residual(r, &e, &mut t);
-        restrict(&this.down.parent, &t, &mut next.r);
+        op.residual(r, &e, &mut t, &mut f);
+        restrict(&this.down, &t, &mut next.r);
         cycle(coarser);
-        for (e, &p) in e.iter_mut().zip(&this.down.parent) {
-            *e += coarser[0].e[p as usize];
-        }
-        op.residual(r, &e, &mut t);
+        prolong(&this.down, &coarser[0].e, None, &mut e);
+        op.residual(r, &e, &mut t, &mut f);
         op.jacobi(&t, OMEGA, &mut e);
     } else {
         op.jacobi(r, 1.0, &mut e);
         for _ in 1..COARSEST_SWEEPS {
-            op.residual(r, &e, &mut t);
+            op.residual(r, &e, &mut t, &mut f);
             op.jacobi(&t, 1.0, &mut e);
         }
     }
-    (this.e, this.t) = (e, t);
+    (this.e, this.t, this.forces) = (e, t, f);
 }
 
-/// `coarse[J] = Σ fine[p]` over the nodes `p` of aggregate `J`.
-fn restrict(parent: &[u32], fine: &[Vec3], coarse: &mut [Vec3]) {
-    coarse.fill(Vec3::ZERO);
-    for (&f, &p) in fine.iter().zip(parent) {
-        coarse[p as usize] += f;
-    }
+/// `coarse[J] = Σ fine[p]` over the nodes `p` of aggregate `J`, in their order.
+fn restrict(down: &Restriction, fine: &[Vec3], coarse: &mut [Vec3]) {
+    let size = team::chunk_size(coarse.len(), MIN_NODES);
+    team::for_each_chunk([coarse], size, &|chunk, [coarse]| {
+        for (i, c) in coarse.iter_mut().enumerate() {
+            let j = chunk * size + i;
+            let nodes = &down.nodes[down.start[j] as usize..down.start[j + 1] as usize];
+            *c = nodes
+                .iter()
+                .fold(Vec3::ZERO, |sum, &p| sum + fine[p as usize]);
+        }
+    });
+}
+
+/// `fine[p] += coarse[J]·free[p]` for each node `p` of each aggregate `J`.
+fn prolong(down: &Restriction, coarse: &[Vec3], free: Option<&[f64]>, fine: &mut [Vec3]) {
+    let size = team::chunk_size(fine.len(), MIN_NODES);
+    team::for_each_chunk([fine], size, &|chunk, [fine]| {
+        for (i, e) in fine.iter_mut().enumerate() {
+            let p = chunk * size + i;
+            let f = free.map_or(1.0, |f| f[p]);
+            *e += coarse[down.parent[p] as usize] * f;
+        }
+    });
 }
 
 /// The Galerkin operator `PᵀAP` of `fine` into `coarse` (see the module documentation); a pair
@@ -365,7 +470,27 @@ fn coarsen(nodes: &[Node], pairs: &[[u32; 2]]) -> (Restriction, Vec<Node>, Vec<[
             })
         })
         .collect();
-    (Restriction { parent, slot }, coarse_nodes, coarse_pairs)
+    // Each aggregate's nodes, ascending (counted, then placed in order).
+    let mut start = vec![0u32; coarse_nodes.len() + 1];
+    for &p in &parent {
+        start[p as usize + 1] += 1;
+    }
+    for j in 0..coarse_nodes.len() {
+        start[j + 1] += start[j];
+    }
+    let mut next = start.clone();
+    let mut members = vec![0; parent.len()];
+    for (node, &p) in parent.iter().enumerate() {
+        members[next[p as usize] as usize] = node as u32;
+        next[p as usize] += 1;
+    }
+    let down = Restriction {
+        parent,
+        slot,
+        start,
+        nodes: members,
+    };
+    (down, coarse_nodes, coarse_pairs)
 }
 
 #[cfg(test)]
@@ -443,6 +568,7 @@ mod tests {
                 more_blocks: &self.more_blocks,
                 diag_inv: &self.diag_inv,
                 free: Some(&self.free),
+                incidence: None,
             }
         }
     }
@@ -477,7 +603,7 @@ mod tests {
             let mut yf = vec![Vec3::ZERO; nf];
             finer.apply(&xf, &mut yf);
             let mut want = vec![Vec3::ZERO; nc];
-            restrict(&down.parent, &yf, &mut want);
+            restrict(down, &yf, &mut want);
             let mut got = vec![Vec3::ZERO; nc];
             coarse.operator().apply(&xc, &mut got);
             for (g, w) in got.iter().zip(&want) {

@@ -28,14 +28,14 @@ use super::sym::{sym_mul, Sym};
 use crate::body::Body;
 use crate::lattice::STENCIL;
 use crate::model::Model;
+use crate::team;
 use crate::vec3::Vec3;
 
 /// Points per range below which a product is not split over threads. On 2 cores the 16³
 /// benchmark's 4 096 points in two ranges step 5–23 % faster than in one (a Zen 3 EPYC,
 /// 2026-11-27, medians of three sets of 4–16 alternated runs; with 4 096 here, as before, they
 /// took one); 32³ 10–20 % faster.
-#[cfg(feature = "parallel")]
-const MIN_POINTS_PER_RANGE: usize = 2048;
+pub(super) const MIN_POINTS_PER_RANGE: usize = 2048;
 
 /// One body's place in the model's arrays and its stencil offsets (flat index differences; 0
 /// for an entry that needs an axis the lattice does not have).
@@ -87,11 +87,19 @@ pub(super) struct SpringMatrix {
     /// The springs' rest lengths and stiffnesses by the same slots (0 where there is none).
     rest: Vec<f64>,
     stiffness: Vec<f64>,
-    /// `x` and `A·x` as structure of arrays.
+    /// `x` as structure of arrays.
     x: [Vec<f64>; 3],
+    /// The ranges of rows a product is split into (one per thread of the team).
+    ranges: Vec<RowRange>,
+}
+
+/// One range of rows of a product: where it starts, its rows of the product (structure of
+/// arrays) and a buffer for the springs' forces of one stencil entry.
+#[derive(Clone, Debug, Default)]
+struct RowRange {
+    start: usize,
     y: [Vec<f64>; 3],
-    /// Per range of rows (one per thread), the springs' forces of one stencil entry.
-    forces: Vec<[Vec<f64>; 3]>,
+    forces: [Vec<f64>; 3],
 }
 
 impl SpringMatrix {
@@ -111,8 +119,7 @@ impl SpringMatrix {
             rest: vec![0.0; 16 * n],
             stiffness: vec![0.0; 16 * n],
             x: std::array::from_fn(|_| vec![0.0; n]),
-            y: std::array::from_fn(|_| vec![0.0; n]),
-            forces: Vec::new(),
+            ranges: Vec::new(),
         }
     }
 
@@ -245,13 +252,22 @@ impl SpringMatrix {
                 &mut b4[at..at + len],
                 &mut b5[at..at + len],
             ];
-            let springs = [&rest[at..at + len], &stiffness[at..at + len]];
-            let (x, xn) = (part(xs, q, len), part(xs, q + o, len));
-            spring_blocks(b, x, xn, part(dampers, at, len), springs, [h, floor]);
+            // The run in chunks over the team (each slot's block depends on its slot alone).
+            let size = team::chunk_size(len, MIN_POINTS_PER_RANGE);
+            team::for_each_chunk(b, size, &|chunk, b| {
+                let (at, q, len) = (at + chunk * size, q + chunk * size, b[0].len());
+                let springs = [&rest[at..at + len], &stiffness[at..at + len]];
+                let (x, xn) = (part(xs, q, len), part(xs, q + o, len));
+                spring_blocks(b, x, xn, part(dampers, at, len), springs, [h, floor]);
+            });
         });
-        for (block, &slot) in blocks.iter_mut().zip(&self.slot) {
-            *block = std::array::from_fn(|c| self.blocks[c][slot as usize]);
-        }
+        let (all, slots) = (&self.blocks, &self.slot);
+        let size = team::chunk_size(blocks.len(), MIN_POINTS_PER_RANGE);
+        team::for_each_chunk([blocks], size, &|chunk, [blocks]| {
+            for (block, &slot) in blocks.iter_mut().zip(&slots[chunk * size..]) {
+                *block = std::array::from_fn(|c| all[c][slot as usize]);
+            }
+        });
     }
 
     /// `x` into the product's input.
@@ -265,61 +281,75 @@ impl SpringMatrix {
     /// `y = (own·x + springs·x)`, then scaled by `free` per point.
     pub fn apply(&mut self, own: &[Sym], free: &[f64], x: &[Vec3], y: &mut [Vec3]) {
         self.product(Layer::Blocks, own, x);
-        let [y0, y1, y2] = &self.y;
-        for (i, (y, &f)) in y.iter_mut().zip(free).enumerate() {
-            *y = Vec3::new(y0[i], y1[i], y2[i]) * f;
-        }
+        let ranges = &self.ranges;
+        team::for_each_chunk([y], self.range_size(), &|r, [y]| {
+            let [y0, y1, y2] = &ranges[r].y;
+            let free = &free[ranges[r].start..];
+            for (i, y) in y.iter_mut().enumerate() {
+                *y = Vec3::new(y0[i], y1[i], y2[i]) * free[i];
+            }
+        });
     }
 
     /// `y = −(own·v + dampers·v)`: the force of the dampers (and of `own`) at velocities `v`.
     pub fn damper_force(&mut self, own: &[Sym], v: &[Vec3], y: &mut [Vec3]) {
         self.product(Layer::Dampers, own, v);
-        let [y0, y1, y2] = &self.y;
-        for (i, y) in y.iter_mut().enumerate() {
-            *y = Vec3::new(-y0[i], -y1[i], -y2[i]);
-        }
+        let ranges = &self.ranges;
+        team::for_each_chunk([y], self.range_size(), &|r, [y]| {
+            let [y0, y1, y2] = &ranges[r].y;
+            for (i, y) in y.iter_mut().enumerate() {
+                *y = Vec3::new(-y0[i], -y1[i], -y2[i]);
+            }
+        });
     }
 
-    /// `self.y = own·x + (the layer's springs)·x`.
+    /// Rows per range of the last product (the last range may have fewer).
+    fn range_size(&self) -> usize {
+        self.ranges.first().map_or(1, |r| r.y[0].len().max(1))
+    }
+
+    /// Each range's rows of `own·x + (the layer's springs)·x`, the ranges spread over the team's
+    /// threads (sized anew, allocating, only when their number changes).
     fn product(&mut self, layer: Layer, own: &[Sym], x: &[Vec3]) {
         self.load_x(x.iter().copied());
         let n = self.n;
-        #[cfg(feature = "parallel")]
-        let ranges = rayon::current_num_threads()
-            .min(n / MIN_POINTS_PER_RANGE)
-            .max(1);
-        #[cfg(not(feature = "parallel"))]
-        let ranges = 1;
-        let size = n.div_ceil(ranges).max(1);
-        // Each range's spring forces: its rows and the springs reaching back into them.
-        let reach = self.spans.iter().flat_map(|s| s.offset).max().unwrap_or(0);
-        let room = (size + reach).min(n);
-        if self.forces.len() < ranges || self.forces.iter().any(|f| f[0].len() < room) {
-            self.forces = vec![std::array::from_fn(|_| vec![0.0; room]); ranges];
+        let count = team::threads().min(n / MIN_POINTS_PER_RANGE).max(1);
+        let size = n.div_ceil(count).max(1);
+        if self.ranges.len() != count || self.range_size() != size.min(n) {
+            // Each range's spring forces: its rows and the springs reaching back into them.
+            let reach = self.spans.iter().flat_map(|s| s.offset).max().unwrap_or(0);
+            let room = (size + reach).min(n);
+            self.ranges = (0..count)
+                .map(|r| {
+                    let start = (r * size).min(n);
+                    let rows = (n - start).min(size);
+                    RowRange {
+                        start,
+                        y: std::array::from_fn(|_| vec![0.0; rows]),
+                        forces: std::array::from_fn(|_| vec![0.0; room]),
+                    }
+                })
+                .collect();
         }
         let (xs, spans) = (&self.x, &self.spans[..]);
         let layer = match layer {
             Layer::Blocks => Springs::Blocks(&self.blocks),
             Layer::Dampers => Springs::Dampers(&self.dampers),
         };
-        let [y0, y1, y2] = &mut self.y;
-        let rows = |start: usize, out: [&mut [f64]; 3], forces: &mut [Vec<f64>; 3]| {
-            rows(spans, n, layer, own, xs, start, out, forces);
-        };
-        #[cfg(feature = "parallel")]
-        if ranges > 1 {
-            use rayon::prelude::*;
-            y0.par_chunks_mut(size)
-                .zip(y1.par_chunks_mut(size))
-                .zip(y2.par_chunks_mut(size))
-                .zip(self.forces.par_iter_mut())
-                .enumerate()
-                .for_each(|(r, (((a, b), c), f))| rows(r * size, [a, b, c], f));
-        } else {
-            rows(0, [y0, y1, y2], &mut self.forces[0]);
-        }
-        #[cfg(not(feature = "parallel"))]
-        rows(0, [y0, y1, y2], &mut self.forces[0]);
+        team::for_each_mut(&mut self.ranges, &|_, range| {
+            let [y0, y1, y2] = &mut range.y;
+            let out = [&mut y0[..], &mut y1[..], &mut y2[..]];
+            rows(
+                spans,
+                n,
+                layer,
+                own,
+                xs,
+                range.start,
+                out,
+                &mut range.forces,
+            );
+        });
     }
 }
 

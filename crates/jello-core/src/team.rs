@@ -1,0 +1,408 @@
+//! A team of threads that spin between the short parallel loops of one implicit step.
+//!
+//! The implicit solver runs hundreds of parallel loops a step, each a few tens of microseconds
+//! long at 16³, separated by serial work (the coarse levels of the multigrid, the scalars of the
+//! conjugate gradients). Through rayon each loop woke a sleeping worker, and on a 2-vCPU virtual
+//! machine that wake-up cost more than the loop: the 16³ benchmark stepped *slower* on two
+//! threads than on one (22.6–25.7 against 29.4–35.7 steps/s, a Zen 3 EPYC under KVM,
+//! 2026-11-27). OpenMP runtimes avoid it by letting their threads spin between loops; so does
+//! this team, for the length of one step only.
+//!
+//! [`run`] starts the team on rayon's threads (as many as the current pool has: `jello bench
+//! --threads` and `RAYON_NUM_THREADS` set it) and [`for_each`] spreads a loop's items over it.
+//! Items are claimed one by one, so which thread computes an item varies, but each item is
+//! computed the same way whoever takes it: callers split their work into items that do not
+//! depend on the thread count, and results are bit for bit the same for any number of threads.
+//! Outside [`run`], on a thread that is not the team's leader, and without the `parallel`
+//! feature (wasm), [`for_each`] runs the items in order on the calling thread.
+//!
+//! The helpers wait by spinning (with the processor's spin hint), never sleeping: a step keeps
+//! every thread of the pool busy while it lasts, and gives them back when it ends. A helper that
+//! never starts (the pool busy with other work) costs nothing: the leader claims every item itself.
+
+#[cfg(feature = "parallel")]
+mod spinning {
+    use std::cell::Cell;
+    use std::sync::atomic::{AtomicBool, AtomicPtr, AtomicU64, AtomicUsize, Ordering};
+
+    /// One parallel loop, on the leader's stack while it lasts.
+    struct Job<'a> {
+        body: &'a (dyn Fn(usize) + Sync),
+    }
+
+    /// What the leader and its helpers share.
+    pub(super) struct Team {
+        /// The current loop: its number, its item count and its next unclaimed item (see
+        /// [`NUMBER`], [`ITEMS`]), in one word so that a claim is of one loop's item.
+        claim: AtomicU64,
+        /// The current loop (valid while it has unfinished items).
+        job: AtomicPtr<Job<'static>>,
+        /// Items of the current loop finished.
+        done: AtomicUsize,
+        /// A helper's item panicked: the leader panics too, once the loop is over.
+        panicked: AtomicBool,
+        /// The step is over: helpers return.
+        finished: AtomicBool,
+        /// Helpers started.
+        started: AtomicUsize,
+    }
+
+    thread_local! {
+        /// The team this thread leads, while it does.
+        static LEADING: Cell<*const Team> = const { Cell::new(std::ptr::null()) };
+    }
+
+    /// `claim`'s low 20 bits hold the next unclaimed item, the next 20 the item count, and the
+    /// bits from `NUMBER` the loop's number.
+    const ITEMS: u32 = 20;
+    const NUMBER: u32 = 40;
+    const MASK: u64 = (1 << ITEMS) - 1;
+
+    impl Team {
+        fn new() -> Team {
+            Team {
+                claim: AtomicU64::new(0),
+                job: AtomicPtr::new(std::ptr::null_mut()),
+                done: AtomicUsize::new(0),
+                panicked: AtomicBool::new(false),
+                finished: AtomicBool::new(false),
+                started: AtomicUsize::new(0),
+            }
+        }
+
+        /// Claims the next item of the loop `claim` was read in; `None` when it has none left
+        /// or a later loop has begun.
+        fn take(&self, mut claim: u64) -> Option<usize> {
+            loop {
+                let index = claim & MASK;
+                if index >= (claim >> ITEMS) & MASK {
+                    return None;
+                }
+                match self.claim.compare_exchange_weak(
+                    claim,
+                    claim + 1,
+                    Ordering::AcqRel,
+                    Ordering::Acquire,
+                ) {
+                    Ok(_) => return Some(index as usize),
+                    Err(now) if now >> NUMBER == claim >> NUMBER => claim = now,
+                    Err(_) => return None,
+                }
+            }
+        }
+
+        /// The leader's side of one loop.
+        fn lead(&self, items: usize, body: &(dyn Fn(usize) + Sync)) {
+            assert!(items as u64 <= MASK, "{items} items in one parallel loop");
+            let job = Job { body };
+            self.done.store(0, Ordering::Relaxed);
+            // SAFETY (of the helpers' reads): the pointer is read only by a helper that claimed
+            // an item of this loop, and the leader does not return (ending `job`'s life) before
+            // every claimed item is done.
+            let job_ptr: *const Job = &job;
+            self.job
+                .store(job_ptr as *mut Job<'static>, Ordering::Relaxed);
+            let number = (self.claim.load(Ordering::Relaxed) >> NUMBER) + 1;
+            let claim = number << NUMBER | (items as u64) << ITEMS;
+            self.claim.store(claim, Ordering::Release);
+            while let Some(index) = self.take(self.claim.load(Ordering::Acquire)) {
+                body(index);
+                self.done.fetch_add(1, Ordering::Release);
+            }
+            while self.done.load(Ordering::Acquire) < items {
+                std::hint::spin_loop();
+            }
+            if self.panicked.load(Ordering::Relaxed) {
+                panic!("an item of a parallel loop panicked on a helper thread");
+            }
+        }
+
+        /// A helper: claims items of each loop until the step is over. Between loops, once
+        /// every helper has started, it also runs rayon's pending work (the halves of the
+        /// leader's `rayon::join`s, which it would otherwise never steal).
+        fn help(&self, helpers: usize) {
+            self.started.fetch_add(1, Ordering::AcqRel);
+            while !self.finished.load(Ordering::Acquire) {
+                let Some(index) = self.take(self.claim.load(Ordering::Acquire)) else {
+                    // Before every helper has started, the next one's start may be this
+                    // thread's own pending work: running it here would nest a helper in this one.
+                    if self.started.load(Ordering::Acquire) < helpers
+                        || rayon::yield_now() != Some(rayon::Yield::Executed)
+                    {
+                        std::hint::spin_loop();
+                    }
+                    continue;
+                };
+                // SAFETY: this item of the loop is claimed and not yet done, so the leader is
+                // still in `lead` for that loop and `job` points at its live `Job`.
+                let job = unsafe { &*self.job.load(Ordering::Acquire) };
+                let ran =
+                    std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| (job.body)(index)));
+                if ran.is_err() {
+                    self.panicked.store(true, Ordering::Relaxed);
+                }
+                self.done.fetch_add(1, Ordering::Release);
+            }
+        }
+    }
+
+    /// Starts `left` of the `helpers` helpers of `team`, one on each thread that steals one.
+    fn start_helpers(team: &Team, helpers: usize, left: usize) {
+        match left {
+            0 => {}
+            1 => team.help(helpers),
+            _ => {
+                rayon::join(
+                    || team.help(helpers),
+                    || start_helpers(team, helpers, left - 1),
+                );
+            }
+        }
+    }
+
+    pub(super) fn run<R: Send>(f: impl FnOnce() -> R + Send) -> R {
+        let helpers = rayon::current_num_threads() - 1;
+        if helpers == 0 || !LEADING.get().is_null() {
+            return f();
+        }
+        let team = Team::new();
+        let (result, ()) = rayon::join(
+            || {
+                // Marks the team led on this thread, and ends the step however `f` ends.
+                struct Leading<'a>(&'a Team);
+                impl Drop for Leading<'_> {
+                    fn drop(&mut self) {
+                        LEADING.set(std::ptr::null());
+                        self.0.finished.store(true, Ordering::Release);
+                    }
+                }
+                LEADING.set(&team);
+                let _leading = Leading(&team);
+                f()
+            },
+            || start_helpers(&team, helpers, helpers),
+        );
+        result
+    }
+
+    pub(super) fn for_each(items: usize, body: &(dyn Fn(usize) + Sync)) {
+        let team = LEADING.get();
+        if team.is_null() || items < 2 {
+            (0..items).for_each(body);
+            return;
+        }
+        // SAFETY: `LEADING` is set only inside `run`, while its `team` lives.
+        unsafe { &*team }.lead(items, body);
+    }
+
+    pub(super) fn threads() -> usize {
+        if LEADING.get().is_null() {
+            1
+        } else {
+            rayon::current_num_threads()
+        }
+    }
+}
+
+/// Runs `f` with a team of the current rayon pool's threads: within it, [`for_each`] on this
+/// thread spreads its items over them. Without the `parallel` feature, just `f()`.
+pub fn run<R: Send>(f: impl FnOnce() -> R + Send) -> R {
+    #[cfg(feature = "parallel")]
+    return spinning::run(f);
+    #[cfg(not(feature = "parallel"))]
+    f()
+}
+
+/// `body(i)` for every `i` in `0..items`, spread over the team this thread leads (in order on
+/// this thread when it leads none). `body` must give the same results whichever thread runs an
+/// item and in whatever order the items run.
+pub fn for_each(items: usize, body: &(dyn Fn(usize) + Sync)) {
+    #[cfg(feature = "parallel")]
+    spinning::for_each(items, body);
+    #[cfg(not(feature = "parallel"))]
+    (0..items).for_each(body);
+}
+
+/// `body(i, &mut items[i])` for every item, spread as [`for_each`] spreads them.
+pub fn for_each_mut<S: Send>(items: &mut [S], body: &(dyn Fn(usize, &mut S) + Sync)) {
+    let base = Base(items.as_mut_ptr());
+    for_each(items.len(), &|i| {
+        // SAFETY: `for_each` runs each index once, so each item is borrowed once, and `items`
+        // is borrowed mutably for the whole loop.
+        body(i, unsafe { &mut *base.at(i) })
+    });
+}
+
+/// `body(i, parts)` for each chunk `i` of `size` elements of `slices` (all of one length; the
+/// last chunk may be short), `parts` the chunk of each slice; spread as [`for_each`] spreads
+/// them.
+pub fn for_each_chunk<T: Send, const K: usize>(
+    slices: [&mut [T]; K],
+    size: usize,
+    body: &(dyn Fn(usize, [&mut [T]; K]) + Sync),
+) {
+    let len = slices.first().map_or(0, |s| s.len());
+    assert!(slices.iter().all(|s| s.len() == len) && size > 0);
+    let bases = slices.map(|s| Base(s.as_mut_ptr()));
+    for_each(len.div_ceil(size), &|i| {
+        let (start, end) = (i * size, ((i + 1) * size).min(len));
+        // SAFETY: `for_each` runs each index once and the chunks of distinct indices do not
+        // overlap, so each element is borrowed once; the slices are borrowed mutably for the
+        // whole loop.
+        body(
+            i,
+            bases.map(|b| unsafe { std::slice::from_raw_parts_mut(b.at(start), end - start) }),
+        )
+    });
+}
+
+/// A pointer to the elements of a slice that a loop's items borrow apart.
+struct Base<T>(*mut T);
+
+impl<T> Clone for Base<T> {
+    fn clone(&self) -> Self {
+        *self
+    }
+}
+
+impl<T> Copy for Base<T> {}
+
+// SAFETY: the elements are `Send`, and the loops above hand each to one thread at a time.
+unsafe impl<T: Send> Sync for Base<T> {}
+
+impl<T> Base<T> {
+    /// # Safety
+    /// `i` within the slice.
+    unsafe fn at(self, i: usize) -> *mut T {
+        unsafe { self.0.add(i) }
+    }
+}
+
+/// Elements per chunk of a loop over `n` elements whose results do not depend on its chunks:
+/// one chunk per thread of the team, none under `min` (smaller ones cost more to hand out
+/// than they save).
+pub fn chunk_size(n: usize, min: usize) -> usize {
+    n.div_ceil(threads()).max(min).max(1)
+}
+
+/// Threads of the team this thread leads (1 when it leads none).
+pub fn threads() -> usize {
+    #[cfg(feature = "parallel")]
+    return spinning::threads();
+    #[cfg(not(feature = "parallel"))]
+    1
+}
+
+#[cfg(all(test, feature = "parallel"))]
+mod tests {
+    use super::*;
+    use std::sync::atomic::{AtomicUsize, Ordering};
+
+    fn pool(threads: usize) -> rayon::ThreadPool {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap()
+    }
+
+    /// Every item of every loop runs exactly once, on any number of threads (more than this
+    /// machine's cores included), from inside the pool and from outside it.
+    #[test]
+    fn every_item_runs_once() {
+        for threads in [1, 2, 3, 8] {
+            let check = || {
+                run(|| {
+                    assert_eq!(super::threads(), threads);
+                    for items in [0, 1, 2, 5, 64, 1000] {
+                        let counts: Vec<AtomicUsize> =
+                            (0..items).map(|_| AtomicUsize::new(0)).collect();
+                        for_each(items, &|i| {
+                            counts[i].fetch_add(1, Ordering::Relaxed);
+                        });
+                        assert!(counts.iter().all(|c| c.load(Ordering::Relaxed) == 1));
+                    }
+                    let mut values = vec![0usize; 1001];
+                    for_each_chunk([&mut values[..]], 7, &|chunk, [part]| {
+                        for (i, v) in part.iter_mut().enumerate() {
+                            *v += chunk * 7 + i;
+                        }
+                    });
+                    assert!(values.iter().enumerate().all(|(i, &v)| v == i));
+                    let mut items = vec![1usize; 33];
+                    for_each_mut(&mut items, &|i, item| *item += i);
+                    assert!(items.iter().enumerate().all(|(i, &v)| v == i + 1));
+                })
+            };
+            pool(threads).install(check);
+        }
+        // Outside any team: in order on this thread.
+        assert_eq!(super::threads(), 1);
+        let order = std::sync::Mutex::new(Vec::new());
+        for_each(4, &|i| order.lock().unwrap().push(i));
+        assert_eq!(*order.lock().unwrap(), [0, 1, 2, 3]);
+    }
+
+    /// The items of a loop are spread over the threads: with as many threads as items, each
+    /// waiting until all have started, the loop can only end if every thread took one.
+    #[test]
+    fn the_helpers_take_items() {
+        let pool = pool(3);
+        pool.install(|| {
+            run(|| {
+                let started = AtomicUsize::new(0);
+                let threads_seen = std::sync::Mutex::new(std::collections::HashSet::new());
+                for_each(3, &|_| {
+                    started.fetch_add(1, Ordering::AcqRel);
+                    while started.load(Ordering::Acquire) < 3 {
+                        std::hint::spin_loop();
+                    }
+                    threads_seen
+                        .lock()
+                        .unwrap()
+                        .insert(std::thread::current().id());
+                });
+                assert_eq!(threads_seen.lock().unwrap().len(), 3);
+            })
+        });
+    }
+
+    /// A team inside a team's step runs on the outer one; rayon work from the leader still
+    /// runs (on the helpers or on the leader).
+    #[test]
+    fn nested_runs_and_rayon_work_finish() {
+        pool(2).install(|| {
+            let sum = run(|| {
+                let inner = run(|| {
+                    let (a, b) = rayon::join(|| 1, || 2);
+                    a + b
+                });
+                let total = AtomicUsize::new(0);
+                for_each(10, &|i| {
+                    total.fetch_add(i, Ordering::Relaxed);
+                });
+                inner + total.load(Ordering::Relaxed)
+            });
+            assert_eq!(sum, 48);
+        });
+    }
+
+    /// A panic in an item reaches the leader (whichever thread ran it), and the team ends.
+    #[test]
+    fn a_panicking_item_panics_the_leader() {
+        let pool = pool(2);
+        for item in [0, 1] {
+            let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+                pool.install(|| {
+                    run(|| {
+                        for_each(2, &|i| {
+                            assert!(i != item, "item {i}");
+                        });
+                    })
+                })
+            }));
+            assert!(result.is_err());
+        }
+        // The pool is still usable.
+        assert_eq!(pool.install(|| run(|| threads())), 2);
+    }
+}
