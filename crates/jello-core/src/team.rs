@@ -58,6 +58,9 @@ mod spinning {
     const NUMBER: u32 = 40;
     const MASK: u64 = (1 << ITEMS) - 1;
 
+    /// Idle turns of a helper per look for rayon's pending work.
+    const RAYON_EVERY: u32 = 32;
+
     impl Team {
         fn new() -> Team {
             Team {
@@ -122,17 +125,23 @@ mod spinning {
         /// leader's `rayon::join`s, which it would otherwise never steal).
         fn help(&self, helpers: usize) {
             self.started.fetch_add(1, Ordering::AcqRel);
+            let mut idle = 0u32;
             while !self.finished.load(Ordering::Acquire) {
                 let Some(index) = self.take(self.claim.load(Ordering::Acquire)) else {
-                    // Before every helper has started, the next one's start may be this
-                    // thread's own pending work: running it here would nest a helper in this one.
-                    if self.started.load(Ordering::Acquire) < helpers
+                    // Looking for rayon's work takes longer than a look at `claim`: once every
+                    // `RAYON_EVERY` idle turns. Before every helper has started, the next one's
+                    // start may be this thread's own pending work: running it here would nest a
+                    // helper in this one.
+                    idle = idle.wrapping_add(1);
+                    if idle % RAYON_EVERY != 0
+                        || self.started.load(Ordering::Acquire) < helpers
                         || rayon::yield_now() != Some(rayon::Yield::Executed)
                     {
                         std::hint::spin_loop();
                     }
                     continue;
                 };
+                idle = 0;
                 // SAFETY: this item of the loop is claimed and not yet done, so the leader is
                 // still in `lead` for that loop and `job` points at its live `Job`.
                 let job = unsafe { &*self.job.load(Ordering::Acquire) };
@@ -403,6 +412,6 @@ mod tests {
             assert!(result.is_err());
         }
         // The pool is still usable.
-        assert_eq!(pool.install(|| run(|| threads())), 2);
+        assert_eq!(pool.install(|| run(threads)), 2);
     }
 }

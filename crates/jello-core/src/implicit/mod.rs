@@ -1360,6 +1360,7 @@ fn assemble(
         &s.extra,
         (&s.spring_pairs, &s.spring_blocks),
         (&s.pair_rows, &s.pair_blocks),
+        Some(s.multigrid.fine_incidence()),
         &mut s.diag_inv,
     );
     s.multigrid.assemble(&fine_operator!(s));

@@ -185,22 +185,50 @@ impl Operator<'_> {
     }
 
     /// The inverses of the diagonal blocks into `diag_inv`: `own` plus the block of every
-    /// pair, in `pairs` and `more_pairs`, at both its nodes.
+    /// pair, in `pairs` and `more_pairs`, at both its nodes. With more than one thread in the
+    /// team and `incidence` (of `pairs`), each node gathers its pairs' blocks, in the order of
+    /// the pairs as the loop over them adds them, and the nodes are spread over the threads.
     pub fn invert_diagonal(
         own: &[Sym],
         (pairs, blocks): (&[[u32; 2]], &[Sym]),
         (more_pairs, more_blocks): (&[[u32; 2]], &[Sym]),
+        incidence: Option<&Incidence>,
         diag_inv: &mut [Sym],
     ) {
-        diag_inv.copy_from_slice(own);
-        let more = more_pairs.iter().zip(more_blocks);
-        for (&[a, c], b) in pairs.iter().zip(blocks).chain(more) {
+        let incidence = incidence.filter(|i| {
+            team::threads() > 1
+                && i.start.len() == own.len() + 1
+                && i.pairs.len() == 2 * pairs.len()
+        });
+        let size = team::chunk_size(own.len(), MIN_NODES);
+        match incidence {
+            Some(incidence) => team::for_each_chunk([&mut *diag_inv], size, &|chunk, [d]| {
+                for (i, d) in d.iter_mut().enumerate() {
+                    let a = chunk * size + i;
+                    *d = own[a];
+                    let (from, to) = (incidence.start[a], incidence.start[a + 1]);
+                    for &k in &incidence.pairs[from as usize..to as usize] {
+                        add_sym(d, &blocks[(k & !SECOND_END) as usize]);
+                    }
+                }
+            }),
+            None => {
+                diag_inv.copy_from_slice(own);
+                for (&[a, c], b) in pairs.iter().zip(blocks) {
+                    add_sym(&mut diag_inv[a as usize], b);
+                    add_sym(&mut diag_inv[c as usize], b);
+                }
+            }
+        }
+        for (&[a, c], b) in more_pairs.iter().zip(more_blocks) {
             add_sym(&mut diag_inv[a as usize], b);
             add_sym(&mut diag_inv[c as usize], b);
         }
-        for d in diag_inv.iter_mut() {
-            *d = sym_inverse(d);
-        }
+        team::for_each_chunk([diag_inv], size, &|_, [d]| {
+            for d in d.iter_mut() {
+                *d = sym_inverse(d);
+            }
+        });
     }
 }
 
@@ -224,15 +252,18 @@ struct Level {
     t: Vec<Vec3>,
 }
 
-/// From one level to the next coarser: each node's aggregate, and each pair's pair among the
-/// aggregates ([`INSIDE`] for a pair within one).
+/// From one level to the next coarser: each node's aggregate, and the nodes and pairs that
+/// sum into each aggregate and coarse pair.
 #[derive(Clone, Debug, Default)]
 struct Restriction {
     parent: Vec<u32>,
-    slot: Vec<u32>,
     /// Each aggregate's nodes, ascending: those of `J` are `nodes[start[J] .. start[J + 1]]`.
     start: Vec<u32>,
     nodes: Vec<u32>,
+    /// Each coarse pair's fine pairs, ascending: those of `K` are
+    /// `pairs[pair_start[K] .. pair_start[K + 1]]`.
+    pair_start: Vec<u32>,
+    pairs: Vec<u32>,
 }
 
 /// The coarse levels of `A`, built for a model's points and springs.
@@ -244,6 +275,8 @@ pub(super) struct Multigrid {
     down: Restriction,
     /// The fine level's points.
     points: usize,
+    /// Each fine point's pairs (see [`Multigrid::fine_incidence`]).
+    fine_incidence: Incidence,
     levels: Vec<Level>,
 }
 
@@ -294,7 +327,13 @@ impl Multigrid {
         }
         self.levels = levels;
         self.points = model.point_count();
+        self.fine_incidence = Incidence::of(self.points, pairs);
         self.built_for = pairs.to_vec();
+    }
+
+    /// Each fine point's pairs among those the levels were built for.
+    pub fn fine_incidence(&self) -> &Incidence {
+        &self.fine_incidence
     }
 
     /// The coarse operators for the fine operator `fine` (after each assembly of `A`).
@@ -396,46 +435,90 @@ fn prolong(down: &Restriction, coarse: &[Vec3], free: Option<&[f64]>, fine: &mut
 }
 
 /// The Galerkin operator `PᵀAP` of `fine` into `coarse` (see the module documentation); a pair
-/// with one held end adds its block to the moving end's aggregate.
+/// with one held end adds its block to the moving end's aggregate. Each coarse block is summed
+/// in the order of the fine nodes and pairs whoever computes it, so the aggregates and the
+/// coarse pairs are spread over the team's threads with the same bits.
 fn restrict_operator(fine: &Operator, down: &Restriction, coarse: &mut Level) {
     let moves = |p: u32| fine.free.is_none_or(|f| f[p as usize] != 0.0);
-    coarse.own.fill([0.0; 6]);
-    coarse.blocks.fill([0.0; 6]);
+    let size = team::chunk_size(coarse.own.len(), MIN_NODES);
+    team::for_each_chunk([&mut coarse.own[..]], size, &|chunk, [own]| {
+        for (i, own) in own.iter_mut().enumerate() {
+            let j = chunk * size + i;
+            *own = [0.0; 6];
+            for &p in &down.nodes[down.start[j] as usize..down.start[j + 1] as usize] {
+                if moves(p) {
+                    add_sym(own, &fine.own[p as usize]);
+                }
+            }
+        }
+    });
+    // The pairs between two aggregates, both ends moving, into their coarse pair.
+    let size = team::chunk_size(coarse.blocks.len(), MIN_NODES);
+    team::for_each_chunk([&mut coarse.blocks[..]], size, &|chunk, [blocks]| {
+        for (i, block) in blocks.iter_mut().enumerate() {
+            let slot = chunk * size + i;
+            *block = [0.0; 6];
+            let (from, to) = (down.pair_start[slot], down.pair_start[slot + 1]);
+            for &k in &down.pairs[from as usize..to as usize] {
+                let [a, c] = fine.pairs[k as usize];
+                if moves(a) && moves(c) {
+                    add_sym(block, &fine.blocks[k as usize]);
+                }
+            }
+        }
+    });
+    // The pairs with one held end (only where a point is held), then those found at the
+    // iterate, in order.
     coarse.more_pairs.clear();
     coarse.more_blocks.clear();
-    for (p, (own, &parent)) in fine.own.iter().zip(&down.parent).enumerate() {
-        if moves(p as u32) {
-            add_sym(&mut coarse.own[parent as usize], own);
-        }
-    }
-    let mut couple = |[a, c]: [u32; 2], b: &Sym, slot: Option<u32>| {
+    let held = fine.free.is_some_and(|f| f.contains(&0.0));
+    let mut couple = |[a, c]: [u32; 2], b: &Sym, found: bool| {
         let (pa, pc) = (down.parent[a as usize], down.parent[c as usize]);
         match (moves(a), moves(c)) {
-            (true, true) if pa == pc => {}
-            (true, true) => match slot {
-                Some(slot) => add_sym(&mut coarse.blocks[slot as usize], b),
-                None => {
-                    coarse.more_pairs.push([pa, pc]);
-                    coarse.more_blocks.push(*b);
-                }
-            },
+            (true, true) if pa == pc || !found => {}
+            (true, true) => {
+                coarse.more_pairs.push([pa, pc]);
+                coarse.more_blocks.push(*b);
+            }
             (true, false) => add_sym(&mut coarse.own[pa as usize], b),
             (false, true) => add_sym(&mut coarse.own[pc as usize], b),
             (false, false) => {}
         }
     };
-    for ((&pair, b), &slot) in fine.pairs.iter().zip(fine.blocks).zip(&down.slot) {
-        couple(pair, b, Some(slot));
+    if held {
+        for (&pair, b) in fine.pairs.iter().zip(fine.blocks) {
+            couple(pair, b, false);
+        }
     }
     for (&pair, b) in fine.more_pairs.iter().zip(fine.more_blocks) {
-        couple(pair, b, None);
+        couple(pair, b, true);
     }
     Operator::invert_diagonal(
         &coarse.own,
         (&coarse.pairs, &coarse.blocks),
         (&coarse.more_pairs, &coarse.more_blocks),
+        Some(&coarse.incidence),
         &mut coarse.diag_inv,
     );
+}
+
+/// The indices `i` of `of` grouped by `of[i]` (`groups` of them; entries of `INSIDE` left
+/// out), ascending within each: group `g` is `members[start[g] .. start[g + 1]]`.
+fn group(groups: usize, of: &[u32]) -> (Vec<u32>, Vec<u32>) {
+    let mut start = vec![0u32; groups + 1];
+    for &g in of.iter().filter(|&&g| g != INSIDE) {
+        start[g as usize + 1] += 1;
+    }
+    for g in 0..groups {
+        start[g + 1] += start[g];
+    }
+    let mut next = start.clone();
+    let mut members = vec![0; start[groups] as usize];
+    for (i, &g) in of.iter().enumerate().filter(|(_, &g)| g != INSIDE) {
+        members[next[g as usize] as usize] = i as u32;
+        next[g as usize] += 1;
+    }
+    (start, members)
 }
 
 /// The aggregates of `nodes` (2×2×2 of one body's lattice: coordinates halved, numbered in order
@@ -469,26 +552,15 @@ fn coarsen(nodes: &[Node], pairs: &[[u32; 2]]) -> (Restriction, Vec<Node>, Vec<[
                 (coarse_pairs.len() - 1) as u32
             })
         })
-        .collect();
-    // Each aggregate's nodes, ascending (counted, then placed in order).
-    let mut start = vec![0u32; coarse_nodes.len() + 1];
-    for &p in &parent {
-        start[p as usize + 1] += 1;
-    }
-    for j in 0..coarse_nodes.len() {
-        start[j + 1] += start[j];
-    }
-    let mut next = start.clone();
-    let mut members = vec![0; parent.len()];
-    for (node, &p) in parent.iter().enumerate() {
-        members[next[p as usize] as usize] = node as u32;
-        next[p as usize] += 1;
-    }
+        .collect::<Vec<u32>>();
+    let (start, members) = group(coarse_nodes.len(), &parent);
+    let (pair_start, pairs) = group(coarse_pairs.len(), &slot);
     let down = Restriction {
         parent,
-        slot,
         start,
         nodes: members,
+        pair_start,
+        pairs,
     };
     (down, coarse_nodes, coarse_pairs)
 }
@@ -554,6 +626,7 @@ mod tests {
                 &fine.own,
                 (&fine.pairs, &fine.blocks),
                 (&fine.more_pairs, &fine.more_blocks),
+                None,
                 &mut fine.diag_inv,
             );
             fine

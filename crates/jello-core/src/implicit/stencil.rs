@@ -215,7 +215,7 @@ impl SpringMatrix {
     /// The springs' directions at the step's start `x0` into the dampers (zero for a spring
     /// of zero length), and into `directions` by spring (in slot order).
     pub fn start_dampers(&mut self, x0: &[Vec3], directions: &mut [Vec3]) {
-        self.load_x(x0.iter().copied());
+        self.load_x(x0);
         let (xs, n) = (&self.x, self.n);
         let [ux, uy, uz, _] = &mut self.dampers;
         for_each_run(&self.spans, |e, q, len, o| {
@@ -238,7 +238,7 @@ impl SpringMatrix {
     /// [`spring_blocks`]; `floor` bounds `1 − rest/l` from below), and into `blocks` by spring
     /// (in slot order).
     pub fn assemble(&mut self, x0: &[Vec3], v: &[Vec3], h: f64, floor: f64, blocks: &mut [Sym]) {
-        self.load_x(x0.iter().zip(v).map(|(&x, &v)| x + v * h));
+        self.load_end_positions(x0, v, h);
         let (xs, n) = (&self.x, self.n);
         let (dampers, rest, stiffness) = (&self.dampers, &self.rest, &self.stiffness);
         let [b0, b1, b2, b3, b4, b5] = &mut self.blocks;
@@ -271,11 +271,27 @@ impl SpringMatrix {
     }
 
     /// `x` into the product's input.
-    fn load_x(&mut self, x: impl Iterator<Item = Vec3>) {
+    fn load_x(&mut self, x: &[Vec3]) {
         let [x0, x1, x2] = &mut self.x;
-        for (i, v) in x.enumerate() {
-            (x0[i], x1[i], x2[i]) = (v.x, v.y, v.z);
-        }
+        let size = team::chunk_size(x.len(), MIN_POINTS_PER_RANGE);
+        team::for_each_chunk([x0, x1, x2], size, &|chunk, [x0, x1, x2]| {
+            for (i, v) in x[chunk * size..].iter().take(x0.len()).enumerate() {
+                (x0[i], x1[i], x2[i]) = (v.x, v.y, v.z);
+            }
+        });
+    }
+
+    /// `x0 + h·v` into the product's input.
+    fn load_end_positions(&mut self, x0: &[Vec3], v: &[Vec3], h: f64) {
+        let [p0, p1, p2] = &mut self.x;
+        let size = team::chunk_size(x0.len(), MIN_POINTS_PER_RANGE);
+        team::for_each_chunk([p0, p1, p2], size, &|chunk, [p0, p1, p2]| {
+            let at = chunk * size;
+            for (i, (&x, &v)) in x0[at..].iter().zip(&v[at..]).take(p0.len()).enumerate() {
+                let p = x + v * h;
+                (p0[i], p1[i], p2[i]) = (p.x, p.y, p.z);
+            }
+        });
     }
 
     /// `y = (own·x + springs·x)`, then scaled by `free` per point.
@@ -311,7 +327,7 @@ impl SpringMatrix {
     /// Each range's rows of `own·x + (the layer's springs)·x`, the ranges spread over the team's
     /// threads (sized anew, allocating, only when their number changes).
     fn product(&mut self, layer: Layer, own: &[Sym], x: &[Vec3]) {
-        self.load_x(x.iter().copied());
+        self.load_x(x);
         let n = self.n;
         let count = team::threads().min(n / MIN_POINTS_PER_RANGE).max(1);
         let size = n.div_ceil(count).max(1);
