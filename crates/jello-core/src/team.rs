@@ -50,6 +50,23 @@ mod spinning {
     thread_local! {
         /// The team this thread leads, while it does.
         static LEADING: Cell<*const Team> = const { Cell::new(std::ptr::null()) };
+        /// Whether this thread leads a team or helps one (further down its stack, maybe).
+        static IN_TEAM: Cell<bool> = const { Cell::new(false) };
+    }
+
+    /// Sets `IN_TEAM` while it lives, then puts back what it was.
+    struct InTeam(bool);
+
+    impl InTeam {
+        fn enter() -> InTeam {
+            InTeam(IN_TEAM.replace(true))
+        }
+    }
+
+    impl Drop for InTeam {
+        fn drop(&mut self) {
+            IN_TEAM.set(self.0);
+        }
     }
 
     /// `claim`'s low 20 bits hold the next unclaimed item, the next 20 the item count, and the
@@ -123,8 +140,17 @@ mod spinning {
         /// A helper: claims items of each loop until the step is over. Between loops, once
         /// every helper has started, it also runs rayon's pending work (the halves of the
         /// leader's `rayon::join`s, which it would otherwise never steal).
+        ///
+        /// A thread already in a team (its leader waiting in a `rayon::join`, or a helper
+        /// running rayon's work) does not help: the work further down its stack may be what a
+        /// leader waits for, and this loop ends only when that leader's step does. It returns
+        /// at once, and the team has one helper fewer.
         fn help(&self, helpers: usize) {
             self.started.fetch_add(1, Ordering::AcqRel);
+            if IN_TEAM.get() {
+                return;
+            }
+            let _in_team = InTeam::enter();
             let mut idle = 0u32;
             while !self.finished.load(Ordering::Acquire) {
                 let Some(index) = self.take(self.claim.load(Ordering::Acquire)) else {
@@ -187,6 +213,7 @@ mod spinning {
                 }
                 LEADING.set(&team);
                 let _leading = Leading(&team);
+                let _in_team = InTeam::enter();
                 f()
             },
             || start_helpers(&team, helpers, helpers),
@@ -393,6 +420,40 @@ mod tests {
             });
             assert_eq!(sum, 48);
         });
+    }
+
+    /// Nested `rayon::join`s in a leader's step (as the force pass makes on large lattices),
+    /// interleaved with loops, on 3 to 8 threads: every step ends. (Before helpers checked
+    /// `IN_TEAM`, a leader that took a helper's start while waiting in a join helped its own
+    /// team until its own step ended, that is forever: this test hung within a minute.)
+    #[test]
+    fn steps_with_nested_joins_end() {
+        fn split(depth: u32) -> u64 {
+            if depth == 0 {
+                return 1;
+            }
+            let (a, b) = rayon::join(|| split(depth - 1), || split(depth - 1));
+            a + b
+        }
+        for threads in [3, 4, 6, 8] {
+            pool(threads).install(|| {
+                for _ in 0..5000 {
+                    let total = run(|| {
+                        let mut total = 0;
+                        for _ in 0..5 {
+                            total += split(4);
+                            let sum = AtomicUsize::new(0);
+                            for_each(8, &|i| {
+                                sum.fetch_add(i, Ordering::Relaxed);
+                            });
+                            total += sum.load(Ordering::Relaxed) as u64;
+                        }
+                        total
+                    });
+                    assert_eq!(total, 5 * (16 + 28));
+                }
+            });
+        }
     }
 
     /// A panic in an item reaches the leader (whichever thread ran it), and the team ends.
