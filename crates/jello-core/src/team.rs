@@ -3,10 +3,12 @@
 //! The implicit solver runs hundreds of parallel loops a step, each a few tens of microseconds
 //! long at 16³, separated by serial work (the coarse levels of the multigrid, the scalars of the
 //! conjugate gradients). Through rayon each loop woke a sleeping worker, and on a 2-vCPU virtual
-//! machine that wake-up cost more than the loop: the 16³ benchmark stepped *slower* on two
-//! threads than on one (22.6–25.7 against 29.4–35.7 steps/s, a Zen 3 EPYC under KVM,
-//! 2026-11-27). OpenMP runtimes avoid it by letting their threads spin between loops; so does
-//! this team, for the length of one step only.
+//! machine that wake-up cost more than the loop: stepped from outside rayon's pool (as `jello
+//! run` and Python step), the 16³ benchmark ran *slower* on two threads than on one (22.6–25.7
+//! against 29.4–35.7 steps/s, a Zen 3 EPYC under KVM, 2026-11-27). OpenMP runtimes avoid it by
+//! letting their threads spin between loops; so does this team, for the length of one step
+//! only (the same job on two threads, medians of 8 alternated runs: 29.4 steps/s through
+//! rayon, 46.1 on the team; 34.6 on one thread).
 //!
 //! [`run`] starts the team on rayon's threads (as many as the current pool has: `jello bench
 //! --threads` and `RAYON_NUM_THREADS` set it) and [`for_each`] spreads a loop's items over it.

@@ -69,10 +69,13 @@
 //! caller ([`crate::cutback`]) then takes it again in halves, and reports it only at the
 //! smallest size allowed, with the state back at the step's start.
 //!
-//! Every loop here runs in a fixed order on the calling thread, but for the force evaluations
-//! and `A·x`, which are split over threads so that each result is summed in the same order
-//! whatever their number; so results do not depend on the thread count. The buffers are sized
-//! on the first implicit step and reused, so later steps do not allocate.
+//! On lattices of 4 096 points or more a step runs on a team of threads that spin between its
+//! loops ([`crate::team`]): the force evaluations, `A·x`, the conjugate gradients' vector
+//! updates, the assembly and most of the multigrid are split into items that each sum in a
+//! fixed order whoever computes them, and the rest (the dot products, the line search, the
+//! small coarse levels) runs in order on the leading thread; so results do not depend on the
+//! thread count. The buffers are sized on the first implicit step and reused, so later steps do
+//! not allocate.
 
 use crate::body::Body;
 use crate::contact::Contacts;

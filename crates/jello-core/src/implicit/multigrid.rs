@@ -21,8 +21,11 @@
 //! iterations in 2.2 s against 2 074 in 3.6 s). The coarse levels, an eighth of the size each,
 //! are solved by a V-cycle that smooths with damped block Jacobi before and after the next
 //! level's correction (the same smoother on both sides, so the preconditioner is symmetric, as
-//! conjugate gradients need); the coarsest by a few Jacobi sweeps. It runs in a fixed order on
-//! the calling thread; its buffers are sized when it is built and reused.
+//! conjugate gradients need); the coarsest by a few Jacobi sweeps. Its loops over nodes and
+//! pairs are spread over the step's team ([`crate::team`]) where a level is large enough, each
+//! node's and coarse pair's sums gathered in the order of the nodes and pairs (the order a
+//! single thread's scatter adds them in): the same bits on any number of threads. Its buffers
+//! are sized when it is built and reused.
 
 use std::collections::HashMap;
 
