@@ -10,17 +10,20 @@
 //! only (the same job on two threads, medians of 8 alternated runs: 29.4 steps/s through
 //! rayon, 46.1 on the team; 34.6 on one thread).
 //!
-//! [`run`] starts the team on rayon's threads (as many as the current pool has: `jello bench
-//! --threads` and `RAYON_NUM_THREADS` set it) and [`for_each`] spreads a loop's items over it.
+//! [`run`] starts the team on rayon's threads (as many as the current pool has, `jello bench
+//! --threads` and `RAYON_NUM_THREADS` set it, up to the cores the process may use) and
+//! [`for_each`] spreads a loop's items over it.
 //! Items are claimed one by one, so which thread computes an item varies, but each item is
 //! computed the same way whoever takes it: callers split their work into items that do not
 //! depend on the thread count, and results are bit for bit the same for any number of threads.
 //! Outside [`run`], on a thread that is not the team's leader, and without the `parallel`
 //! feature (wasm), [`for_each`] runs the items in order on the calling thread.
 //!
-//! The helpers wait by spinning (with the processor's spin hint), never sleeping: a step keeps
-//! every thread of the pool busy while it lasts, and gives them back when it ends. A helper that
-//! never starts (the pool busy with other work) costs nothing: the leader claims every item itself.
+//! Waiting threads spin (with the processor's spin hint) for some tens of microseconds, then
+//! yield their core at each turn, and never sleep: a step keeps the team's threads busy while
+//! it lasts, and gives them back when it ends; where other work needs the cores, the yields let
+//! it run. A helper that never starts (the pool busy with other work) costs nothing: the leader
+//! claims every item itself.
 
 #[cfg(feature = "parallel")]
 mod spinning {
@@ -47,6 +50,8 @@ mod spinning {
         finished: AtomicBool,
         /// Helpers started.
         started: AtomicUsize,
+        /// Threads in the team, the leader included.
+        size: usize,
     }
 
     thread_local! {
@@ -80,9 +85,26 @@ mod spinning {
     /// Idle turns of a helper per look for rayon's pending work.
     const RAYON_EVERY: u32 = 32;
 
+    /// Turns a waiting thread spins (tens of microseconds: longer than most of the serial work
+    /// between a step's loops) before it also yields its core at each turn. With more threads
+    /// than cores (other programs, other tests, a pool larger than the machine) a spinning
+    /// thread would hold the core that the thread it waits for needs.
+    const SPIN_TURNS: u32 = 1024;
+
+    /// Waits one turn: the processor's spin hint, or after `SPIN_TURNS` turns a yield of the
+    /// core to the operating system.
+    fn pause(turns: u32) {
+        if turns < SPIN_TURNS {
+            std::hint::spin_loop();
+        } else {
+            std::thread::yield_now();
+        }
+    }
+
     impl Team {
-        fn new() -> Team {
+        fn new(size: usize) -> Team {
             Team {
+                size,
                 claim: AtomicU64::new(0),
                 job: AtomicPtr::new(std::ptr::null_mut()),
                 done: AtomicUsize::new(0),
@@ -131,8 +153,10 @@ mod spinning {
                 body(index);
                 self.done.fetch_add(1, Ordering::Release);
             }
+            let mut turns = 0u32;
             while self.done.load(Ordering::Acquire) < items {
-                std::hint::spin_loop();
+                pause(turns);
+                turns = turns.saturating_add(1);
             }
             if self.panicked.load(Ordering::Relaxed) {
                 panic!("an item of a parallel loop panicked on a helper thread");
@@ -160,12 +184,12 @@ mod spinning {
                     // `RAYON_EVERY` idle turns. Before every helper has started, the next one's
                     // start may be this thread's own pending work: running it here would nest a
                     // helper in this one.
-                    idle = idle.wrapping_add(1);
+                    idle = idle.saturating_add(1);
                     if idle % RAYON_EVERY != 0
                         || self.started.load(Ordering::Acquire) < helpers
                         || rayon::yield_now() != Some(rayon::Yield::Executed)
                     {
-                        std::hint::spin_loop();
+                        pause(idle);
                     }
                     continue;
                 };
@@ -197,12 +221,24 @@ mod spinning {
         }
     }
 
+    /// Threads of a team in the current pool: one per thread of the pool, but no more than the
+    /// cores this process may use (a spinning team larger than the machine only waits for its
+    /// own members to be scheduled).
+    fn team_size() -> usize {
+        // Asked once: the question reads files (cgroup quotas) and allocates.
+        static CORES: std::sync::OnceLock<usize> = std::sync::OnceLock::new();
+        let cores =
+            *CORES.get_or_init(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
+        rayon::current_num_threads().min(cores).max(1)
+    }
+
     pub(super) fn run<R: Send>(f: impl FnOnce() -> R + Send) -> R {
-        let helpers = rayon::current_num_threads() - 1;
-        if helpers == 0 || !LEADING.get().is_null() {
+        let size = team_size();
+        if size == 1 || !LEADING.get().is_null() {
             return f();
         }
-        let team = Team::new();
+        let helpers = size - 1;
+        let team = Team::new(size);
         let (result, ()) = rayon::join(
             || {
                 // Marks the team led on this thread, and ends the step however `f` ends.
@@ -234,10 +270,12 @@ mod spinning {
     }
 
     pub(super) fn threads() -> usize {
-        if LEADING.get().is_null() {
+        let team = LEADING.get();
+        if team.is_null() {
             1
         } else {
-            rayon::current_num_threads()
+            // SAFETY: as in `for_each`.
+            unsafe { &*team }.size
         }
     }
 }
@@ -347,10 +385,11 @@ mod tests {
     /// machine's cores included), from inside the pool and from outside it.
     #[test]
     fn every_item_runs_once() {
+        let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
         for threads in [1, 2, 3, 8] {
             let check = || {
                 run(|| {
-                    assert_eq!(super::threads(), threads);
+                    assert_eq!(super::threads(), threads.min(cores));
                     for items in [0, 1, 2, 5, 64, 1000] {
                         let counts: Vec<AtomicUsize> =
                             (0..items).map(|_| AtomicUsize::new(0)).collect();
@@ -380,18 +419,22 @@ mod tests {
         assert_eq!(*order.lock().unwrap(), [0, 1, 2, 3]);
     }
 
-    /// The items of a loop are spread over the threads: with as many threads as items, each
-    /// waiting until all have started, the loop can only end if every thread took one.
+    /// The items of a loop are spread over the threads: with as many items as the team has
+    /// threads, each waiting until all have started, the loop can only end if every thread took
+    /// one.
     #[test]
     fn the_helpers_take_items() {
         let pool = pool(3);
         pool.install(|| {
             run(|| {
+                let team = super::threads();
+                let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+                assert_eq!(team, cores.min(3));
                 let started = AtomicUsize::new(0);
                 let threads_seen = std::sync::Mutex::new(std::collections::HashSet::new());
-                for_each(3, &|_| {
+                for_each(team, &|_| {
                     started.fetch_add(1, Ordering::AcqRel);
-                    while started.load(Ordering::Acquire) < 3 {
+                    while started.load(Ordering::Acquire) < team {
                         std::hint::spin_loop();
                     }
                     threads_seen
@@ -399,7 +442,7 @@ mod tests {
                         .unwrap()
                         .insert(std::thread::current().id());
                 });
-                assert_eq!(threads_seen.lock().unwrap().len(), 3);
+                assert_eq!(threads_seen.lock().unwrap().len(), team);
             })
         });
     }
@@ -475,6 +518,7 @@ mod tests {
             assert!(result.is_err());
         }
         // The pool is still usable.
-        assert_eq!(pool.install(|| run(threads)), 2);
+        let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+        assert_eq!(pool.install(|| run(threads)), cores.min(2));
     }
 }
