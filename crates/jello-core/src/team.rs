@@ -149,14 +149,24 @@ mod spinning {
             let number = (self.claim.load(Ordering::Relaxed) >> NUMBER) + 1;
             let claim = number << NUMBER | (items as u64) << ITEMS;
             self.claim.store(claim, Ordering::Release);
+            // A panic of the leader's own item waits, like the rest, until the helpers' items
+            // are done: they borrow from this frame. The items left are then claimed, not run.
+            let mut panic = None;
             while let Some(index) = self.take(self.claim.load(Ordering::Acquire)) {
-                body(index);
+                if panic.is_none() {
+                    let ran =
+                        std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| body(index)));
+                    panic = ran.err();
+                }
                 self.done.fetch_add(1, Ordering::Release);
             }
             let mut turns = 0u32;
             while self.done.load(Ordering::Acquire) < items {
                 pause(turns);
                 turns = turns.saturating_add(1);
+            }
+            if let Some(panic) = panic {
+                std::panic::resume_unwind(panic);
             }
             if self.panicked.load(Ordering::Relaxed) {
                 panic!("an item of a parallel loop panicked on a helper thread");
@@ -499,6 +509,56 @@ mod tests {
                 }
             });
         }
+    }
+
+    /// A panic in the leader's own item waits for the helpers' items, which borrow from the
+    /// leader's frame, before it unwinds that frame.
+    #[test]
+    fn a_leaders_panic_waits_for_the_helpers_items() {
+        use std::sync::atomic::AtomicBool;
+        /// Marks the leader's frame unwound.
+        struct Frame<'a>(&'a AtomicBool);
+        impl Drop for Frame<'_> {
+            fn drop(&mut self) {
+                self.0.store(true, Ordering::Release);
+            }
+        }
+        let pool = pool(2);
+        let (started, unwound, too_early) = (
+            AtomicUsize::new(0),
+            AtomicBool::new(false),
+            AtomicBool::new(false),
+        );
+        let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+            pool.install(|| {
+                run(|| {
+                    let _frame = Frame(&unwound);
+                    let leader = std::thread::current().id();
+                    for_each(2, &|_| {
+                        started.fetch_add(1, Ordering::AcqRel);
+                        if std::thread::current().id() != leader {
+                            std::thread::sleep(std::time::Duration::from_millis(100));
+                            if unwound.load(Ordering::Acquire) {
+                                too_early.store(true, Ordering::Release);
+                            }
+                            return;
+                        }
+                        // The leader's item: once the helper has its own (or after a second),
+                        // it panics.
+                        let since = std::time::Instant::now();
+                        while started.load(Ordering::Acquire) < 2 && since.elapsed().as_secs() < 1 {
+                            std::hint::spin_loop();
+                        }
+                        panic!("the leader's item");
+                    });
+                })
+            })
+        }));
+        assert!(result.is_err());
+        assert!(
+            !too_early.load(Ordering::Acquire),
+            "the leader's frame unwound while a helper's item ran"
+        );
     }
 
     /// A panic in an item reaches the leader (whichever thread ran it), and the team ends.
