@@ -564,10 +564,11 @@ pub(crate) fn step(
 ) -> Result<(), NotConverged> {
     // The step's many short parallel loops run on a team whose threads spin between them,
     // where the products with `A` are split over threads at all.
+    let mut on_team = || step_on_team(model, state, control, force, s, h, next_pos, next_vel);
     if model.point_count() < 2 * stencil::MIN_POINTS_PER_RANGE {
-        return step_on_team(model, state, control, force, s, h, next_pos, next_vel);
+        return on_team();
     }
-    team::run(|| step_on_team(model, state, control, force, s, h, next_pos, next_vel))
+    team::run(on_team)
 }
 
 /// [`step`], on its team (if any).

@@ -84,26 +84,15 @@ const MIN_NODES: usize = 128;
 
 impl Incidence {
     fn of(nodes: usize, pairs: &[[u32; 2]]) -> Incidence {
-        let mut count = vec![0u32; nodes + 1];
-        for &[a, c] in pairs {
-            count[a as usize + 1] += 1;
-            count[c as usize + 1] += 1;
-        }
-        for i in 0..nodes {
-            count[i + 1] += count[i];
-        }
-        let mut next = count.clone();
-        let mut list = vec![0; 2 * pairs.len()];
-        for (k, &[a, c]) in pairs.iter().enumerate() {
-            for (end, flag) in [(a, 0), (c, SECOND_END)] {
-                list[next[end as usize] as usize] = k as u32 | flag;
-                next[end as usize] += 1;
-            }
-        }
-        Incidence {
-            start: count,
-            pairs: list,
-        }
+        // Each pair's ends in turn, grouped by node: entry `2k` is pair `k`'s first end,
+        // `2k + 1` its second, so each node's entries come in the order of the pairs.
+        let ends: Vec<u32> = pairs.iter().flatten().copied().collect();
+        let (start, entries) = group(nodes, &ends);
+        let pairs = entries
+            .iter()
+            .map(|&e| (e / 2) | if e % 2 == 1 { SECOND_END } else { 0 })
+            .collect();
+        Incidence { start, pairs }
     }
 }
 
