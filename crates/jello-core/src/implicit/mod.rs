@@ -97,7 +97,7 @@ mod sym;
 
 use gmres::Gmres;
 use multigrid::{Multigrid, Operator};
-use stencil::SpringMatrix;
+use stencil::{Precision, SpringMatrix};
 use sym::{add_outer, sym_mul, Sym};
 
 /// `A` itself, the finest level of the multigrid (its held points have zero rows), borrowed
@@ -164,6 +164,20 @@ const MAX_CG: usize = 2000;
 
 /// Conjugate gradients stop when the residual of `A·Δv = −M·g` has fallen by this factor.
 const CG_REDUCTION: f64 = 1e-2;
+
+/// Solves asked for a reduction below this take their products with `A` in double precision;
+/// the others in single precision (see `stencil.rs`), whose rounding (a relative 6e-8 of each
+/// block, times the condition of `A`) would be a visible part of what an exact solve solves for.
+const SINGLE_PRECISION_REDUCTION: f64 = 1e-4;
+
+/// The precision of the products with `A` of a solve to `reduction`.
+fn precision_for(reduction: f64) -> Precision {
+    if reduction < SINGLE_PRECISION_REDUCTION {
+        Precision::Double
+    } else {
+        Precision::Single
+    }
+}
 
 /// The factor they reach after a line search found no way down along an inexact direction (or
 /// less, where that meets the tolerance: [`enough_reduction`]).
@@ -1479,8 +1493,9 @@ fn apply_to(
     field_correction: Option<&[[f64; 9]]>,
     x: &[Vec3],
     y: &mut [Vec3],
+    precision: Precision,
 ) {
-    springs.apply(extra, free, x, y);
+    springs.apply(extra, free, x, y, precision);
     for (&[a, c], b) in pair_rows.iter().zip(pair_blocks) {
         let (a, c) = (a as usize, c as usize);
         let f = sym_mul(b, x[a] - x[c]);
@@ -1498,8 +1513,8 @@ fn apply_to(
     }
 }
 
-/// `s.ap = A·s.p` (`A` symmetric).
-fn apply(s: &mut ImplicitScratch) {
+/// `s.ap = A·s.p` (`A` symmetric), the springs' part in `precision`.
+fn apply(s: &mut ImplicitScratch, precision: Precision) {
     let pairs = (&s.pair_rows[..], &s.pair_blocks[..]);
     apply_to(
         &mut s.springs,
@@ -1510,6 +1525,7 @@ fn apply(s: &mut ImplicitScratch) {
         None,
         &s.p,
         &mut s.ap,
+        precision,
     );
 }
 
@@ -1555,6 +1571,7 @@ fn solve(s: &mut ImplicitScratch, reduction: f64, preconditioner: Preconditioner
         s.multigrid_failed = preconditioner == Preconditioner::Multigrid;
         false
     };
+    let precision = precision_for(reduction);
     s.dv.fill(Vec3::ZERO);
     set_right_hand_side(s);
     precondition(s);
@@ -1571,7 +1588,7 @@ fn solve(s: &mut ImplicitScratch, reduction: f64, preconditioner: Preconditioner
         if dot(&s.r, &s.r) <= target || rz == 0.0 || (iteration > 0 && each_point_within(s)) {
             break;
         }
-        apply(s);
+        apply(s, precision);
         s.stats.linear_iterations += 1;
         let pap = dot(&s.p, &s.ap);
         if pap <= 0.0 || !pap.is_finite() {
@@ -1628,8 +1645,9 @@ fn solve_swirl(s: &mut ImplicitScratch, reduction: f64, preconditioner: Precondi
         let pairs = (&s.pair_rows[..], &s.pair_blocks[..]);
         let correction = Some(&s.field_correction[..]);
         let apply = |x: &[Vec3], y: &mut [Vec3]| {
+            let precision = precision_for(reduction);
             apply_to(
-                springs, &s.extra, &s.free, pairs.0, pairs.1, correction, x, y,
+                springs, &s.extra, &s.free, pairs.0, pairs.1, correction, x, y, precision,
             );
         };
         let precondition = |r: &[Vec3], z: &mut [Vec3]| {
@@ -2010,6 +2028,7 @@ mod tests {
             correction,
             &d,
             &mut ad,
+            Precision::Double,
         );
         let scale = ad.iter().map(|a| a.max_abs()).fold(0.0, f64::max);
         for (p, ((&a, &u), &w)) in ad.iter().zip(&up).zip(&down).enumerate() {
@@ -2030,6 +2049,7 @@ mod tests {
             None,
             &d,
             &mut ad,
+            Precision::Double,
         );
         let worst = ad
             .iter()

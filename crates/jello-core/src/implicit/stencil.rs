@@ -23,6 +23,18 @@
 //! of every residual is the same product over a second layer (`u·(d·(u·Δv))` a spring): loops
 //! over contiguous runs of slots that vectorise, where the loops over springs they replace
 //! gathered and scattered by index.
+//!
+//! The blocks are also kept rounded to single precision, and the products of the solves to the
+//! usual reductions (1e-2) are computed in it (`f32`, without fused multiply-adds, so the same
+//! bits on every SIMD tier and thread count): such a product only steers the conjugate
+//! gradients, whose direction Newton's method corrects at its next iteration, while the
+//! residual that decides convergence (with the dampers' product in it) stays in double
+//! precision. The rounding (a relative 6e-8 of each block and sum, times the condition of `A`
+//! in the direction) is far below those reductions, but not below an exact solve's 1e-8: those
+//! take [`Precision::Double`] (with single-precision exact solves, `leapfrog.w` at 1/60 s took
+//! 58 steps in parts and 1 386 conjugate-gradient iterations a step instead of 15 and 382).
+//! Half the bytes and twice the lanes: the 16³ benchmark's first 3 s at 1/60 s took 18 % less
+//! time on one thread (a Zen 3 EPYC), its iteration counts unchanged; 8³ 25 % less.
 
 use super::sym::{sym_mul, Sym};
 use crate::body::Body;
@@ -78,8 +90,10 @@ pub(super) struct SpringMatrix {
     /// ([`SpringMatrix::assemble`]) come from each array in order.
     rank: Vec<u32>,
     slot: Vec<u32>,
-    /// The blocks' six components (`[xx, yy, zz, xy, xz, yz]`), each `16·n` long.
+    /// The blocks' six components (`[xx, yy, zz, xy, xz, yz]`), each `16·n` long, and the same
+    /// rounded to single precision (see the module documentation).
     blocks: [Vec<f64>; 6],
+    blocks_single: [Vec<f32>; 6],
     /// The springs' dampers by the same slots: the direction `u` (three components) at the
     /// step's start and the damping `d` of the block `d·uuᵀ`, kept apart so that the dampers'
     /// force is computed as the force routine computes it, `u·(d·(u·Δv))`.
@@ -87,19 +101,32 @@ pub(super) struct SpringMatrix {
     /// The springs' rest lengths and stiffnesses by the same slots (0 where there is none).
     rest: Vec<f64>,
     stiffness: Vec<f64>,
-    /// `x` as structure of arrays.
+    /// `x` as structure of arrays, and in single precision for the products with the blocks.
     x: [Vec<f64>; 3],
+    x_single: [Vec<f32>; 3],
     /// The ranges of rows a product is split into (one per thread of the team).
     ranges: Vec<RowRange>,
 }
 
+/// The precision of a product with the springs' blocks (see the module documentation).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) enum Precision {
+    /// Blocks, `x` and sums in `f32`: the products of solves to the usual reductions.
+    Single,
+    /// In `f64`: the products of exact solves.
+    Double,
+}
+
 /// One range of rows of a product: where it starts, its rows of the product (structure of
-/// arrays) and a buffer for the springs' forces of one stencil entry.
+/// arrays) and a buffer for the springs' forces of one stencil entry, for a product in double
+/// precision (the dampers', an exact solve's) and for one in single precision.
 #[derive(Clone, Debug, Default)]
 struct RowRange {
     start: usize,
     y: [Vec<f64>; 3],
     forces: [Vec<f64>; 3],
+    y_single: [Vec<f32>; 3],
+    forces_single: [Vec<f32>; 3],
 }
 
 impl SpringMatrix {
@@ -115,10 +142,12 @@ impl SpringMatrix {
             rank: Vec::with_capacity(model.spring_count()),
             slot: Vec::with_capacity(model.spring_count()),
             blocks: std::array::from_fn(|_| vec![0.0; 16 * n]),
+            blocks_single: std::array::from_fn(|_| vec![0.0; 16 * n]),
             dampers: std::array::from_fn(|_| vec![0.0; 16 * n]),
             rest: vec![0.0; 16 * n],
             stiffness: vec![0.0; 16 * n],
             x: std::array::from_fn(|_| vec![0.0; n]),
+            x_single: std::array::from_fn(|_| vec![0.0; n]),
             ranges: Vec::new(),
         }
     }
@@ -166,6 +195,7 @@ impl SpringMatrix {
             return;
         }
         self.blocks.iter_mut().for_each(|b| b.fill(0.0));
+        self.blocks_single.iter_mut().for_each(|b| b.fill(0.0));
         self.dampers.iter_mut().for_each(|b| b.fill(0.0));
         self.rest.fill(0.0);
         self.stiffness.fill(0.0);
@@ -192,8 +222,13 @@ impl SpringMatrix {
     #[cfg(test)]
     fn set(&mut self, s: usize, block: &Sym) {
         let slot = self.slot[s] as usize;
-        for (c, &v) in self.blocks.iter_mut().zip(block) {
-            c[slot] = v;
+        for ((c, single), &v) in self
+            .blocks
+            .iter_mut()
+            .zip(&mut self.blocks_single)
+            .zip(block)
+        {
+            (c[slot], single[slot]) = (v, v as f32);
         }
     }
 
@@ -242,15 +277,17 @@ impl SpringMatrix {
         let (xs, n) = (&self.x, self.n);
         let (dampers, rest, stiffness) = (&self.dampers, &self.rest, &self.stiffness);
         let [b0, b1, b2, b3, b4, b5] = &mut self.blocks;
+        let [s0, s1, s2, s3, s4, s5] = &mut self.blocks_single;
         for_each_run(&self.spans, |e, q, len, o| {
             let at = e * n + q;
+            let r = at..at + len;
             let b = [
-                &mut b0[at..at + len],
-                &mut b1[at..at + len],
-                &mut b2[at..at + len],
-                &mut b3[at..at + len],
-                &mut b4[at..at + len],
-                &mut b5[at..at + len],
+                &mut b0[r.clone()],
+                &mut b1[r.clone()],
+                &mut b2[r.clone()],
+                &mut b3[r.clone()],
+                &mut b4[r.clone()],
+                &mut b5[r.clone()],
             ];
             // The run in chunks over the team (each slot's block depends on its slot alone).
             let size = team::chunk_size(len, MIN_POINTS_PER_RANGE);
@@ -259,6 +296,30 @@ impl SpringMatrix {
                 let springs = [&rest[at..at + len], &stiffness[at..at + len]];
                 let (x, xn) = (part(xs, q, len), part(xs, q + o, len));
                 spring_blocks(b, x, xn, part(dampers, at, len), springs, [h, floor]);
+            });
+            // Rounded, in the same chunks.
+            let double: [&[f64]; 6] = [
+                &b0[r.clone()],
+                &b1[r.clone()],
+                &b2[r.clone()],
+                &b3[r.clone()],
+                &b4[r.clone()],
+                &b5[r.clone()],
+            ];
+            let single = [
+                &mut s0[r.clone()],
+                &mut s1[r.clone()],
+                &mut s2[r.clone()],
+                &mut s3[r.clone()],
+                &mut s4[r.clone()],
+                &mut s5[r],
+            ];
+            team::for_each_chunk(single, size, &|chunk, single| {
+                for (single, double) in single.into_iter().zip(double) {
+                    for (s, &b) in single.iter_mut().zip(&double[chunk * size..]) {
+                        *s = b as f32;
+                    }
+                }
             });
         });
         let (all, slots) = (&self.blocks, &self.slot);
@@ -272,13 +333,7 @@ impl SpringMatrix {
 
     /// `x` into the product's input.
     fn load_x(&mut self, x: &[Vec3]) {
-        let [x0, x1, x2] = &mut self.x;
-        let size = team::chunk_size(x.len(), MIN_POINTS_PER_RANGE);
-        team::for_each_chunk([x0, x1, x2], size, &|chunk, [x0, x1, x2]| {
-            for (i, v) in x[chunk * size..].iter().take(x0.len()).enumerate() {
-                (x0[i], x1[i], x2[i]) = (v.x, v.y, v.z);
-            }
-        });
+        load(&mut self.x, x);
     }
 
     /// `x0 + h·v` into the product's input.
@@ -294,22 +349,105 @@ impl SpringMatrix {
         });
     }
 
-    /// `y = (own·x + springs·x)`, then scaled by `free` per point.
-    pub fn apply(&mut self, own: &[Sym], free: &[f64], x: &[Vec3], y: &mut [Vec3]) {
-        self.product(Layer::Blocks, own, x);
+    /// `y = (own·x + springs·x)`, then scaled by `free` per point; the springs' part in
+    /// `precision` (see the module documentation).
+    pub fn apply(
+        &mut self,
+        own: &[Sym],
+        free: &[f64],
+        x: &[Vec3],
+        y: &mut [Vec3],
+        precision: Precision,
+    ) {
+        self.size_ranges();
+        let (spans, n) = (&self.spans[..], self.n);
+        let own = |p: usize| sym_mul(&own[p], x[p]);
+        if precision == Precision::Single {
+            load(&mut self.x_single, x);
+            let (xs, blocks) = (&self.x_single, &self.blocks_single);
+            team::for_each_mut(&mut self.ranges, &|_, range| {
+                let [y0, y1, y2] = &mut range.y_single;
+                let out = [&mut y0[..], &mut y1[..], &mut y2[..]];
+                let forces = &mut range.forces_single;
+                rows(
+                    spans,
+                    n,
+                    own,
+                    xs,
+                    range.start,
+                    out,
+                    forces,
+                    |at, f, x, xn| {
+                        let len = f[0].len();
+                        spring_forces_single(f, x, xn, part(blocks, at, len));
+                    },
+                );
+            });
+        } else {
+            load(&mut self.x, x);
+            let (xs, blocks) = (&self.x, &self.blocks);
+            team::for_each_mut(&mut self.ranges, &|_, range| {
+                let [y0, y1, y2] = &mut range.y;
+                let out = [&mut y0[..], &mut y1[..], &mut y2[..]];
+                rows(
+                    spans,
+                    n,
+                    own,
+                    xs,
+                    range.start,
+                    out,
+                    &mut range.forces,
+                    |at, f, x, xn| {
+                        let len = f[0].len();
+                        spring_forces(f, x, xn, part(blocks, at, len));
+                    },
+                );
+            });
+        }
         let ranges = &self.ranges;
         team::for_each_chunk([y], self.range_size(), &|r, [y]| {
-            let [y0, y1, y2] = &ranges[r].y;
-            let free = &free[ranges[r].start..];
+            let range = &ranges[r];
+            let free = &free[range.start..];
+            let row = |i: usize| match precision {
+                Precision::Single => {
+                    let [y0, y1, y2] = &range.y_single;
+                    Vec3::new(f64::from(y0[i]), f64::from(y1[i]), f64::from(y2[i]))
+                }
+                Precision::Double => {
+                    let [y0, y1, y2] = &range.y;
+                    Vec3::new(y0[i], y1[i], y2[i])
+                }
+            };
             for (i, y) in y.iter_mut().enumerate() {
-                *y = Vec3::new(y0[i], y1[i], y2[i]) * free[i];
+                *y = row(i) * free[i];
             }
         });
     }
 
-    /// `y = −(own·v + dampers·v)`: the force of the dampers (and of `own`) at velocities `v`.
+    /// `y = −(own·v + dampers·v)`: the force of the dampers (and of `own`) at velocities `v`,
+    /// in double precision.
     pub fn damper_force(&mut self, own: &[Sym], v: &[Vec3], y: &mut [Vec3]) {
-        self.product(Layer::Dampers, own, v);
+        self.size_ranges();
+        self.load_x(v);
+        let (xs, spans, dampers, n) = (&self.x, &self.spans[..], &self.dampers, self.n);
+        team::for_each_mut(&mut self.ranges, &|_, range| {
+            let [y0, y1, y2] = &mut range.y;
+            let out = [&mut y0[..], &mut y1[..], &mut y2[..]];
+            let own = |p: usize| sym_mul(&own[p], v[p]);
+            rows(
+                spans,
+                n,
+                own,
+                xs,
+                range.start,
+                out,
+                &mut range.forces,
+                |at, f, x, xn| {
+                    let len = f[0].len();
+                    damper_forces(f, x, xn, part(dampers, at, len));
+                },
+            );
+        });
         let ranges = &self.ranges;
         team::for_each_chunk([y], self.range_size(), &|r, [y]| {
             let [y0, y1, y2] = &ranges[r].y;
@@ -324,49 +462,43 @@ impl SpringMatrix {
         self.ranges.first().map_or(1, |r| r.y[0].len().max(1))
     }
 
-    /// Each range's rows of `own·x + (the layer's springs)·x`, the ranges spread over the team's
-    /// threads (sized anew, allocating, only when their number changes).
-    fn product(&mut self, layer: Layer, own: &[Sym], x: &[Vec3]) {
-        self.load_x(x);
+    /// The ranges of rows a product is split into, one per thread of the team (sized anew,
+    /// allocating, only when their number changes).
+    fn size_ranges(&mut self) {
         let n = self.n;
         let count = team::threads().min(n / MIN_POINTS_PER_RANGE).max(1);
         let size = n.div_ceil(count).max(1);
-        if self.ranges.len() != count || self.range_size() != size.min(n) {
-            // Each range's spring forces: its rows and the springs reaching back into them.
-            let reach = self.spans.iter().flat_map(|s| s.offset).max().unwrap_or(0);
-            let room = (size + reach).min(n);
-            self.ranges = (0..count)
-                .map(|r| {
-                    let start = (r * size).min(n);
-                    let rows = (n - start).min(size);
-                    RowRange {
-                        start,
-                        y: std::array::from_fn(|_| vec![0.0; rows]),
-                        forces: std::array::from_fn(|_| vec![0.0; room]),
-                    }
-                })
-                .collect();
+        if self.ranges.len() == count && self.range_size() == size.min(n) {
+            return;
         }
-        let (xs, spans) = (&self.x, &self.spans[..]);
-        let layer = match layer {
-            Layer::Blocks => Springs::Blocks(&self.blocks),
-            Layer::Dampers => Springs::Dampers(&self.dampers),
-        };
-        team::for_each_mut(&mut self.ranges, &|_, range| {
-            let [y0, y1, y2] = &mut range.y;
-            let out = [&mut y0[..], &mut y1[..], &mut y2[..]];
-            rows(
-                spans,
-                n,
-                layer,
-                own,
-                xs,
-                range.start,
-                out,
-                &mut range.forces,
-            );
-        });
+        // Each range's spring forces: its rows and the springs reaching back into them.
+        let reach = self.spans.iter().flat_map(|s| s.offset).max().unwrap_or(0);
+        let room = (size + reach).min(n);
+        self.ranges = (0..count)
+            .map(|r| {
+                let start = (r * size).min(n);
+                let rows = (n - start).min(size);
+                RowRange {
+                    start,
+                    y: std::array::from_fn(|_| vec![0.0; rows]),
+                    forces: std::array::from_fn(|_| vec![0.0; room]),
+                    y_single: std::array::from_fn(|_| vec![0.0; rows]),
+                    forces_single: std::array::from_fn(|_| vec![0.0; room]),
+                }
+            })
+            .collect();
     }
+}
+
+/// `x` into the structure of arrays `soa` (rounded to its precision), over the team.
+fn load<T: Lane>(soa: &mut [Vec<T>; 3], x: &[Vec3]) {
+    let [x0, x1, x2] = soa;
+    let size = team::chunk_size(x.len(), MIN_POINTS_PER_RANGE);
+    team::for_each_chunk([x0, x1, x2], size, &|chunk, [x0, x1, x2]| {
+        for (i, v) in x[chunk * size..].iter().take(x0.len()).enumerate() {
+            (x0[i], x1[i], x2[i]) = (T::of(v.x), T::of(v.y), T::of(v.z));
+        }
+    });
 }
 
 /// Calls `f(e, q, len, o)` for each run of slots of stencil entry `e` (offset `o`) that may hold
@@ -383,52 +515,71 @@ fn for_each_run(spans: &[Span], mut f: impl FnMut(usize, usize, usize, usize)) {
 }
 
 /// `arrays[c][at .. at + len]` for each `c`.
-fn part<const C: usize>(arrays: &[Vec<f64>; C], at: usize, len: usize) -> [&[f64]; C] {
+fn part<T, const C: usize>(arrays: &[Vec<T>; C], at: usize, len: usize) -> [&[T]; C] {
     std::array::from_fn(|c| &arrays[c][at..at + len])
 }
 
-/// Which springs' matrix a product takes.
-#[derive(Clone, Copy, Debug)]
-enum Layer {
-    /// Their blocks of `A`.
-    Blocks,
-    /// Their dampers.
-    Dampers,
+/// The numbers of a product's rows: `f64` or `f32` (see [`Precision`]).
+trait Lane: Copy + Send + Sync {
+    /// `v` rounded to this precision.
+    fn of(v: f64) -> Self;
+    /// `y += f` element by element.
+    fn add(y: [&mut [Self]; 3], f: [&[Self]; 3]);
+    /// `y −= f` element by element.
+    fn subtract(y: [&mut [Self]; 3], f: [&[Self]; 3]);
 }
 
-/// A layer's arrays.
-#[derive(Clone, Copy)]
-enum Springs<'a> {
-    Blocks(&'a [Vec<f64>; 6]),
-    Dampers(&'a [Vec<f64>; 4]),
+impl Lane for f64 {
+    fn of(v: f64) -> Self {
+        v
+    }
+    fn add(y: [&mut [f64]; 3], f: [&[f64]; 3]) {
+        add_forces(y, f);
+    }
+    fn subtract(y: [&mut [f64]; 3], f: [&[f64]; 3]) {
+        subtract_forces(y, f);
+    }
 }
 
-/// Rows `start .. start + out.len()` of `own·x + springs·x` into `out` (see the module
-/// documentation for the order of the sum), with `forces` for each entry's spring forces.
+impl Lane for f32 {
+    fn of(v: f64) -> Self {
+        v as f32
+    }
+    fn add(y: [&mut [f32]; 3], f: [&[f32]; 3]) {
+        add_forces_single(y, f);
+    }
+    fn subtract(y: [&mut [f32]; 3], f: [&[f32]; 3]) {
+        subtract_forces_single(y, f);
+    }
+}
+
+/// Rows `start .. start + out.len()` of `own(p) + springs·x` into `out` (see the module
+/// documentation for the order of the sum), with `forces` for each entry's spring forces:
+/// `entry_forces(at, f, x, xn)` puts the forces `B·(x − xn)` of the springs at slots
+/// `at .. at + f.len()` into `f`.
 ///
 /// Each spring's force `B·(x[q] − x[q + o])` is computed once, into `forces`, and added to its
 /// first end's row and taken from its second end's (in that order for each entry, as the
 /// module documentation sums): `−(B·(a − b))` is `B·(b − a)` to the bit, so this is the sum
 /// of the documentation, and each block is read once rather than once from each end.
 #[allow(clippy::too_many_arguments)]
-fn rows(
+fn rows<T: Lane>(
     spans: &[Span],
     n: usize,
-    springs: Springs,
-    own: &[Sym],
-    x: &[Vec<f64>; 3],
+    own: impl Fn(usize) -> Vec3,
+    x: &[Vec<T>; 3],
     start: usize,
-    out: [&mut [f64]; 3],
-    forces: &mut [Vec<f64>; 3],
+    out: [&mut [T]; 3],
+    forces: &mut [Vec<T>; 3],
+    entry_forces: impl Fn(usize, [&mut [T]; 3], [&[T]; 3], [&[T]; 3]),
 ) {
     let end = start + out[0].len();
     let [o0, o1, o2] = out;
     for p in start..end {
-        let v = sym_mul(&own[p], Vec3::new(x[0][p], x[1][p], x[2][p]));
-        (o0[p - start], o1[p - start], o2[p - start]) = (v.x, v.y, v.z);
+        let v = own(p);
+        (o0[p - start], o1[p - start], o2[p - start]) = (T::of(v.x), T::of(v.y), T::of(v.z));
     }
-    let xs =
-        |at: usize, len: usize| -> [&[f64]; 3] { std::array::from_fn(|c| &x[c][at..at + len]) };
+    let xs = |at: usize, len: usize| -> [&[T]; 3] { std::array::from_fn(|c| &x[c][at..at + len]) };
     let [f0, f1, f2] = forces;
     for span in spans {
         // This range's rows within the body.
@@ -453,10 +604,7 @@ fn rows(
             let len = q1 - q0;
             let f = [&mut f0[..len], &mut f1[..len], &mut f2[..len]];
             let (x, xn, at) = (xs(q0, len), xs(q0 + o, len), e * n + q0);
-            match springs {
-                Springs::Blocks(b) => spring_forces(f, x, xn, part(b, at, len)),
-                Springs::Dampers(d) => damper_forces(f, x, xn, part(d, at, len)),
-            }
+            entry_forces(at, f, x, xn);
             // Their first ends among the rows…
             let a = q0.max(lo);
             if a < q1 {
@@ -466,7 +614,7 @@ fn rows(
                     &mut o2[a - start..q1 - start],
                 ];
                 let f = [&f0[a - q0..len], &f1[a - q0..len], &f2[a - q0..len]];
-                add_forces(y, f);
+                T::add(y, f);
             }
             // …and their second ends (q + o below the range's end).
             let b = q1.min(hi.saturating_sub(o));
@@ -477,28 +625,50 @@ fn rows(
                     &mut o2[q0 + o - start..b + o - start],
                 ];
                 let f = [&f0[..b - q0], &f1[..b - q0], &f2[..b - q0]];
-                subtract_forces(y, f);
+                T::subtract(y, f);
             }
         }
     }
 }
 
+/// `f = B·(x − xn)` element by element, `B` a symmetric block per element (inlined into each
+/// tier's copy of the callers below).
+#[inline(always)]
+fn block_forces<T>(f: [&mut [T]; 3], x: [&[T]; 3], xn: [&[T]; 3], b: [&[T]; 6])
+where
+    T: Copy + std::ops::Add<Output = T> + std::ops::Sub<Output = T> + std::ops::Mul<Output = T>,
+{
+    let [f0, f1, f2] = f;
+    let n = f0.len();
+    let (f1, f2) = (&mut f1[..n], &mut f2[..n]);
+    let (x0, x1, x2) = (&x[0][..n], &x[1][..n], &x[2][..n]);
+    let (n0, n1, n2) = (&xn[0][..n], &xn[1][..n], &xn[2][..n]);
+    let (bxx, byy, bzz) = (&b[0][..n], &b[1][..n], &b[2][..n]);
+    let (bxy, bxz, byz) = (&b[3][..n], &b[4][..n], &b[5][..n]);
+    for i in 0..n {
+        let (dx, dy, dz) = (x0[i] - n0[i], x1[i] - n1[i], x2[i] - n2[i]);
+        f0[i] = bxx[i] * dx + bxy[i] * dy + bxz[i] * dz;
+        f1[i] = bxy[i] * dx + byy[i] * dy + byz[i] * dz;
+        f2[i] = bxz[i] * dx + byz[i] * dy + bzz[i] * dz;
+    }
+}
+
 crate::simd::multiversion! {
-    /// `f = B·(x − xn)` element by element, `B` a symmetric block per element.
+    /// [`block_forces`] in double precision.
     fn spring_forces(f: [&mut [f64]; 3], x: [&[f64]; 3], xn: [&[f64]; 3], b: [&[f64]; 6]) {
-        let [f0, f1, f2] = f;
-        let n = f0.len();
-        let (f1, f2) = (&mut f1[..n], &mut f2[..n]);
-        let (x0, x1, x2) = (&x[0][..n], &x[1][..n], &x[2][..n]);
-        let (n0, n1, n2) = (&xn[0][..n], &xn[1][..n], &xn[2][..n]);
-        let (bxx, byy, bzz) = (&b[0][..n], &b[1][..n], &b[2][..n]);
-        let (bxy, bxz, byz) = (&b[3][..n], &b[4][..n], &b[5][..n]);
-        for i in 0..n {
-            let (dx, dy, dz) = (x0[i] - n0[i], x1[i] - n1[i], x2[i] - n2[i]);
-            f0[i] = bxx[i] * dx + bxy[i] * dy + bxz[i] * dz;
-            f1[i] = bxy[i] * dx + byy[i] * dy + byz[i] * dz;
-            f2[i] = bxz[i] * dx + byz[i] * dy + bzz[i] * dz;
-        }
+        block_forces(f, x, xn, b)
+    }
+}
+
+crate::simd::multiversion! {
+    /// [`block_forces`] in single precision.
+    fn spring_forces_single(
+        f: [&mut [f32]; 3],
+        x: [&[f32]; 3],
+        xn: [&[f32]; 3],
+        b: [&[f32]; 6],
+    ) {
+        block_forces(f, x, xn, b)
     }
 }
 
@@ -596,25 +766,51 @@ crate::simd::multiversion! {
     }
 }
 
+/// `y += f` element by element (inlined into each tier's copy of the callers below).
+#[inline(always)]
+fn add_each<T: Copy + std::ops::AddAssign>(y: [&mut [T]; 3], f: [&[T]; 3]) {
+    for (y, f) in y.into_iter().zip(f) {
+        for (y, &f) in y.iter_mut().zip(f) {
+            *y += f;
+        }
+    }
+}
+
+/// `y −= f` element by element (inlined as [`add_each`] is).
+#[inline(always)]
+fn subtract_each<T: Copy + std::ops::SubAssign>(y: [&mut [T]; 3], f: [&[T]; 3]) {
+    for (y, f) in y.into_iter().zip(f) {
+        for (y, &f) in y.iter_mut().zip(f) {
+            *y -= f;
+        }
+    }
+}
+
 crate::simd::multiversion! {
     /// `y += f` element by element.
     fn add_forces(y: [&mut [f64]; 3], f: [&[f64]; 3]) {
-        for (y, f) in y.into_iter().zip(f) {
-            for (y, f) in y.iter_mut().zip(f) {
-                *y += f;
-            }
-        }
+        add_each(y, f)
     }
 }
 
 crate::simd::multiversion! {
     /// `y −= f` element by element.
     fn subtract_forces(y: [&mut [f64]; 3], f: [&[f64]; 3]) {
-        for (y, f) in y.into_iter().zip(f) {
-            for (y, f) in y.iter_mut().zip(f) {
-                *y -= f;
-            }
-        }
+        subtract_each(y, f)
+    }
+}
+
+crate::simd::multiversion! {
+    /// `y += f` element by element, in single precision.
+    fn add_forces_single(y: [&mut [f32]; 3], f: [&[f32]; 3]) {
+        add_each(y, f)
+    }
+}
+
+crate::simd::multiversion! {
+    /// `y −= f` element by element, in single precision.
+    fn subtract_forces_single(y: [&mut [f32]; 3], f: [&[f32]; 3]) {
+        subtract_each(y, f)
     }
 }
 
@@ -655,22 +851,38 @@ mod tests {
         let mut next = values(13);
         let x: Vec<Vec3> = (0..n).map(|_| Vec3::new(next(), next(), next())).collect();
 
-        let mut expected: Vec<Vec3> = own.iter().zip(&x).map(|(m, &x)| sym_mul(m, x)).collect();
-        for (&[a, b], m) in springs.iter().zip(&blocks) {
-            let f = sym_mul(m, x[a] - x[b]);
-            expected[a] += f;
-            expected[b] -= f;
-        }
+        let product = |round: fn(f64) -> f64| -> Vec<Vec3> {
+            let mut y: Vec<Vec3> = own.iter().zip(&x).map(|(m, &x)| sym_mul(m, x)).collect();
+            for (&[a, b], m) in springs.iter().zip(&blocks) {
+                let f = sym_mul(&m.map(round), x[a] - x[b]);
+                y[a] += f;
+                y[b] -= f;
+            }
+            y.iter().zip(&free).map(|(&y, &f)| y * f).collect()
+        };
+        let (exact, rounded) = (product(|v| v), product(|v| f64::from(v as f32)));
         let mut y = vec![Vec3::ZERO; n];
-        matrix.apply(&own, &free, &x, &mut y);
+        matrix.apply(&own, &free, &x, &mut y, Precision::Double);
         for p in 0..n {
-            let want = expected[p] * free[p];
+            let want = exact[p];
             assert!(
                 (y[p] - want).max_abs() < 1e-12,
                 "point {p}: {:?} ≠ {want:?}",
                 y[p]
             );
         }
+        // In single precision: the blocks rounded, and the sums with a relative error of about
+        // 1e-7 (the values are of order 1), so not the exact product.
+        matrix.apply(&own, &free, &x, &mut y, Precision::Single);
+        for p in 0..n {
+            let want = rounded[p];
+            assert!(
+                (y[p] - want).max_abs() < 1e-5,
+                "point {p}: {:?} ≠ {want:?}",
+                y[p]
+            );
+        }
+        assert!((0..n).any(|p| (y[p] - exact[p]).max_abs() > 1e-12));
 
         // The dampers' force, from the same springs.
         let mut next = values(19);
@@ -698,7 +910,7 @@ mod tests {
         matrix.finish();
         matrix.set(0, &[1.0, 1.0, 1.0, 0.0, 0.0, 0.0]);
         let zero = vec![[0.0; 6]; n];
-        matrix.apply(&zero, &free, &x, &mut y);
+        matrix.apply(&zero, &free, &x, &mut y, Precision::Double);
         let mut want = vec![Vec3::ZERO; n];
         let lattice = model.body(0).lattice();
         let b = lattice.index(0, 0, 1);
@@ -760,6 +972,8 @@ mod tests {
                 let slot = matrix.slot[s] as usize;
                 let by_slot: Sym = std::array::from_fn(|c| matrix.blocks[c][slot]);
                 assert_eq!(bits(&by_slot), bits(&want), "spring {i}'s slot");
+                let single: [f32; 6] = std::array::from_fn(|c| matrix.blocks_single[c][slot]);
+                assert_eq!(single, want.map(|w| w as f32), "spring {i}'s rounded block");
             }
         }
     }
@@ -778,8 +992,12 @@ mod tests {
             matrix.set_damper(s, Vec3::new(next(), next(), next()), next());
         }
         let own: Vec<Sym> = (0..n).map(|_| std::array::from_fn(|_| next())).collect();
-        let x: [Vec<f64>; 3] = std::array::from_fn(|_| (0..n).map(|_| next()).collect());
-        let mut forces = std::array::from_fn(|_| vec![0.0; n]);
+        let x: Vec<Vec3> = (0..n).map(|_| Vec3::new(next(), next(), next())).collect();
+        let (mut x64, mut x32) = (Default::default(), Default::default());
+        matrix.load_x(&x);
+        std::mem::swap(&mut x64, &mut matrix.x);
+        load::<f32>(&mut matrix.x_single, &x);
+        std::mem::swap(&mut x32, &mut matrix.x_single);
         let second = model.body(1).points().start;
         let cuts = [
             vec![1],
@@ -787,32 +1005,61 @@ mod tests {
             vec![second - 1, second + 3],
             vec![n / 2],
         ];
-        let layers = [
-            Springs::Blocks(&matrix.blocks),
-            Springs::Dampers(&matrix.dampers),
-        ];
-        for layer in layers {
-            let mut rows_of = |range: std::ops::Range<usize>| {
-                let mut out: [Vec<f64>; 3] = std::array::from_fn(|_| vec![0.0; range.len()]);
-                let [a, b, c] = &mut out;
-                let (spans, start) = (&matrix.spans, range.start);
-                rows(spans, n, layer, &own, &x, start, [a, b, c], &mut forces);
-                out
+        let own = |p: usize| sym_mul(&own[p], x[p]);
+        // Rows `range` of the blocks' product in single and in double precision and of the
+        // dampers', as bits.
+        let rows_of = |range: std::ops::Range<usize>| -> Vec<u64> {
+            let start = range.start;
+            let mut single: [Vec<f32>; 3] = std::array::from_fn(|_| vec![0.0; range.len()]);
+            let mut double: [Vec<f64>; 6] = std::array::from_fn(|_| vec![0.0; range.len()]);
+            let mut forces32 = std::array::from_fn(|_| vec![0.0; n]);
+            let mut forces64 = std::array::from_fn(|_| vec![0.0; n]);
+            let spans = &matrix.spans;
+            let [a, b, c] = &mut single;
+            let blocks = |at: usize, f: [&mut [f32]; 3], x: [&[f32]; 3], xn: [&[f32]; 3]| {
+                let len = f[0].len();
+                spring_forces_single(f, x, xn, part(&matrix.blocks_single, at, len));
             };
-            let whole = rows_of(0..n);
-            for cuts in &cuts {
-                let mut bounds = vec![0];
-                bounds.extend(cuts);
-                bounds.push(n);
-                for w in bounds.windows(2) {
-                    let part = rows_of(w[0]..w[1]);
-                    for (c, (part, whole)) in part.iter().zip(&whole).enumerate() {
-                        for (i, (a, b)) in part.iter().zip(&whole[w[0]..w[1]]).enumerate() {
-                            assert_eq!(a.to_bits(), b.to_bits(), "row {}, axis {c}", w[0] + i);
-                        }
-                    }
+            rows(spans, n, own, &x32, start, [a, b, c], &mut forces32, blocks);
+            let [a, b, c, d, e, g] = &mut double;
+            let blocks = |at: usize, f: [&mut [f64]; 3], x: [&[f64]; 3], xn: [&[f64]; 3]| {
+                let len = f[0].len();
+                spring_forces(f, x, xn, part(&matrix.blocks, at, len));
+            };
+            rows(spans, n, own, &x64, start, [a, b, c], &mut forces64, blocks);
+            let dampers = |at: usize, f: [&mut [f64]; 3], x: [&[f64]; 3], xn: [&[f64]; 3]| {
+                let len = f[0].len();
+                damper_forces(f, x, xn, part(&matrix.dampers, at, len));
+            };
+            rows(
+                spans,
+                n,
+                own,
+                &x64,
+                start,
+                [d, e, g],
+                &mut forces64,
+                dampers,
+            );
+            let single = single.iter().flatten().map(|v| u64::from(v.to_bits()));
+            let double = double.iter().flatten().map(|v| v.to_bits());
+            single.chain(double).collect()
+        };
+        let whole = rows_of(0..n);
+        for cuts in &cuts {
+            let mut bounds = vec![0];
+            bounds.extend(cuts);
+            bounds.push(n);
+            let mut parts: Vec<Vec<u64>> = bounds.windows(2).map(|w| rows_of(w[0]..w[1])).collect();
+            // Each part is its rows' three axes of each product: regroup as the whole is.
+            let mut joined = Vec::new();
+            for block in 0..9 {
+                for (w, part) in bounds.windows(2).zip(&mut parts) {
+                    let len = w[1] - w[0];
+                    joined.extend_from_slice(&part[block * len..(block + 1) * len]);
                 }
             }
+            assert_eq!(joined, whole, "cut at {cuts:?}");
         }
     }
 }
