@@ -364,45 +364,20 @@ impl SpringMatrix {
         let own = |p: usize| sym_mul(&own[p], x[p]);
         if precision == Precision::Single {
             load(&mut self.x_single, x);
-            let (xs, blocks) = (&self.x_single, &self.blocks_single);
-            team::for_each_mut(&mut self.ranges, &|_, range| {
-                let [y0, y1, y2] = &mut range.y_single;
-                let out = [&mut y0[..], &mut y1[..], &mut y2[..]];
-                let forces = &mut range.forces_single;
-                rows(
-                    spans,
-                    n,
-                    own,
-                    xs,
-                    range.start,
-                    out,
-                    forces,
-                    |at, f, x, xn| {
-                        let len = f[0].len();
-                        spring_forces_single(f, x, xn, part(blocks, at, len));
-                    },
-                );
-            });
+            let blocks = &self.blocks_single;
+            let forces = |at: usize, f: [&mut [f32]; 3], x: [&[f32]; 3], xn: [&[f32]; 3]| {
+                let len = f[0].len();
+                spring_forces_single(f, x, xn, part(blocks, at, len));
+            };
+            ranges_rows(&mut self.ranges, spans, n, &own, &self.x_single, &forces);
         } else {
             load(&mut self.x, x);
-            let (xs, blocks) = (&self.x, &self.blocks);
-            team::for_each_mut(&mut self.ranges, &|_, range| {
-                let [y0, y1, y2] = &mut range.y;
-                let out = [&mut y0[..], &mut y1[..], &mut y2[..]];
-                rows(
-                    spans,
-                    n,
-                    own,
-                    xs,
-                    range.start,
-                    out,
-                    &mut range.forces,
-                    |at, f, x, xn| {
-                        let len = f[0].len();
-                        spring_forces(f, x, xn, part(blocks, at, len));
-                    },
-                );
-            });
+            let blocks = &self.blocks;
+            let forces = |at: usize, f: [&mut [f64]; 3], x: [&[f64]; 3], xn: [&[f64]; 3]| {
+                let len = f[0].len();
+                spring_forces(f, x, xn, part(blocks, at, len));
+            };
+            ranges_rows(&mut self.ranges, spans, n, &own, &self.x, &forces);
         }
         let ranges = &self.ranges;
         team::for_each_chunk([y], self.range_size(), &|r, [y]| {
@@ -429,25 +404,13 @@ impl SpringMatrix {
     pub fn damper_force(&mut self, own: &[Sym], v: &[Vec3], y: &mut [Vec3]) {
         self.size_ranges();
         self.load_x(v);
-        let (xs, spans, dampers, n) = (&self.x, &self.spans[..], &self.dampers, self.n);
-        team::for_each_mut(&mut self.ranges, &|_, range| {
-            let [y0, y1, y2] = &mut range.y;
-            let out = [&mut y0[..], &mut y1[..], &mut y2[..]];
-            let own = |p: usize| sym_mul(&own[p], v[p]);
-            rows(
-                spans,
-                n,
-                own,
-                xs,
-                range.start,
-                out,
-                &mut range.forces,
-                |at, f, x, xn| {
-                    let len = f[0].len();
-                    damper_forces(f, x, xn, part(dampers, at, len));
-                },
-            );
-        });
+        let (spans, dampers, n) = (&self.spans[..], &self.dampers, self.n);
+        let own = |p: usize| sym_mul(&own[p], v[p]);
+        let forces = |at: usize, f: [&mut [f64]; 3], x: [&[f64]; 3], xn: [&[f64]; 3]| {
+            let len = f[0].len();
+            damper_forces(f, x, xn, part(dampers, at, len));
+        };
+        ranges_rows(&mut self.ranges, spans, n, &own, &self.x, &forces);
         let ranges = &self.ranges;
         team::for_each_chunk([y], self.range_size(), &|r, [y]| {
             let [y0, y1, y2] = &ranges[r].y;
@@ -490,6 +453,23 @@ impl SpringMatrix {
     }
 }
 
+/// Each range's [`rows`] over the team, into its buffers of `T`'s precision.
+fn ranges_rows<T: Lane>(
+    ranges: &mut [RowRange],
+    spans: &[Span],
+    n: usize,
+    own: &(impl Fn(usize) -> Vec3 + Sync),
+    x: &[Vec<T>; 3],
+    entry_forces: &(impl Fn(usize, [&mut [T]; 3], [&[T]; 3], [&[T]; 3]) + Sync),
+) {
+    team::for_each_mut(ranges, &|_, range| {
+        let start = range.start;
+        let ([y0, y1, y2], forces) = T::buffers(range);
+        let out = [&mut y0[..], &mut y1[..], &mut y2[..]];
+        rows(spans, n, own, x, start, out, forces, entry_forces);
+    });
+}
+
 /// `x` into the structure of arrays `soa` (rounded to its precision), over the team.
 fn load<T: Lane>(soa: &mut [Vec<T>; 3], x: &[Vec3]) {
     let [x0, x1, x2] = soa;
@@ -527,6 +507,8 @@ trait Lane: Copy + Send + Sync {
     fn add(y: [&mut [Self]; 3], f: [&[Self]; 3]);
     /// `y −= f` element by element.
     fn subtract(y: [&mut [Self]; 3], f: [&[Self]; 3]);
+    /// A range's rows and forces buffer in this precision.
+    fn buffers(range: &mut RowRange) -> (&mut [Vec<Self>; 3], &mut [Vec<Self>; 3]);
 }
 
 impl Lane for f64 {
@@ -539,6 +521,9 @@ impl Lane for f64 {
     fn subtract(y: [&mut [f64]; 3], f: [&[f64]; 3]) {
         subtract_forces(y, f);
     }
+    fn buffers(range: &mut RowRange) -> (&mut [Vec<f64>; 3], &mut [Vec<f64>; 3]) {
+        (&mut range.y, &mut range.forces)
+    }
 }
 
 impl Lane for f32 {
@@ -550,6 +535,9 @@ impl Lane for f32 {
     }
     fn subtract(y: [&mut [f32]; 3], f: [&[f32]; 3]) {
         subtract_forces_single(y, f);
+    }
+    fn buffers(range: &mut RowRange) -> (&mut [Vec<f32>; 3], &mut [Vec<f32>; 3]) {
+        (&mut range.y_single, &mut range.forces_single)
     }
 }
 
