@@ -235,11 +235,14 @@ mod spinning {
     /// cores this process may use (a spinning team larger than the machine only waits for its
     /// own members to be scheduled).
     fn team_size() -> usize {
-        // Asked once: the question reads files (cgroup quotas) and allocates.
+        rayon::current_num_threads().min(cores()).max(1)
+    }
+
+    /// The cores this process may use, asked once: the question reads files (cgroup quotas)
+    /// and allocates.
+    pub(super) fn cores() -> usize {
         static CORES: std::sync::OnceLock<usize> = std::sync::OnceLock::new();
-        let cores =
-            *CORES.get_or_init(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
-        rayon::current_num_threads().min(cores).max(1)
+        *CORES.get_or_init(|| std::thread::available_parallelism().map_or(1, |n| n.get()))
     }
 
     pub(super) fn run<R: Send>(f: impl FnOnce() -> R + Send) -> R {
@@ -395,7 +398,7 @@ mod tests {
     /// machine's cores included), from inside the pool and from outside it.
     #[test]
     fn every_item_runs_once() {
-        let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+        let cores = super::spinning::cores();
         for threads in [1, 2, 3, 8] {
             let check = || {
                 run(|| {
@@ -438,8 +441,7 @@ mod tests {
         pool.install(|| {
             run(|| {
                 let team = super::threads();
-                let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
-                assert_eq!(team, cores.min(3));
+                assert_eq!(team, super::spinning::cores().min(3));
                 let started = AtomicUsize::new(0);
                 let threads_seen = std::sync::Mutex::new(std::collections::HashSet::new());
                 for_each(team, &|_| {
@@ -578,7 +580,7 @@ mod tests {
             assert!(result.is_err());
         }
         // The pool is still usable.
-        let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+        let cores = super::spinning::cores();
         assert_eq!(pool.install(|| run(threads)), cores.min(2));
     }
 }

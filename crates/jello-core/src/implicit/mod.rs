@@ -1644,8 +1644,8 @@ fn solve_swirl(s: &mut ImplicitScratch, reduction: f64, preconditioner: Precondi
         let (springs, multigrid) = (&mut s.springs, &mut s.multigrid);
         let pairs = (&s.pair_rows[..], &s.pair_blocks[..]);
         let correction = Some(&s.field_correction[..]);
+        let precision = precision_for(reduction);
         let apply = |x: &[Vec3], y: &mut [Vec3]| {
-            let precision = precision_for(reduction);
             apply_to(
                 springs, &s.extra, &s.free, pairs.0, pairs.1, correction, x, y, precision,
             );
