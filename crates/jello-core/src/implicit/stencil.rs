@@ -364,19 +364,11 @@ impl SpringMatrix {
         let own = |p: usize| sym_mul(&own[p], x[p]);
         if precision == Precision::Single {
             load(&mut self.x_single, x);
-            let blocks = &self.blocks_single;
-            let forces = |at: usize, f: [&mut [f32]; 3], x: [&[f32]; 3], xn: [&[f32]; 3]| {
-                let len = f[0].len();
-                spring_forces_single(f, x, xn, part(blocks, at, len));
-            };
+            let forces = entry_forces(spring_forces_single, &self.blocks_single);
             ranges_rows(&mut self.ranges, spans, n, &own, &self.x_single, &forces);
         } else {
             load(&mut self.x, x);
-            let blocks = &self.blocks;
-            let forces = |at: usize, f: [&mut [f64]; 3], x: [&[f64]; 3], xn: [&[f64]; 3]| {
-                let len = f[0].len();
-                spring_forces(f, x, xn, part(blocks, at, len));
-            };
+            let forces = entry_forces(spring_forces, &self.blocks);
             ranges_rows(&mut self.ranges, spans, n, &own, &self.x, &forces);
         }
         let ranges = &self.ranges;
@@ -406,10 +398,7 @@ impl SpringMatrix {
         self.load_x(v);
         let (spans, dampers, n) = (&self.spans[..], &self.dampers, self.n);
         let own = |p: usize| sym_mul(&own[p], v[p]);
-        let forces = |at: usize, f: [&mut [f64]; 3], x: [&[f64]; 3], xn: [&[f64]; 3]| {
-            let len = f[0].len();
-            damper_forces(f, x, xn, part(dampers, at, len));
-        };
+        let forces = entry_forces(damper_forces, dampers);
         ranges_rows(&mut self.ranges, spans, n, &own, &self.x, &forces);
         let ranges = &self.ranges;
         team::for_each_chunk([y], self.range_size(), &|r, [y]| {
@@ -491,6 +480,22 @@ fn for_each_run(spans: &[Span], mut f: impl FnMut(usize, usize, usize, usize)) {
                 f(e, span.first, span.len - o, o);
             }
         }
+    }
+}
+
+/// The `entry_forces` of [`rows`] for a kernel `kernel(f, x, xn, parts)` over the slot arrays
+/// `arrays` (the blocks, in either precision, or the dampers).
+#[allow(clippy::type_complexity)]
+fn entry_forces<'a, T, const C: usize>(
+    kernel: fn([&mut [T]; 3], [&[T]; 3], [&[T]; 3], [&[T]; C]),
+    arrays: &'a [Vec<T>; C],
+) -> impl Fn(usize, [&mut [T]; 3], [&[T]; 3], [&[T]; 3]) + Sync + 'a
+where
+    T: Sync,
+{
+    move |at, f, x, xn| {
+        let len = f[0].len();
+        kernel(f, x, xn, part(arrays, at, len));
     }
 }
 
@@ -1004,21 +1009,12 @@ mod tests {
             let mut forces64 = std::array::from_fn(|_| vec![0.0; n]);
             let spans = &matrix.spans;
             let [a, b, c] = &mut single;
-            let blocks = |at: usize, f: [&mut [f32]; 3], x: [&[f32]; 3], xn: [&[f32]; 3]| {
-                let len = f[0].len();
-                spring_forces_single(f, x, xn, part(&matrix.blocks_single, at, len));
-            };
+            let blocks = entry_forces(spring_forces_single, &matrix.blocks_single);
             rows(spans, n, own, &x32, start, [a, b, c], &mut forces32, blocks);
             let [a, b, c, d, e, g] = &mut double;
-            let blocks = |at: usize, f: [&mut [f64]; 3], x: [&[f64]; 3], xn: [&[f64]; 3]| {
-                let len = f[0].len();
-                spring_forces(f, x, xn, part(&matrix.blocks, at, len));
-            };
+            let blocks = entry_forces(spring_forces, &matrix.blocks);
             rows(spans, n, own, &x64, start, [a, b, c], &mut forces64, blocks);
-            let dampers = |at: usize, f: [&mut [f64]; 3], x: [&[f64]; 3], xn: [&[f64]; 3]| {
-                let len = f[0].len();
-                damper_forces(f, x, xn, part(&matrix.dampers, at, len));
-            };
+            let dampers = entry_forces(damper_forces, &matrix.dampers);
             rows(
                 spans,
                 n,
