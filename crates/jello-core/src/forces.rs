@@ -12,8 +12,11 @@
 //! its own planes and a private halo for the (at most two) planes after it, which the next chunk
 //! adds to its own before its points' accelerations are computed. That happens right after the
 //! chunk's springs, fused with the caller's update ([`force_pass`]), while the chunk is in cache.
-//! Threads take contiguous ranges of chunks; the chunking does not depend on the thread count, so
-//! neither does any sum: results are bit for bit the same on 1 thread or many.
+//! Threads take contiguous ranges of chunks, as the items of a [`crate::team`] loop: the same
+//! thread takes the same range pass after pass while the team lasts (a step, or the steps of
+//! [`crate::Simulation::advance`]), so each range's points stay in one core's caches. The
+//! chunking does not depend on the thread count, so neither does any sum: results are bit for
+//! bit the same on 1 thread or many.
 //!
 //! A range that does not start at the first chunk computes the halo of the chunk before it
 //! itself (the springs reaching across, in the same order, so the same bits) rather than waiting
@@ -21,6 +24,8 @@
 //! a pass costs its longest range, plus at most two planes of springs.
 
 use std::ops::Range;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Mutex;
 
 use crate::body::Body;
 use crate::contact::Contacts;
@@ -251,7 +256,8 @@ fn link_spans(links: &[u16], chunks: usize, chunk_len: usize, block: usize) -> V
 }
 
 /// Contiguous ranges of chunks a body's spring pass is split into for threads, on lattices large
-/// enough to be worth it (else one): one per thread of the rayon pool, or two where each still
+/// enough to be worth it (else one): one per thread of the rayon pool (whose threads make the
+/// team, see [`crate::team`]), or two where each still
 /// gets two chunks (spare ranges balance the threads that run slower), never more than the
 /// chunks. Each range but the first also computes the halo of the chunk before it (a fraction of
 /// a chunk), which is why small ranges are avoided.
@@ -448,7 +454,12 @@ where
             halos,
             rows,
         };
-        all &= pass.chunks(0..chunks, buffers, body_outs, ranges);
+        // On a team of threads: the caller's (an integrator's step), else one for this pass.
+        let run = || pass.chunks(chunks, buffers, body_outs, ranges);
+        all &= match ranges > 1 && crate::team::threads() == 1 {
+            true => crate::team::run(run),
+            false => run(),
+        };
     }
     all
 }
@@ -479,7 +490,6 @@ struct ChunkBuffers<'a> {
 
 impl<'a> ChunkBuffers<'a> {
     /// The buffers of the first `ranges` ranges and `chunks` chunks, and the rest.
-    #[cfg(feature = "parallel")]
     fn split(self, ranges: usize, chunks: usize) -> (Self, Self) {
         let (owns_left, owns_right) = self.owns.split_at_mut(ranges);
         let (entry_left, entry_right) = self.entry_halos.split_at_mut(ranges);
@@ -514,45 +524,55 @@ impl<U> Pass<'_, U> {
         self.chunk_len().min(nx * ny * nz - c * self.chunk_len())
     }
 
-    /// The chunks `range`, split into `ranges` contiguous ranges run on the rayon pool, with
-    /// `outs` the outputs of their points. Returns whether every update returned true.
+    /// The body's `chunks` chunks, split into `ranges` contiguous ranges spread over the team
+    /// this thread leads (see [`crate::team`]), with `outs` the outputs of their points.
+    /// Returns whether every update returned true.
     ///
-    /// Each range is whole in itself: it computes the halo of the chunk before it (unless it
-    /// starts at chunk 0), then its chunks in order, completing each right after its springs.
-    fn chunks<T>(
-        &self,
-        range: Range<usize>,
-        buffers: ChunkBuffers<'_>,
-        outs: T,
-        ranges: usize,
-    ) -> bool
+    /// Range `r` is always the same chunks, and on a team the same thread takes it pass after
+    /// pass (the team's blocks), so its points stay in that core's caches.
+    fn chunks<T>(&self, chunks: usize, buffers: ChunkBuffers<'_>, outs: T, ranges: usize) -> bool
     where
         T: Split,
         U: Fn(usize, T, [&[f64]; 3]) -> bool + Sync,
     {
-        #[cfg(feature = "parallel")]
-        if ranges > 1 && range.len() >= 2 {
-            // Chunks in proportion to the ranges on each side, so the leaves are even.
-            let left_ranges = ranges / 2;
-            let left = (range.len() * left_ranges / ranges).clamp(1, range.len() - 1);
-            let mid = range.start + left;
-            let (buffers_left, buffers_right) = buffers.split(left_ranges, left);
-            // Only the last chunk may be short, and it is on the right.
-            let (outs_left, outs_right) = outs.split_at(left * self.chunk_len());
-            let (ok_left, ok_right) = rayon::join(
-                || self.chunks(range.start..mid, buffers_left, outs_left, left_ranges),
-                || {
-                    self.chunks(
-                        mid..range.end,
-                        buffers_right,
-                        outs_right,
-                        ranges - left_ranges,
-                    )
-                },
-            );
-            return ok_left & ok_right;
+        let ranges = ranges.clamp(1, chunks.clamp(1, crate::team::OWNED_ITEMS));
+        if ranges == 1 {
+            return self.range(0..chunks, buffers, outs);
         }
-        let _ = ranges;
+        // Each range's buffers and outputs, cut here and taken by the item that runs it.
+        type Part<'b, T> = Option<(Range<usize>, ChunkBuffers<'b>, T)>;
+        let parts: [Mutex<Part<'_, T>>; crate::team::OWNED_ITEMS] =
+            std::array::from_fn(|_| Mutex::new(None));
+        let (mut buffers, mut outs) = (buffers, outs);
+        for (r, part) in parts.iter().enumerate().take(ranges) {
+            let (c0, c1) = (r * chunks / ranges, (r + 1) * chunks / ranges);
+            let (range_buffers, rest) = buffers.split(1, c1 - c0);
+            buffers = rest;
+            // Only the last chunk may be short, and it is in the last range.
+            let len = ((c1 - c0) * self.chunk_len()).min(outs.points());
+            let (range_outs, rest) = outs.split_at(len);
+            outs = rest;
+            *part.lock().expect("unpoisoned") = Some((c0..c1, range_buffers, range_outs));
+        }
+        let all = AtomicBool::new(true);
+        crate::team::for_each(ranges, &|r| {
+            let part = parts[r].lock().expect("unpoisoned").take();
+            let (range, buffers, outs) = part.expect("each range runs once");
+            if !self.range(range, buffers, outs) {
+                all.store(false, Ordering::Relaxed);
+            }
+        });
+        all.into_inner()
+    }
+
+    /// The chunks `range` on this thread, with `outs` the outputs of their points: the halo of
+    /// the chunk before the range (unless it starts at chunk 0), then its chunks in order, each
+    /// completed right after its springs. Returns whether every update returned true.
+    fn range<T>(&self, range: Range<usize>, buffers: ChunkBuffers<'_>, outs: T) -> bool
+    where
+        T: Split,
+        U: Fn(usize, T, [&[f64]; 3]) -> bool + Sync,
+    {
         let ChunkBuffers {
             owns,
             entry_halos,

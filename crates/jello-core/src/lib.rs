@@ -134,11 +134,17 @@ impl Simulation {
     }
 
     /// `n` steps, stopping at the first blow-up.
+    ///
+    /// On lattices large enough for threads the steps share one team of threads (see
+    /// [`team`]): its threads wait for the next step's work spinning, and each keeps the same
+    /// part of the lattice from step to step. The results are the same as `n` calls of
+    /// [`Simulation::step`].
     pub fn advance(&mut self, n: u64) -> Result<(), BlowUp> {
-        for _ in 0..n {
-            self.step()?;
+        let steps = |sim: &mut Simulation| (0..n).try_for_each(|_| sim.step());
+        if n > 1 && self.model.point_count() >= forces::PARALLEL_MIN_POINTS {
+            return team::run(|| steps(self));
         }
-        Ok(())
+        steps(self)
     }
 
     /// The current state as a world file, when the model fits the classic format.

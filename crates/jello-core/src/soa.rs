@@ -5,10 +5,6 @@ use std::ops::Range;
 
 use crate::vec3::Vec3;
 
-/// Vectors per block when copying on several threads.
-#[cfg(feature = "parallel")]
-const BLOCK: usize = 8 * 1024;
-
 crate::simd::multiversion! {
     /// `(x, y, z)[i] = aos[i]`.
     fn gather(x: &mut [f64], y: &mut [f64], z: &mut [f64], aos: &[Vec3]) {
@@ -174,35 +170,13 @@ impl Soa {
         scatter(aos, self.x(), self.y(), self.z());
     }
 
-    /// [`Soa::copy_from`] in blocks on the rayon pool's threads.
-    #[cfg(feature = "parallel")]
-    pub fn par_copy_from(&mut self, aos: &[Vec3]) {
-        use rayon::prelude::*;
-        let [x, y, z] = self.parts_mut();
-        let blocks = (
-            x.par_chunks_mut(BLOCK),
-            y.par_chunks_mut(BLOCK),
-            z.par_chunks_mut(BLOCK),
-            aos.par_chunks(BLOCK),
-        );
-        blocks
-            .into_par_iter()
-            .for_each(|(x, y, z, aos)| gather(x, y, z, aos));
-    }
-
-    /// [`Soa::copy_to`] in blocks on the rayon pool's threads.
-    #[cfg(feature = "parallel")]
-    pub fn par_copy_to(&self, aos: &mut [Vec3]) {
-        use rayon::prelude::*;
-        let blocks = (
-            aos.par_chunks_mut(BLOCK),
-            self.x().par_chunks(BLOCK),
-            self.y().par_chunks(BLOCK),
-            self.z().par_chunks(BLOCK),
-        );
-        blocks
-            .into_par_iter()
-            .for_each(|(aos, x, y, z)| scatter(aos, x, y, z));
+    /// [`Soa::copy_from`] in one block per thread of the team this thread leads (see
+    /// [`crate::team`]), each thread the block of points it keeps from pass to pass.
+    pub fn team_copy_from(&mut self, aos: &[Vec3]) {
+        let size = crate::team::chunk_size(aos.len(), 1);
+        crate::team::for_each_chunk(self.parts_mut(), size, &|i, [x, y, z]| {
+            gather(x, y, z, &aos[i * size..i * size + x.len()]);
+        });
     }
 
     /// A new structure of arrays holding `aos`.

@@ -191,10 +191,11 @@ impl std::error::Error for BlowUp {}
 /// by one. On a blow-up the state is unchanged and the error says where and what to try. An
 /// implicit step that fails is first taken again in parts ([`crate::cutback`]).
 ///
-/// Stepping allocates nothing. On lattices large enough for threads, call it from inside the
-/// rayon pool (`ThreadPool::install` around the stepping loop, as `jello bench` does): from
-/// outside, each of its joins goes through rayon's global queue, which allocates a small block
-/// every 63 jobs.
+/// Stepping allocates nothing. On lattices large enough for threads, the step runs on a team of
+/// the rayon pool's threads ([`crate::team`]): call it from inside the pool (`ThreadPool::install`
+/// around the stepping loop, as `jello bench` does), since from outside, the join that starts
+/// the team goes through rayon's global queue, which allocates a small block every 63 jobs.
+/// Several steps in a row share one team through [`crate::Simulation::advance`].
 pub fn step(
     model: &Model,
     state: &mut State,
@@ -213,7 +214,13 @@ pub fn step(
     if model.integrator.is_implicit() {
         return crate::cutback::step(model, state, control, scratch);
     }
-    if !integrate(model, state, control, scratch) {
+    // Large lattices step on a team of threads (the caller's, as in `Simulation::advance`, else
+    // one for this step), each thread keeping its part of the lattice from pass to pass.
+    let sound = match model.point_count() >= PARALLEL_MIN_POINTS {
+        true => crate::team::run(|| integrate(model, state, control, scratch)),
+        false => integrate(model, state, control, scratch),
+    };
+    if !sound {
         let s = scratch;
         return Err(unsound(model, state, &s.next_pos, &s.next_vel, model.dt));
     }
@@ -267,21 +274,8 @@ pub(crate) fn accept(model: &Model, state: &mut State, s: &mut Scratch, t0: f64,
 /// The updates are element-wise per component and compiled for AVX-512 too (`multiversion!`).
 fn integrate(model: &Model, state: &State, control: &Control, s: &mut Scratch) -> bool {
     let dt = model.dt;
-    let par = model.point_count() >= PARALLEL_MIN_POINTS;
-    #[cfg(feature = "parallel")]
-    if par {
-        s.pos.par_copy_from(&state.pos);
-        s.vel.par_copy_from(&state.vel);
-    } else {
-        s.pos.copy_from(&state.pos);
-        s.vel.copy_from(&state.vel);
-    }
-    #[cfg(not(feature = "parallel"))]
-    {
-        let _ = par;
-        s.pos.copy_from(&state.pos);
-        s.vel.copy_from(&state.vel);
-    }
+    s.pos.team_copy_from(&state.pos);
+    s.vel.team_copy_from(&state.vel);
     let Scratch {
         force,
         pos,

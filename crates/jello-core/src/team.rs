@@ -13,7 +13,12 @@
 //! [`run`] starts the team on rayon's threads (as many as the current pool has, `jello bench
 //! --threads` and `RAYON_NUM_THREADS` set it, up to the cores the process may use) and
 //! [`for_each`] spreads a loop's items over it.
-//! Items are claimed one by one, so which thread computes an item varies, but each item is
+//! Items are claimed one by one. A loop of up to [`OWNED_ITEMS`] items is cut into one
+//! contiguous block per thread, and each thread first claims the items of its own block: a loop
+//! repeated over the same data (the passes of an explicit step, the sweeps of a solve) keeps
+//! each block on the same thread, in its core's caches, for as long as the team lasts. A thread
+//! done with its block then takes the others' unclaimed items, from the far end, so a slow or
+//! missing thread holds nothing up. Which thread computes an item still varies, but each item is
 //! computed the same way whoever takes it: callers split their work into items that do not
 //! depend on the thread count, and results are bit for bit the same for any number of threads.
 //! Outside [`run`], on a thread that is not the team's leader, and without the `parallel`
@@ -25,8 +30,13 @@
 //! it run. A helper that never starts (the pool busy with other work) costs nothing: the leader
 //! claims every item itself.
 
+/// Loops of at most this many items are cut into a block per thread (see the module's
+/// documentation); the items of longer ones are claimed in order by whichever thread is free.
+pub const OWNED_ITEMS: usize = 64;
+
 #[cfg(feature = "parallel")]
 mod spinning {
+    use super::OWNED_ITEMS;
     use std::cell::Cell;
     use std::sync::atomic::{AtomicBool, AtomicPtr, AtomicU64, AtomicUsize, Ordering};
 
@@ -37,9 +47,17 @@ mod spinning {
 
     /// What the leader and its helpers share.
     pub(super) struct Team {
-        /// The current loop: its number, its item count and its next unclaimed item (see
-        /// [`NUMBER`], [`ITEMS`]), in one word so that a claim is of one loop's item.
+        /// The current loop of more than [`OWNED_ITEMS`] items: its number, its item count and
+        /// its next unclaimed item (see [`NUMBER`], [`ITEMS`]), in one word so that a claim is
+        /// of one loop's item.
         claim: AtomicU64,
+        /// The current loop of at most [`OWNED_ITEMS`] items: bit `i` set once item `i` is
+        /// claimed, and the bits past its items set. Every bit is set between such loops, so a
+        /// claimed bit is always an item of the loop in progress.
+        owned: AtomicU64,
+        /// The item count of the current loop of at most [`OWNED_ITEMS`] items (where the
+        /// threads' blocks are).
+        owned_items: AtomicUsize,
         /// The current loop (valid while it has unfinished items).
         job: AtomicPtr<Job<'static>>,
         /// Items of the current loop finished.
@@ -82,6 +100,21 @@ mod spinning {
     const NUMBER: u32 = 40;
     const MASK: u64 = (1 << ITEMS) - 1;
 
+    /// The bits of `owned` of the items `0..items` (at most [`OWNED_ITEMS`]).
+    fn item_bits(items: usize) -> u64 {
+        if items >= OWNED_ITEMS {
+            u64::MAX
+        } else {
+            (1 << items) - 1
+        }
+    }
+
+    /// The items member `member` of a team of `size` claims first in a loop of `items` items:
+    /// contiguous blocks in member order, the first (the leader's) never empty.
+    pub(super) fn own_block(member: usize, items: usize, size: usize) -> std::ops::Range<usize> {
+        (member * items).div_ceil(size)..((member + 1) * items).div_ceil(size)
+    }
+
     /// Idle turns of a helper per look for rayon's pending work.
     const RAYON_EVERY: u32 = 32;
 
@@ -106,6 +139,8 @@ mod spinning {
             Team {
                 size,
                 claim: AtomicU64::new(0),
+                owned: AtomicU64::new(u64::MAX),
+                owned_items: AtomicUsize::new(0),
                 job: AtomicPtr::new(std::ptr::null_mut()),
                 done: AtomicUsize::new(0),
                 panicked: AtomicBool::new(false),
@@ -135,6 +170,35 @@ mod spinning {
             }
         }
 
+        /// Claims an item of the current loop of at most [`OWNED_ITEMS`] items, for team
+        /// member `member` (the leader is 0): the first unclaimed one of its own block, else
+        /// the last unclaimed one of the loop; `None` when none is left.
+        fn take_owned(&self, member: usize) -> Option<usize> {
+            let mut owned = self.owned.load(Ordering::Acquire);
+            if owned == u64::MAX {
+                return None;
+            }
+            // Read after `owned`, so maybe of a later loop: then the block is only a poor
+            // guess, and any bit claimed below is still an item of the loop in progress.
+            let items = self.owned_items.load(Ordering::Relaxed).min(OWNED_ITEMS);
+            let mut own = own_block(member, items, self.size);
+            loop {
+                let index = match own.next() {
+                    Some(i) if owned & 1 << i == 0 => i,
+                    Some(_) => continue,
+                    None if owned == u64::MAX => return None,
+                    None => 63 - (!owned).leading_zeros() as usize,
+                };
+                // Acquire: the leader's release of this loop's bits (continued by every claim)
+                // makes its `job` visible.
+                let before = self.owned.fetch_or(1 << index, Ordering::AcqRel);
+                if before & 1 << index == 0 {
+                    return Some(index);
+                }
+                owned = before | 1 << index;
+            }
+        }
+
         /// The leader's side of one loop.
         fn lead(&self, items: usize, body: &(dyn Fn(usize) + Sync)) {
             assert!(items as u64 <= MASK, "{items} items in one parallel loop");
@@ -146,13 +210,23 @@ mod spinning {
             let job_ptr: *const Job = &job;
             self.job
                 .store(job_ptr as *mut Job<'static>, Ordering::Relaxed);
-            let number = (self.claim.load(Ordering::Relaxed) >> NUMBER) + 1;
-            let claim = number << NUMBER | (items as u64) << ITEMS;
-            self.claim.store(claim, Ordering::Release);
+            let owned = items <= OWNED_ITEMS;
+            if owned {
+                self.owned_items.store(items, Ordering::Relaxed);
+                self.owned.store(!item_bits(items), Ordering::Release);
+            } else {
+                let number = (self.claim.load(Ordering::Relaxed) >> NUMBER) + 1;
+                let claim = number << NUMBER | (items as u64) << ITEMS;
+                self.claim.store(claim, Ordering::Release);
+            }
+            let next = || match owned {
+                true => self.take_owned(0),
+                false => self.take(self.claim.load(Ordering::Acquire)),
+            };
             // A panic of the leader's own item waits, like the rest, until the helpers' items
             // are done: they borrow from this frame. The items left are then claimed, not run.
             let mut panic = None;
-            while let Some(index) = self.take(self.claim.load(Ordering::Acquire)) {
+            while let Some(index) = next() {
                 if panic.is_none() {
                     let ran =
                         std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| body(index)));
@@ -182,14 +256,18 @@ mod spinning {
         /// leader waits for, and this loop ends only when that leader's step does. It returns
         /// at once, and the team has one helper fewer.
         fn help(&self, helpers: usize) {
-            self.started.fetch_add(1, Ordering::AcqRel);
+            // The leader is member 0.
+            let member = self.started.fetch_add(1, Ordering::AcqRel) + 1;
             if IN_TEAM.get() {
                 return;
             }
             let _in_team = InTeam::enter();
             let mut idle = 0u32;
             while !self.finished.load(Ordering::Acquire) {
-                let Some(index) = self.take(self.claim.load(Ordering::Acquire)) else {
+                let claimed = self
+                    .take(self.claim.load(Ordering::Acquire))
+                    .or_else(|| self.take_owned(member));
+                let Some(index) = claimed else {
                     // Looking for rayon's work takes longer than a look at `claim`: once every
                     // `RAYON_EVERY` idle turns. Before every helper has started, the next one's
                     // start may be this thread's own pending work: running it here would nest a
@@ -455,6 +533,52 @@ mod tests {
                         .insert(std::thread::current().id());
                 });
                 assert_eq!(threads_seen.lock().unwrap().len(), team);
+            })
+        });
+    }
+
+    /// The threads' blocks of a loop cover its items once each, in order, the leader's first
+    /// and never empty.
+    #[test]
+    fn the_blocks_cover_the_items() {
+        for size in 1..=17 {
+            for items in 0..=super::OWNED_ITEMS {
+                let mut next = 0;
+                for member in 0..size {
+                    let block = super::spinning::own_block(member, items, size);
+                    assert_eq!(block.start, next, "{member} of {size}, {items} items");
+                    assert!(block.end >= block.start);
+                    next = block.end;
+                }
+                assert_eq!(next, items);
+                assert!(items == 0 || !super::spinning::own_block(0, items, size).is_empty());
+            }
+        }
+    }
+
+    /// A loop repeated over the same items keeps each item on the same thread while the team
+    /// lasts: with one item per thread, each item waiting until every thread has one, no thread
+    /// can take another's, so each takes its own block's (with claims in order of arrival, the
+    /// helpers would take the items in whatever order they came to the loop).
+    #[test]
+    fn each_thread_keeps_its_items() {
+        pool(8).install(|| {
+            run(|| {
+                let team = super::threads();
+                let owners = std::sync::Mutex::new(vec![None; team]);
+                for round in 0..20 {
+                    let started = AtomicUsize::new(0);
+                    for_each(team, &|i| {
+                        started.fetch_add(1, Ordering::AcqRel);
+                        while started.load(Ordering::Acquire) < team {
+                            std::hint::spin_loop();
+                        }
+                        let me = std::thread::current().id();
+                        let mut owners = owners.lock().unwrap();
+                        let owner = owners[i].get_or_insert(me);
+                        assert_eq!(*owner, me, "item {i} changed threads in round {round}");
+                    });
+                }
             })
         });
     }

@@ -218,12 +218,8 @@ fn measure(
     let (points, springs) = (model.point_count(), model.spring_count());
     let mut sim = Simulation::new(model, state);
     let advance = |sim: &mut Simulation, steps: u64| -> Result<(), CliError> {
-        for _ in 0..steps {
-            if let Err(e) = sim.step() {
-                return Err(CliError::blow_up(format!("benchmark scene blew up: {e}")));
-            }
-        }
-        Ok(())
+        sim.advance(steps)
+            .map_err(|e| CliError::blow_up(format!("benchmark scene blew up: {e}")))
     };
 
     // Warm-up: caches, page faults, thread start-up; also sizes the batches.
