@@ -50,6 +50,9 @@ const RUN_BLOCK: usize = crate::springs::MAX_RUN;
 /// Planes a spring reaches beyond its first point's plane (bend springs reach 2).
 const HALO_PLANES: usize = 2;
 
+/// The fewest planes of a range of a spring pass run by one thread (see [`range_count`]).
+const MIN_RANGE_PLANES: usize = 2;
+
 /// Lattices with fewer points than this are stepped on the calling thread only (the work would
 /// not pay for waking others). The results are the same either way.
 pub const PARALLEL_MIN_POINTS: usize = 8 * 1024;
@@ -74,15 +77,14 @@ pub struct ForceScratch {
 /// The buffers of one body's spring pass.
 #[derive(Clone, Debug, Default)]
 struct BodyScratch {
-    /// Spring forces (N) on the points of a chunk: one buffer per range of chunks a thread takes,
-    /// reused chunk after chunk, so it stays in cache.
+    /// Spring forces (N) on the points of a chunk: one buffer per range of planes a thread
+    /// takes, reused chunk after chunk, so it stays in cache.
     owns: Vec<Soa>,
-    /// Per range of chunks: the halo of the chunk before the range (forces on the range's first
-    /// [`HALO_PLANES`] planes from the springs reaching back), computed by the range itself.
-    entry_halos: Vec<Soa>,
-    /// Per chunk: forces on the [`HALO_PLANES`] planes after the chunk.
+    /// Two per range: forces on the [`HALO_PLANES`] planes after a chunk, written by the
+    /// chunk's springs and read when the next chunk is completed (the first, before the range's
+    /// first chunk, is the halo of the chunk before the range, computed by the range itself).
     halos: Vec<Soa>,
-    /// Per chunk: the forces of one block of springs.
+    /// Per range: the forces of one block of springs.
     rows: Vec<Soa>,
     /// Which pairs of a run are springs, per stencil class (see [`Masks`]), for a full box.
     masks: Masks,
@@ -192,9 +194,8 @@ impl BodyScratch {
         let ranges = range_count(body);
         BodyScratch {
             owns: vec![Soa::with_color(chunk_len, 2); ranges],
-            entry_halos: vec![Soa::with_color(HALO_PLANES * plane, 1); ranges],
-            halos: vec![Soa::with_color(HALO_PLANES * plane, 1); chunks],
-            rows: vec![Soa::with_color(row_len, 3); chunks],
+            halos: vec![Soa::with_color(HALO_PLANES * plane, 1); 2 * ranges],
+            rows: vec![Soa::with_color(row_len, 3); ranges],
             masks,
             spans: link_spans(body.links(), chunks, chunk_len, row_len),
         }
@@ -206,14 +207,10 @@ impl BodyScratch {
         let row_len = RUN_BLOCK.min(chunk_len);
         !self.owns.is_empty()
             && self.owns[0].len() == chunk_len
-            && self.entry_halos.len() == self.owns.len()
-            && self.entry_halos[0].len() == HALO_PLANES * ny * nz
-            && self.halos.len() == nx.div_ceil(CHUNK_PLANES)
-            && self
-                .halos
-                .first()
-                .is_none_or(|h| h.len() == HALO_PLANES * ny * nz)
-            && self.rows.first().is_none_or(|r| r.len() == row_len)
+            && self.halos.len() == 2 * self.owns.len()
+            && self.halos[0].len() == HALO_PLANES * ny * nz
+            && self.rows.len() == self.owns.len()
+            && self.rows[0].len() == row_len
             && self.masks.len == ny * nz + row_len
             && self.spans.len()
                 == if body.links().is_empty() {
@@ -255,20 +252,24 @@ fn link_spans(links: &[u16], chunks: usize, chunk_len: usize, block: usize) -> V
     spans
 }
 
-/// Contiguous ranges of chunks a body's spring pass is split into for threads, on lattices large
+/// Contiguous ranges of planes a body's spring pass is split into for threads, on lattices large
 /// enough to be worth it (else one): one per thread of the rayon pool (whose threads make the
-/// team, see [`crate::team`]), or two where each still
-/// gets two chunks (spare ranges balance the threads that run slower), never more than the
-/// chunks. Each range but the first also computes the halo of the chunk before it (a fraction of
-/// a chunk), which is why small ranges are avoided.
+/// team, see [`crate::team`]), or two where each still gets two chunks (spare ranges balance the
+/// threads that run slower); never fewer than [`MIN_RANGE_PLANES`] planes a range. Each range
+/// recomputes the springs reaching into its first planes from the planes before it (about half
+/// a plane of springs), which is why small ranges are avoided.
 fn range_count(body: &Body) -> usize {
     #[cfg(feature = "parallel")]
     if body.len() >= PARALLEL_MIN_POINTS
         || (crate::team::threads() > 1 && body.len() >= TEAM_MIN_POINTS)
     {
-        let chunks = body.lattice().counts[0].div_ceil(CHUNK_PLANES);
+        let planes = body.lattice().counts[0];
         let threads = rayon::current_num_threads();
-        return (2 * threads).min(chunks / 2).max(threads).clamp(1, chunks);
+        let ranges = match planes >= 4 * CHUNK_PLANES * threads {
+            true => 2 * threads,
+            false => threads.min(planes / MIN_RANGE_PLANES),
+        };
+        return ranges.clamp(1, crate::team::OWNED_ITEMS);
     }
     let _ = body;
     1
@@ -420,7 +421,6 @@ where
         body,
         BodyScratch {
             owns,
-            entry_halos,
             halos,
             rows,
             masks,
@@ -431,7 +431,6 @@ where
         let (body_outs, rest) = outs.split_at(body.len());
         outs = rest;
         let grid = Grid::new(body);
-        let chunks = grid.nx.div_ceil(CHUNK_PLANES);
         let pass = Pass {
             model,
             body,
@@ -448,14 +447,13 @@ where
         // As many ranges as the buffers allow (the pool may have grown since they were sized;
         // the ranges only decide which thread computes what, never the results).
         let ranges = range_count(body).min(owns.len());
-        let buffers = ChunkBuffers {
-            owns,
-            entry_halos,
-            halos,
-            rows,
-        };
+        let buffers = owns
+            .iter_mut()
+            .zip(halos.chunks_exact_mut(2))
+            .zip(rows.iter_mut());
+        let buffers = buffers.map(|((own, halos), row)| RangeBuffers { own, halos, row });
         // On a team of threads: the caller's (an integrator's step), else one for this pass.
-        let run = || pass.chunks(chunks, buffers, body_outs, ranges);
+        let run = || pass.ranges(buffers, body_outs, ranges);
         all &= match ranges > 1 && crate::team::threads() == 1 {
             true => crate::team::run(run),
             false => run(),
@@ -479,37 +477,14 @@ struct Pass<'a, U> {
     update: &'a U,
 }
 
-/// The buffers of a body's spring pass that ranges of chunks take for their own: per range, a
-/// spring-force buffer and an entry halo; per chunk, its halo and row buffer.
-struct ChunkBuffers<'a> {
-    owns: &'a mut [Soa],
-    entry_halos: &'a mut [Soa],
+/// The buffers of a body's spring pass that a range of planes takes for its own.
+struct RangeBuffers<'a> {
+    /// Spring forces on the points of a chunk.
+    own: &'a mut Soa,
+    /// Two halos: the chunk before's and the chunk's own (see [`BodyScratch::halos`]).
     halos: &'a mut [Soa],
-    rows: &'a mut [Soa],
-}
-
-impl<'a> ChunkBuffers<'a> {
-    /// The buffers of the first `ranges` ranges and `chunks` chunks, and the rest.
-    fn split(self, ranges: usize, chunks: usize) -> (Self, Self) {
-        let (owns_left, owns_right) = self.owns.split_at_mut(ranges);
-        let (entry_left, entry_right) = self.entry_halos.split_at_mut(ranges);
-        let (halos_left, halos_right) = self.halos.split_at_mut(chunks);
-        let (rows_left, rows_right) = self.rows.split_at_mut(chunks);
-        (
-            ChunkBuffers {
-                owns: owns_left,
-                entry_halos: entry_left,
-                halos: halos_left,
-                rows: rows_left,
-            },
-            ChunkBuffers {
-                owns: owns_right,
-                entry_halos: entry_right,
-                halos: halos_right,
-                rows: rows_right,
-            },
-        )
-    }
+    /// One block of springs' forces, then of accelerations.
+    row: &'a mut Soa,
 }
 
 impl<U> Pass<'_, U> {
@@ -524,85 +499,105 @@ impl<U> Pass<'_, U> {
         self.chunk_len().min(nx * ny * nz - c * self.chunk_len())
     }
 
-    /// The body's `chunks` chunks, split into `ranges` contiguous ranges spread over the team
-    /// this thread leads (see [`crate::team`]), with `outs` the outputs of their points.
-    /// Returns whether every update returned true.
+    /// The body's planes, split into `ranges` contiguous ranges spread over the team this
+    /// thread leads (see [`crate::team`]), each with buffers of its own from `buffers`, with
+    /// `outs` the outputs of their points. Returns whether every update returned true.
     ///
-    /// Range `r` is always the same chunks, and on a team the same thread takes it pass after
+    /// Range `r` is always the same planes, and on a team the same thread takes it pass after
     /// pass (the team's blocks), so its points stay in that core's caches.
-    fn chunks<T>(&self, chunks: usize, buffers: ChunkBuffers<'_>, outs: T, ranges: usize) -> bool
+    fn ranges<'b, T>(
+        &self,
+        buffers: impl Iterator<Item = RangeBuffers<'b>>,
+        outs: T,
+        ranges: usize,
+    ) -> bool
     where
         T: Split,
         U: Fn(usize, T, [&[f64]; 3]) -> bool + Sync,
     {
-        let ranges = ranges.clamp(1, chunks.clamp(1, crate::team::OWNED_ITEMS));
+        let Grid { nx, ny, nz, .. } = self.grid;
+        let mut buffers = buffers;
+        let ranges = ranges.clamp(
+            1,
+            (nx / MIN_RANGE_PLANES).clamp(1, crate::team::OWNED_ITEMS),
+        );
         if ranges == 1 {
-            return self.range(0..chunks, buffers, outs);
+            let buffers = buffers.next().expect("buffers for one range");
+            return self.range(0..nx, buffers, outs);
         }
-        // Each range's buffers and outputs, cut here and taken by the item that runs it.
-        type Part<'b, T> = Option<(Range<usize>, ChunkBuffers<'b>, T)>;
+        // Each range's planes, buffers and outputs, cut here and taken by the item that runs it.
+        type Part<'b, T> = Option<(Range<usize>, RangeBuffers<'b>, T)>;
         let parts: [Mutex<Part<'_, T>>; crate::team::OWNED_ITEMS] =
             std::array::from_fn(|_| Mutex::new(None));
-        let (mut buffers, mut outs) = (buffers, outs);
-        for (r, part) in parts.iter().enumerate().take(ranges) {
-            let (c0, c1) = (r * chunks / ranges, (r + 1) * chunks / ranges);
-            let (range_buffers, rest) = buffers.split(1, c1 - c0);
-            buffers = rest;
-            // Only the last chunk may be short, and it is in the last range.
-            let len = ((c1 - c0) * self.chunk_len()).min(outs.points());
-            let (range_outs, rest) = outs.split_at(len);
+        let mut outs = outs;
+        for (r, (part, range_buffers)) in parts.iter().zip(&mut buffers).take(ranges).enumerate() {
+            let planes = r * nx / ranges..(r + 1) * nx / ranges;
+            let (range_outs, rest) = outs.split_at(planes.len() * ny * nz);
             outs = rest;
-            *part.lock().expect("unpoisoned") = Some((c0..c1, range_buffers, range_outs));
+            *part.lock().expect("unpoisoned") = Some((planes, range_buffers, range_outs));
         }
         let all = AtomicBool::new(true);
         crate::team::for_each(ranges, &|r| {
             let part = parts[r].lock().expect("unpoisoned").take();
-            let (range, buffers, outs) = part.expect("each range runs once");
-            if !self.range(range, buffers, outs) {
+            let (planes, buffers, outs) = part.expect("each range runs once and has buffers");
+            if !self.range(planes, buffers, outs) {
                 all.store(false, Ordering::Relaxed);
             }
         });
         all.into_inner()
     }
 
-    /// The chunks `range` on this thread, with `outs` the outputs of their points: the halo of
-    /// the chunk before the range (unless it starts at chunk 0), then its chunks in order, each
-    /// completed right after its springs. Returns whether every update returned true.
-    fn range<T>(&self, range: Range<usize>, buffers: ChunkBuffers<'_>, outs: T) -> bool
+    /// The planes `planes` on this thread, with `outs` the outputs of their points, chunk by
+    /// chunk: the springs whose forces reach the range's points (in the chunk's own order, so
+    /// its points get the same bits however the planes are cut into ranges), then the points
+    /// completed. A range that starts in a chunk's first [`HALO_PLANES`] planes first computes
+    /// the halo of the chunk before. Returns whether every update returned true.
+    fn range<T>(&self, planes: Range<usize>, buffers: RangeBuffers<'_>, outs: T) -> bool
     where
         T: Split,
         U: Fn(usize, T, [&[f64]; 3]) -> bool + Sync,
     {
-        let ChunkBuffers {
-            owns,
-            entry_halos,
-            halos,
-            rows,
-        } = buffers;
+        let RangeBuffers { own, halos, row } = buffers;
         let (g, masks, p, v) = (&self.grid, self.masks, self.p, self.v);
-        // The halo of the chunk before the range, into the range's own buffer (the row buffer
-        // of the range's first chunk is free until its springs).
-        let entry_halo = &mut entry_halos[0];
-        if range.start > 0 {
-            let before = self.placement(range.start - 1);
-            chunk_springs(g, masks, p, v, before, None, entry_halo, &mut rows[0]);
+        let plane = g.ny * g.nz;
+        let [halo_before, halo_after] = halos else {
+            unreachable!("two halos per range")
+        };
+        let (first, last) = (planes.start / CHUNK_PLANES, (planes.end - 1) / CHUNK_PLANES);
+        let entry = planes.start - first * CHUNK_PLANES;
+        let entry_halo = first > 0 && entry < HALO_PLANES;
+        if entry_halo {
+            let before = self.placement(first - 1);
+            let halo_only = before.planes * plane..usize::MAX;
+            chunk_springs(g, masks, p, v, before, None, halo_only, halo_before, row);
         }
-        let own = &mut owns[0];
+        let (mut halo_before, mut halo_after) = (halo_before, halo_after);
         let mut outs_rest = outs;
         let mut all = true;
-        for c in range.clone() {
-            let i = c - range.start;
-            let [fx, fy, fz] = own.range_mut(0..self.chunk_points(c));
-            let (halo, row) = (&mut halos[i], &mut rows[i]);
+        for c in first..=last {
             let at = self.placement(c);
-            chunk_springs(g, masks, p, v, at, Some([fx, fy, fz]), halo, row);
-            let halo_before = match i {
-                0 => (c > 0).then_some(&*entry_halo),
-                _ => Some(&halos[i - 1]),
-            };
-            let (outs_c, rest) = outs_rest.split_at(fx.len());
+            let c0 = at.i0;
+            // The chunk's points in the range (offsets in the chunk).
+            let ends =
+                (planes.start.max(c0) - c0) * plane..(planes.end.min(c0 + at.planes) - c0) * plane;
+            let [fx, fy, fz] = own.range_mut(0..self.chunk_points(c));
+            chunk_springs(
+                g,
+                masks,
+                p,
+                v,
+                at,
+                Some([fx, fy, fz]),
+                ends.clone(),
+                halo_after,
+                row,
+            );
+            let [fx, fy, fz] = own.range_mut(0..self.chunk_points(c));
+            let before = (c > first || entry_halo).then_some(&*halo_before);
+            let (outs_c, rest) = outs_rest.split_at(ends.len());
             outs_rest = rest;
-            all &= self.complete(c, [fx, fy, fz], halo_before, row, outs_c);
+            all &= self.complete(c, [fx, fy, fz], ends, before, row, outs_c);
+            std::mem::swap(&mut halo_before, &mut halo_after);
         }
         all
     }
@@ -620,13 +615,14 @@ impl<U> Pass<'_, U> {
         }
     }
 
-    /// Completes chunk `c`: adds the halo of the chunk before to its spring forces `own`, then
-    /// computes its points' accelerations block by block and hands them to the update with the
-    /// block's part of `outs`.
+    /// Completes the points `ends` (offsets in the chunk) of chunk `c`: adds the halo of the
+    /// chunk before to their spring forces in `own`, then computes their accelerations block by
+    /// block and hands them to the update with the block's part of `outs`.
     fn complete<T>(
         &self,
         c: usize,
         own: [&mut [f64]; 3],
+        ends: Range<usize>,
         halo_before: Option<&Soa>,
         row: &mut Soa,
         outs: T,
@@ -641,20 +637,21 @@ impl<U> Pass<'_, U> {
                 .into_iter()
                 .zip([h.x(), h.y(), h.z()])
             {
-                let len = f.len().min(h.len());
-                add_into(&mut f[..len], &h[..len]);
+                let end = ends.end.min(h.len());
+                if ends.start < end {
+                    add_into(&mut f[ends.start..end], &h[ends.start..end]);
+                }
             }
         }
         let local = c * self.chunk_len();
         let base = self.body.points().start + local;
-        let len = fx.len();
         let control = (!self.control.forces.is_empty()).then(|| &self.control.forces[..]);
         let active = self.body.active_mask();
         let mut outs = outs;
         let mut all = true;
-        let mut t = 0;
-        while t < len {
-            let n = row.len().min(len - t);
+        let mut t = ends.start;
+        while t < ends.end {
+            let n = row.len().min(ends.end - t);
             let (block_outs, rest) = outs.split_at(n);
             outs = rest;
             let r = base + t..base + t + n;
@@ -739,10 +736,12 @@ struct Placement<'a> {
 }
 
 crate::simd::multiversion! {
-    /// The springs whose first point lies in the chunk's planes `i0 .. i0 + planes` of a body,
-    /// into `own` (forces on those planes, zeroed here) and `halo` (forces on the two planes after
-    /// them, zeroed here). With no `own`, only the springs reaching into the halo are evaluated:
-    /// the halo gets the same bits as with it.
+    /// The springs whose first point lies in the chunk's planes `i0 .. i0 + planes` of a body
+    /// and that reach the points `needed` (offsets from the chunk's first point; the halo's
+    /// start on), into `own` (forces on those planes, zeroed here) and `halo` (forces on the
+    /// two planes after them, zeroed here). Only the forces on the points `needed` are whole:
+    /// those get the same bits whichever points are needed. With no `own`, `needed` must be
+    /// the halo's points.
     #[allow(clippy::too_many_arguments)]
     fn chunk_springs(
         grid: &Grid,
@@ -751,10 +750,11 @@ crate::simd::multiversion! {
         v: &Soa,
         at: Placement<'_>,
         own: Option<[&mut [f64]; 3]>,
+        needed: Range<usize>,
         halo: &mut Soa,
         row: &mut Soa,
     ) {
-        chunk_springs_impl(grid, masks, p, v, at, own, halo, row)
+        chunk_springs_impl(grid, masks, p, v, at, own, needed, halo, row)
     }
 }
 
@@ -767,8 +767,9 @@ crate::simd::multiversion! {
 /// vectorised.
 ///
 /// Every spring's force is computed from its own ends alone, and each point's sums are taken in
-/// the order of the walk (block, then entry), so a walk over the halo's springs only, in the same
-/// order, gives its halo the same bits.
+/// the order of the walk (block, then entry), so a walk over only the springs that reach some
+/// points (the halo's, or a range's of the chunk), in the same order and the same blocks, gives
+/// those points the same bits.
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
 fn chunk_springs_impl(
@@ -778,6 +779,7 @@ fn chunk_springs_impl(
     v: &Soa,
     at: Placement<'_>,
     mut own: Option<[&mut [f64]; 3]>,
+    needed: Range<usize>,
     halo: &mut Soa,
     row: &mut Soa,
 ) {
@@ -836,10 +838,10 @@ fn chunk_springs_impl(
                 // A body with holes: only the stretch where this entry has springs.
                 (t, e) = (t.max(lo as usize), e.min(hi as usize));
             }
-            if own.is_none() {
-                // The halo only: the springs whose second ends lie past the chunk.
-                t = t.max((halo_base - base).saturating_sub(shift));
-            }
+            // Only the springs reaching the points needed: first ends up to the last of them,
+            // second ends from the first of them.
+            debug_assert!(own.is_some() || needed.start == halo_base - base);
+            (t, e) = (t.max(needed.start.saturating_sub(shift)), e.min(needed.end));
             if t >= e {
                 continue;
             }

@@ -95,10 +95,12 @@ fn run_on(threads: usize, n: usize, integrator: Integrator, steps: u64) -> Vec<u
 
 #[test]
 fn results_are_bit_identical_for_any_thread_count() {
-    // 23³ and 26³: large enough for the threaded path, chunks of planes that do not divide evenly.
+    // 23³ and 26³: large enough for the threaded path, chunks of planes that do not divide evenly;
+    // from 5 threads on, ranges of planes that start inside chunks (with and without the halo
+    // of the chunk before), down to 2 planes a range.
     for (n, integrator) in [(23, Integrator::Rk4), (26, Integrator::Euler)] {
         let one = run_on(1, n, integrator, 60);
-        for threads in [2, 3, 5] {
+        for threads in [2, 3, 5, 8, 11] {
             assert!(
                 one == run_on(threads, n, integrator, 60),
                 "{n}³ {integrator}: {threads} threads differ from 1"
