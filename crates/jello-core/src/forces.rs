@@ -12,16 +12,19 @@
 //! its own planes and a private halo for the (at most two) planes after it, which the next chunk
 //! adds to its own before its points' accelerations are computed. That happens right after the
 //! chunk's springs, fused with the caller's update ([`force_pass`]), while the chunk is in cache.
-//! Threads take contiguous ranges of chunks, as the items of a [`crate::team`] loop: the same
+//! Threads take contiguous ranges of planes, as the items of a [`crate::team`] loop: the same
 //! thread takes the same range pass after pass while the team lasts (a step, or the steps of
 //! [`crate::Simulation::advance`]), so each range's points stay in one core's caches. The
-//! chunking does not depend on the thread count, so neither does any sum: results are bit for
-//! bit the same on 1 thread or many.
+//! chunking does not depend on the thread count, and a range that starts or ends inside a chunk
+//! walks only the chunk's springs that reach its own points, in the chunk's order and blocks, so
+//! no sum depends on where the ranges are cut: results are bit for bit the same on 1 thread or
+//! many.
 //!
-//! A range that does not start at the first chunk computes the halo of the chunk before it
-//! itself (the springs reaching across, in the same order, so the same bits) rather than waiting
-//! for the thread that owns that chunk. So ranges share nothing and never wait for each other:
-//! a pass costs its longest range, plus at most two planes of springs.
+//! A range that starts in the first two planes of a chunk (not the lattice's first) computes
+//! the halo of the chunk before it itself (the springs reaching across, in the same order, so the
+//! same bits) rather than waiting for the thread that owns that chunk. So ranges share nothing
+//! and never wait for each other: a pass costs its longest range, plus at most two planes of
+//! springs.
 
 use std::ops::Range;
 use std::sync::atomic::{AtomicBool, Ordering};
