@@ -588,6 +588,46 @@ fn json_number(json: &str, key: &str) -> Option<f64> {
     (value != "null").then(|| value.parse().unwrap())
 }
 
+/// `jello bench --steps N` measures exactly N steps from the scene's start, whatever the
+/// machine's speed: two runs do the same work (the implicit solver's iterations agree), and the
+/// flag is refused with `--seconds` or as 0.
+#[test]
+fn bench_steps_measures_exactly_those_steps_from_the_start() {
+    let t = TempDir::new("bench-steps");
+    let explicit = t.succeeds(&["bench", "--size", "4", "--steps", "7", "--json"]);
+    assert_eq!(json_number(&explicit, "steps"), Some(7.0), "{explicit}");
+    let implicit = || {
+        t.succeeds(&[
+            "bench",
+            "--size",
+            "6",
+            "--integrator",
+            "BackwardEuler",
+            "--dt",
+            "0.0166667",
+            "--steps",
+            "5",
+            "--json",
+        ])
+    };
+    let (first, second) = (implicit(), implicit());
+    assert_eq!(json_number(&first, "steps"), Some(5.0), "{first}");
+    for key in ["newton_iterations_per_step", "linear_iterations_per_step"] {
+        let value = json_number(&first, key);
+        assert!(value.is_some_and(|v| v > 0.0), "{first}");
+        assert_eq!(value, json_number(&second, key), "{key}: {first}\n{second}");
+    }
+    for args in [
+        &["bench", "--steps", "3", "--seconds", "1"][..],
+        &["bench", "--steps", "0"][..],
+    ] {
+        let out = t.run(args);
+        assert_eq!(out.status.code(), Some(2), "{args:?}");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(err.contains("--steps"), "{args:?}: {err}");
+    }
+}
+
 /// `jello bench` and `jello run` report the implicit solver's work per step: Newton
 /// iterations (fewer than one a step once the benchmark's small cube comes to rest, where a
 /// step starts within the tolerance), at least one conjugate-gradient iteration each, more

@@ -34,6 +34,12 @@ pub struct BenchArgs {
     /// Measured time, after a warm-up (s).
     #[arg(long, value_parser = parse_positive, default_value_t = 3.0)]
     pub seconds: f64,
+    /// Measure exactly N steps from the scene's start instead of about `--seconds`: the same
+    /// work on every machine and build (an implicit integrator's steps cost more while the
+    /// benchmark's cube is thrown about than once it slides on the floor).
+    #[arg(long, value_name = "N", conflicts_with = "seconds",
+          value_parser = clap::value_parser!(u64).range(1..))]
+    pub steps: Option<u64>,
     /// Print one JSON object instead of text.
     #[arg(long)]
     pub json: bool,
@@ -41,6 +47,32 @@ pub struct BenchArgs {
     /// GPU (the output names the adapter).
     #[arg(long, value_enum, default_value_t = Device::Cpu)]
     pub device: Device,
+}
+
+/// How long the measured run lasts.
+#[derive(Clone, Copy, Debug)]
+enum Span {
+    /// About this many seconds (whole batches of steps).
+    Seconds(f64),
+    /// Exactly this many steps.
+    Steps(u64),
+}
+
+impl Span {
+    /// The warm-up before the measured run: a tenth of the measured time (of the default 3 s for
+    /// a number of steps), within 0.05 to 1 s.
+    fn warm_up(self, seconds: f64) -> Duration {
+        Duration::from_secs_f64((seconds * 0.1).clamp(0.05, 1.0))
+    }
+
+    /// The next batch of at most `batch` steps, `done` steps and `elapsed` into the measured
+    /// run; `None` when the run is over.
+    fn next_batch(self, batch: u64, done: u64, elapsed: Duration) -> Option<u64> {
+        match self {
+            Span::Seconds(s) => (elapsed.as_secs_f64() < s).then_some(batch),
+            Span::Steps(n) => (done < n).then(|| batch.min(n - done)),
+        }
+    }
 }
 
 /// What one benchmark run measured.
@@ -69,6 +101,8 @@ pub fn bench(args: BenchArgs) -> Result<(), CliError> {
         .num_threads(threads)
         .build()
         .map_err(|e| CliError::input(format!("cannot start {threads} threads: {e}")))?;
+    let span = args.steps.map_or(Span::Seconds(args.seconds), Span::Steps);
+    let warm = span.warm_up(args.seconds);
     let (m, adapter, kernel) = match args.device {
         Device::Cpu => {
             let m = pool.install(|| {
@@ -77,14 +111,15 @@ pub fn bench(args: BenchArgs) -> Result<(), CliError> {
                     args.integrator,
                     args.dt,
                     args.tolerance,
-                    args.seconds,
+                    warm,
+                    span,
                 )
             })?;
             (m, None, None)
         }
         Device::Gpu => {
             let (m, adapter, kernel) =
-                measure_gpu(args.size as usize, args.integrator, args.dt, args.seconds)?;
+                measure_gpu(args.size as usize, args.integrator, args.dt, warm, span)?;
             (m, Some(adapter), Some(kernel))
         }
     };
@@ -202,15 +237,16 @@ fn scene(
     Ok((model, state))
 }
 
-/// Warms up for a tenth of the time (at least a few steps), then steps for about `seconds`.
-/// The measured run starts again from the initial state. A blow-up (the scene never blows up at
-/// its dt) is an error.
+/// Warms up for `warm` (at least a few steps), then steps for the `span`. The measured run
+/// starts again from the initial state. A blow-up (the scene never blows up at its dt) is an
+/// error.
 fn measure(
     n: usize,
     integrator: Integrator,
     dt: Option<f64>,
     tolerance: Option<f64>,
-    seconds: f64,
+    warm: Duration,
+    span: Span,
 ) -> Result<Measurement, CliError> {
     let (model, state) = scene(n, integrator, dt, tolerance)?;
     let tolerance = integrator.is_implicit().then_some(model.newton.tolerance);
@@ -223,7 +259,6 @@ fn measure(
     };
 
     // Warm-up: caches, page faults, thread start-up; also sizes the batches.
-    let warm = Duration::from_secs_f64((seconds * 0.1).clamp(0.05, 1.0));
     let start = Instant::now();
     let mut warm_steps = 0u64;
     while start.elapsed() < warm || warm_steps < 3 {
@@ -244,7 +279,7 @@ fn measure(
     let solver_before = sim.solver_stats();
     let start = Instant::now();
     let mut steps = 0u64;
-    while start.elapsed().as_secs_f64() < seconds {
+    while let Some(batch) = span.next_batch(batch, steps, start.elapsed()) {
         advance(&mut sim, batch)?;
         steps += batch;
     }
@@ -269,13 +304,13 @@ fn measure_gpu(
     n: usize,
     integrator: Integrator,
     dt: Option<f64>,
-    seconds: f64,
+    warm: Duration,
+    span: Span,
 ) -> Result<(Measurement, String, String), CliError> {
     let (model, state) = scene(n, integrator, dt, None)?;
     let (points, springs) = (model.point_count(), model.spring_count());
     let name = format!("the {n}³ benchmark scene");
     let mut gpu = Gpu::open(&model, &state, &Default::default(), &name)?;
-    let warm = Duration::from_secs_f64((seconds * 0.1).clamp(0.05, 1.0));
     let start = Instant::now();
     let mut warm_steps = 0u64;
     let mut batch = 1u64;
@@ -288,7 +323,7 @@ fn measure_gpu(
     let batch = ((0.05 / per_step) as u64).max(1);
     let start = Instant::now();
     let mut steps = 0u64;
-    while start.elapsed().as_secs_f64() < seconds {
+    while let Some(batch) = span.next_batch(batch, steps, start.elapsed()) {
         gpu.step(batch, &name)?;
         steps += batch;
     }
