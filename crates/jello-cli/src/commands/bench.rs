@@ -32,11 +32,12 @@ pub struct BenchArgs {
     #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u64).range(1..=256))]
     pub threads: u64,
     /// Measured time, after a warm-up (s).
-    #[arg(long, value_parser = parse_positive, default_value_t = 3.0)]
+    #[arg(long, value_parser = parse_positive, default_value_t = DEFAULT_SECONDS)]
     pub seconds: f64,
-    /// Measure exactly N steps from the scene's start instead of about `--seconds`: the same
-    /// work on every machine and build (an implicit integrator's steps cost more while the
-    /// benchmark's cube is thrown about than once it slides on the floor).
+    /// Measure exactly N steps instead of about `--seconds`, from the scene's start (on the GPU,
+    /// explicit integrators only, after the warm-up's steps): the same work on every machine and
+    /// build (an implicit integrator's steps cost more while the benchmark's cube is thrown
+    /// about than once it slides on the floor).
     #[arg(long, value_name = "N", conflicts_with = "seconds",
           value_parser = clap::value_parser!(u64).range(1..))]
     pub steps: Option<u64>,
@@ -49,6 +50,9 @@ pub struct BenchArgs {
     pub device: Device,
 }
 
+/// The measured time when `--steps` does not say otherwise (s).
+const DEFAULT_SECONDS: f64 = 3.0;
+
 /// How long the measured run lasts.
 #[derive(Clone, Copy, Debug)]
 enum Span {
@@ -59,9 +63,13 @@ enum Span {
 }
 
 impl Span {
-    /// The warm-up before the measured run: a tenth of the measured time (of the default 3 s for
-    /// a number of steps), within 0.05 to 1 s.
-    fn warm_up(self, seconds: f64) -> Duration {
+    /// The warm-up before the measured run: a tenth of the measured time (of the default time
+    /// for a number of steps), within 0.05 to 1 s.
+    fn warm_up(self) -> Duration {
+        let seconds = match self {
+            Span::Seconds(s) => s,
+            Span::Steps(_) => DEFAULT_SECONDS,
+        };
         Duration::from_secs_f64((seconds * 0.1).clamp(0.05, 1.0))
     }
 
@@ -102,7 +110,7 @@ pub fn bench(args: BenchArgs) -> Result<(), CliError> {
         .build()
         .map_err(|e| CliError::input(format!("cannot start {threads} threads: {e}")))?;
     let span = args.steps.map_or(Span::Seconds(args.seconds), Span::Steps);
-    let warm = span.warm_up(args.seconds);
+    let warm = span.warm_up();
     let (m, adapter, kernel) = match args.device {
         Device::Cpu => {
             let m = pool.install(|| {
