@@ -268,9 +268,10 @@ fn range_count(body: &Body) -> usize {
     {
         let planes = body.lattice().counts[0];
         let threads = rayon::current_num_threads();
-        let ranges = match planes >= 4 * CHUNK_PLANES * threads {
-            true => 2 * threads,
-            false => threads.min(planes / MIN_RANGE_PLANES),
+        let ranges = if planes >= 4 * CHUNK_PLANES * threads {
+            2 * threads
+        } else {
+            threads.min(planes / MIN_RANGE_PLANES)
         };
         return ranges.clamp(1, crate::team::OWNED_ITEMS);
     }
@@ -520,11 +521,11 @@ impl<U> Pass<'_, U> {
     {
         let Grid { nx, ny, nz, .. } = self.grid;
         let mut buffers = buffers;
-        let ranges = ranges.clamp(
-            1,
-            (nx / MIN_RANGE_PLANES).clamp(1, crate::team::OWNED_ITEMS),
+        // `range_count` keeps ranges of at least MIN_RANGE_PLANES planes, within the team's items.
+        debug_assert!(
+            ranges == 1 || (ranges <= nx / MIN_RANGE_PLANES && ranges <= crate::team::OWNED_ITEMS)
         );
-        if ranges == 1 {
+        if ranges <= 1 {
             let buffers = buffers.next().expect("buffers for one range");
             return self.range(0..nx, buffers, outs);
         }
@@ -584,18 +585,8 @@ impl<U> Pass<'_, U> {
             let ends =
                 (planes.start.max(c0) - c0) * plane..(planes.end.min(c0 + at.planes) - c0) * plane;
             let [fx, fy, fz] = own.range_mut(0..self.chunk_points(c));
-            chunk_springs(
-                g,
-                masks,
-                p,
-                v,
-                at,
-                Some([fx, fy, fz]),
-                ends.clone(),
-                halo_after,
-                row,
-            );
-            let [fx, fy, fz] = own.range_mut(0..self.chunk_points(c));
+            let forces = Some([&mut *fx, &mut *fy, &mut *fz]);
+            chunk_springs(g, masks, p, v, at, forces, ends.clone(), halo_after, row);
             let before = (c > first || entry_halo).then_some(&*halo_before);
             let (outs_c, rest) = outs_rest.split_at(ends.len());
             outs_rest = rest;
