@@ -194,7 +194,7 @@ impl BodyScratch {
         let row_len = RUN_BLOCK.min(CHUNK_PLANES.min(nx) * plane);
         let masks = Masks::new(ny, nz, row_len);
         let chunk_len = CHUNK_PLANES.min(nx) * plane;
-        let ranges = range_count(body);
+        let ranges = range_count_on(body, true);
         BodyScratch {
             owns: vec![Soa::with_color(chunk_len, 2); ranges],
             halos: vec![Soa::with_color(HALO_PLANES * plane, 1); 2 * ranges],
@@ -263,9 +263,20 @@ fn link_spans(links: &[u16], chunks: usize, chunk_len: usize, block: usize) -> V
 /// a plane of springs), which is why small ranges are avoided.
 fn range_count(body: &Body) -> usize {
     #[cfg(feature = "parallel")]
-    if body.len() >= PARALLEL_MIN_POINTS
-        || (crate::team::threads() > 1 && body.len() >= TEAM_MIN_POINTS)
+    return range_count_on(body, crate::team::threads() > 1);
+    #[cfg(not(feature = "parallel"))]
     {
+        let _ = body;
+        1
+    }
+}
+
+/// [`range_count`] for a pass on a team's step (`on_team`) or on its own. A body's buffers
+/// are sized for a team's (the larger): a scratch made outside a step, before any team ran,
+/// had room for one range at 16³, and the implicit solver's residuals there ran on one thread.
+fn range_count_on(body: &Body, on_team: bool) -> usize {
+    #[cfg(feature = "parallel")]
+    if body.len() >= PARALLEL_MIN_POINTS || (on_team && body.len() >= TEAM_MIN_POINTS) {
         let planes = body.lattice().counts[0];
         let threads = rayon::current_num_threads();
         let ranges = if planes >= 4 * CHUNK_PLANES * threads {
@@ -275,7 +286,7 @@ fn range_count(body: &Body) -> usize {
         };
         return ranges.clamp(1, crate::team::OWNED_ITEMS);
     }
-    let _ = body;
+    let _ = (body, on_team);
     1
 }
 
@@ -1204,4 +1215,27 @@ pub fn max_penetration(model: &Model, pos: &[Vec3]) -> f64 {
                 .map(move |q| depth(pos[first + q]))
         })
         .fold(0.0, f64::max)
+}
+
+#[cfg(all(test, feature = "parallel"))]
+mod tests {
+    use super::*;
+    use crate::integrator::Integrator;
+
+    /// A scratch made outside any step (as a simulation makes it) has room for the ranges a
+    /// team's step cuts a body into: sized for one range at 16³, the implicit solver's
+    /// residuals ran on one thread of two.
+    #[test]
+    fn a_scratch_made_outside_a_team_has_room_for_a_teams_ranges() {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(2)
+            .build()
+            .unwrap();
+        let (model, _) = crate::scenes::benchmark(16, Integrator::BackwardEuler).unwrap();
+        let body = &model.bodies()[0];
+        let scratch = pool.install(|| ForceScratch::new(&model));
+        let on_team = pool.install(|| crate::team::run(|| range_count(body)));
+        assert_eq!(pool.install(|| range_count_on(body, true)), 2);
+        assert!(scratch.bodies[0].owns.len() >= on_team, "{on_team} ranges");
+    }
 }
