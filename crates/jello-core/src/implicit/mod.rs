@@ -1567,8 +1567,6 @@ fn apply(s: &mut ImplicitScratch, precision: Precision) {
 /// smaller ones cost more to hand out than they save.
 const MIN_CHUNK: usize = 1024;
 
-/// `a·b`, on the calling thread (in order, so the same bits on any number of threads; at 16³
-/// one costs a few microseconds of the conjugate gradients' 250 or so an iteration).
 /// Points, and springs, per chunk of [`potential_fall`]'s sums (fixed: the chunks decide the
 /// order of the additions).
 const FALL_CHUNK: usize = 4096;
@@ -1578,6 +1576,8 @@ fn fall_chunks(points: usize, springs: usize) -> usize {
     points.max(springs).div_ceil(FALL_CHUNK)
 }
 
+/// `a·b`, on the calling thread (in order, so the same bits on any number of threads; at 16³
+/// one costs a few microseconds of the conjugate gradients' 250 or so an iteration).
 fn dot(a: &[Vec3], b: &[Vec3]) -> f64 {
     a.iter().zip(b).map(|(a, b)| a.dot(*b)).sum()
 }
