@@ -72,10 +72,10 @@
 //!
 //! On lattices of 4 096 points or more a step runs on a team of threads that spin between its
 //! loops ([`crate::team`]): the force evaluations, `A·x`, the conjugate gradients' vector
-//! updates, the assembly and most of the multigrid are split into items that each sum in a
-//! fixed order whoever computes them, and the rest (the dot products, the line search, the
-//! small coarse levels) runs in order on the leading thread; so results do not depend on the
-//! thread count. The buffers are sized on the first implicit step and reused, so later steps do
+//! updates, the assembly, most of the multigrid and the line search's merit are split into
+//! items that each sum in a fixed order whoever computes them (their sums then added in the
+//! items' order), and the rest (the dot products, the small coarse levels) runs in order on the
+//! leading thread; so results do not depend on the thread count. The buffers are sized on the first implicit step and reused, so later steps do
 //! not allocate.
 
 use crate::body::Body;
