@@ -262,13 +262,7 @@ fn link_spans(links: &[u16], chunks: usize, chunk_len: usize, block: usize) -> V
 /// recomputes the springs reaching into its first planes from the planes before it (about half
 /// a plane of springs), which is why small ranges are avoided.
 fn range_count(body: &Body) -> usize {
-    #[cfg(feature = "parallel")]
-    return range_count_on(body, crate::team::threads() > 1);
-    #[cfg(not(feature = "parallel"))]
-    {
-        let _ = body;
-        1
-    }
+    range_count_on(body, crate::team::threads() > 1)
 }
 
 /// [`range_count`] for a pass on a team's step (`on_team`) or on its own. A body's buffers

@@ -447,7 +447,8 @@ impl ImplicitScratch {
             } else {
                 Gmres::default()
             },
-            falls: vec![[0.0; 3]; fall_chunks(n, model.spring_count())],
+            // Sized with the springs, by `list_springs`.
+            falls: Vec::new(),
         }
     }
 
