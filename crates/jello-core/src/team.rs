@@ -423,6 +423,25 @@ pub fn for_each_chunk<T: Send, const K: usize>(
     });
 }
 
+/// [`for_each_chunk`], with what `body` returns for chunk `i` stored in `out[i]` (`out` has one
+/// element per chunk): a reduction's partial results, for the caller to combine in order.
+pub fn for_each_chunk_into<T: Send, R: Send, const K: usize>(
+    slices: [&mut [T]; K],
+    size: usize,
+    out: &mut [R],
+    body: &(dyn Fn(usize, [&mut [T]; K]) -> R + Sync),
+) {
+    let len = slices.first().map_or(0, |s| s.len());
+    assert!(size > 0 && out.len() == len.div_ceil(size));
+    let out = Base(out.as_mut_ptr());
+    for_each_chunk(slices, size, &|i, parts| {
+        let result = body(i, parts);
+        // SAFETY: chunk `i` runs once and `out` has an element per chunk, borrowed mutably for
+        // the whole loop.
+        unsafe { *out.at(i) = result };
+    });
+}
+
 /// A pointer to the elements of a slice that a loop's items borrow apart.
 struct Base<T>(*mut T);
 
@@ -496,6 +515,16 @@ mod tests {
                         }
                     });
                     assert!(values.iter().enumerate().all(|(i, &v)| v == i));
+                    let mut firsts = vec![0usize; 1001usize.div_ceil(7)];
+                    for_each_chunk_into([&mut values[..]], 7, &mut firsts, &|chunk, [part]| {
+                        part.iter_mut().for_each(|v| *v += 1);
+                        chunk * 7 + part.len()
+                    });
+                    assert!(values.iter().enumerate().all(|(i, &v)| v == i + 1));
+                    assert!(firsts
+                        .iter()
+                        .enumerate()
+                        .all(|(c, &e)| e == (c * 7 + 7).min(1001)));
                     let mut items = vec![1usize; 33];
                     for_each_mut(&mut items, &|i, item| *item += i);
                     assert!(items.iter().enumerate().all(|(i, &v)| v == i + 1));

@@ -358,6 +358,10 @@ pub struct ImplicitScratch {
     gmres: Gmres,
     /// [`potential_fall`]'s sums over each chunk of [`FALL_CHUNK`] points and springs.
     falls: Vec<[f64; 3]>,
+    /// The conjugate gradients' sums over each chunk of [`sum_chunk`] points: of a product
+    /// ([`dot`]), and of `r·r` with whether `r` is within its bound there ([`advance`]).
+    dots: Vec<f64>,
+    advanced: Vec<(f64, bool)>,
 }
 
 impl ImplicitScratch {
@@ -449,6 +453,8 @@ impl ImplicitScratch {
             },
             // Sized with the springs, by `list_springs`.
             falls: Vec::new(),
+            dots: vec![0.0; sum_chunks(n)],
+            advanced: vec![(0.0, false); sum_chunks(n)],
         }
     }
 
@@ -1577,10 +1583,57 @@ fn fall_chunks(points: usize, springs: usize) -> usize {
     points.max(springs).div_ceil(FALL_CHUNK)
 }
 
-/// `a·b`, on the calling thread (in order, so the same bits on any number of threads; at 16³
-/// one costs a few microseconds of the conjugate gradients' 250 or so an iteration).
-fn dot(a: &[Vec3], b: &[Vec3]) -> f64 {
-    a.iter().zip(b).map(|(a, b)| a.dot(*b)).sum()
+/// Points per chunk of the conjugate gradients' sums over `n` points: fixed by `n` alone (the
+/// chunks decide the order of the additions: the same bits on any number of threads), at most
+/// [`team::OWNED_ITEMS`] of them (so each stays on one thread from loop to loop), and no fewer
+/// than [`MIN_CHUNK`] points each.
+fn sum_chunk(n: usize) -> usize {
+    n.div_ceil(team::OWNED_ITEMS).max(MIN_CHUNK)
+}
+
+/// Chunks of [`sum_chunk`] points in `n` points.
+fn sum_chunks(n: usize) -> usize {
+    n.div_ceil(sum_chunk(n))
+}
+
+/// `a·b`: each chunk of [`sum_chunk`] points summed in order on the team (into `sums`, one per
+/// chunk), then the chunks' sums in order. Summed by the leader alone, the conjugate gradients'
+/// products kept the other thread waiting (16³ benchmark, 2 threads).
+fn dot(a: &[Vec3], b: &[Vec3], sums: &mut [f64]) -> f64 {
+    let size = sum_chunk(a.len());
+    team::for_each_mut(sums, &|c, sum| {
+        let chunk = c * size..((c + 1) * size).min(a.len());
+        *sum = a[chunk.clone()]
+            .iter()
+            .zip(&b[chunk])
+            .map(|(a, b)| a.dot(*b))
+            .sum();
+    });
+    sums.iter().sum()
+}
+
+/// One step of the conjugate gradients, `Δv += α·p` and `r −= α·A·p`, on the team; returns
+/// the new `r·r` (summed as [`dot`] sums) and whether `r` is within `m·s.within` at every point
+/// (never when `s.within` is 0: then only the reduction stops a solve).
+fn advance(s: &mut ImplicitScratch, alpha: f64) -> (f64, bool) {
+    let (p, ap, mass, bound) = (&s.p[..], &s.ap[..], &s.mass[..], s.within);
+    let size = sum_chunk(p.len());
+    let sums = &mut s.advanced[..];
+    team::for_each_chunk_into([&mut s.dv, &mut s.r], size, sums, &|c, [dv, r]| {
+        let at = c * size;
+        let (p, ap, mass) = (&p[at..], &ap[at..], &mass[at..]);
+        let (mut rr, mut within) = (0.0, bound > 0.0);
+        for i in 0..dv.len() {
+            dv[i] += p[i] * alpha;
+            r[i] -= ap[i] * alpha;
+            let r2 = r[i].length_squared();
+            rr += r2;
+            within &= r2 <= (mass[i] * bound) * (mass[i] * bound);
+        }
+        (rr, within)
+    });
+    let rr = s.advanced.iter().map(|&(rr, _)| rr).sum();
+    (rr, s.advanced.iter().all(|&(_, within)| within))
 }
 
 /// Points per chunk of a loop over `n` points spread over the team.
@@ -1620,42 +1673,37 @@ fn solve(s: &mut ImplicitScratch, reduction: f64, preconditioner: Preconditioner
     set_right_hand_side(s);
     precondition(s);
     s.p.copy_from_slice(&s.z);
-    let target = dot(&s.r, &s.r) * reduction * reduction;
-    let mut rz = dot(&s.r, &s.z);
+    let mut rr = dot(&s.r, &s.r, &mut s.dots);
+    let target = rr * reduction * reduction;
+    let mut rz = dot(&s.r, &s.z, &mut s.dots);
     if !rz.is_finite() {
         return false;
     }
     if rz < 0.0 {
         return fail(s);
     }
-    for iteration in 0..MAX_CG {
-        if dot(&s.r, &s.r) <= target || rz == 0.0 || (iteration > 0 && each_point_within(s)) {
+    // Whether the residual is within its bound at every point (not judged before a first step).
+    let mut within = false;
+    for _ in 0..MAX_CG {
+        if rr <= target || rz == 0.0 || within {
             break;
         }
         apply(s, precision);
         s.stats.linear_iterations += 1;
-        let pap = dot(&s.p, &s.ap);
+        let pap = dot(&s.p, &s.ap, &mut s.dots);
         if pap <= 0.0 || !pap.is_finite() {
             return false;
         }
-        let alpha = rz / pap;
-        let (p, ap) = (&s.p, &s.ap);
-        let size = chunk_size(p.len());
-        team::for_each_chunk([&mut s.dv, &mut s.r], size, &|c, [dv, r]| {
-            let (p, ap) = (&p[c * size..], &ap[c * size..]);
-            for i in 0..dv.len() {
-                dv[i] += p[i] * alpha;
-                r[i] -= ap[i] * alpha;
-            }
-        });
+        (rr, within) = advance(s, rz / pap);
         precondition(s);
-        let rz_next = dot(&s.r, &s.z);
+        let rz_next = dot(&s.r, &s.z, &mut s.dots);
         if rz_next < 0.0 {
             return fail(s);
         }
         let beta = rz_next / rz;
         rz = rz_next;
         let z = &s.z;
+        let size = chunk_size(z.len());
         team::for_each_chunk([&mut s.p], size, &|c, [p]| {
             for (p, &z) in p.iter_mut().zip(&z[c * size..]) {
                 *p = z + *p * beta;
@@ -1663,17 +1711,6 @@ fn solve(s: &mut ImplicitScratch, reduction: f64, preconditioner: Preconditioner
         });
     }
     true
-}
-
-/// Whether the solve's residual `r` is within `m·s.within` at every point; in order, stopping
-/// at the first point that is not.
-fn each_point_within(s: &ImplicitScratch) -> bool {
-    let bound = s.within;
-    bound > 0.0
-        && s.r
-            .iter()
-            .zip(&s.mass)
-            .all(|(r, &m)| r.length_squared() <= (m * bound) * (m * bound))
 }
 
 /// Solves `A·Δv = −M·g` into `s.dv` by GMRES when `A` holds a field's swirl (so is not
@@ -1831,7 +1868,8 @@ mod tests {
     }
 
     /// A solve may stop once its residual is within `m·within` at every point, each point
-    /// judged by its own mass: not while one point is over, not without a bound.
+    /// judged by its own mass: not while one point is over, not without a bound. (A step of
+    /// length 0 leaves `r` as set here.)
     #[test]
     fn each_point_within_judges_every_point_by_its_mass() {
         let model = test_models::two_bodies();
@@ -1844,20 +1882,76 @@ mod tests {
             let d = Vec3::new(next(), next(), next());
             *r = d * (0.99 * *m * s.within / d.length());
         }
-        assert!(each_point_within(&s));
+        let each_point_within = |s: &mut ImplicitScratch| advance(s, 0.0).1;
+        assert!(each_point_within(&mut s));
         // One point over its bound, though within the heaviest point's.
         let last = s.r.len() - 1;
         let heaviest = s.mass.iter().fold(0.0, |a: f64, &m| a.max(m));
         s.mass[last] = 0.5 * heaviest;
         s.r[last] = Vec3::new(0.0, 0.0, 1.01 * s.mass[last] * s.within);
-        assert!(!each_point_within(&s));
+        assert!(!each_point_within(&mut s));
         s.r[last] = Vec3::ZERO;
-        assert!(each_point_within(&s));
+        assert!(each_point_within(&mut s));
         s.within = 0.0;
         assert!(
-            !each_point_within(&s),
+            !each_point_within(&mut s),
             "no bound: only the reduction stops a solve"
         );
+    }
+
+    /// The conjugate gradients' sums are taken over chunks fixed by the number of points alone,
+    /// each chunk's in order, then the chunks' in order: the same bits on any number of threads,
+    /// from one thread's loops and from a team's (more threads than this machine's cores
+    /// included).
+    #[test]
+    fn the_solves_sums_are_the_same_on_any_number_of_threads() {
+        let n = 5 * MIN_CHUNK + 17;
+        assert!(sum_chunks(n) > 1);
+        let mut next = values(9);
+        let mut vector = || -> Vec<Vec3> {
+            (0..n)
+                .map(|_| Vec3::new(next(), next(), next()) * (1.0 + 1e3 * next().abs()))
+                .collect()
+        };
+        let (a, b, p, ap, r) = (vector(), vector(), vector(), vector(), vector());
+        let mass: Vec<f64> = (0..n).map(|i| 1.0 + i as f64 * 1e-3).collect();
+        let size = sum_chunk(n);
+        let chunked = |f: &dyn Fn(usize) -> f64| -> f64 {
+            (0..n)
+                .step_by(size)
+                .map(|start| (start..(start + size).min(n)).map(f).sum::<f64>())
+                .sum()
+        };
+        let run = |threads: usize| {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap();
+            pool.install(|| {
+                team::run(|| {
+                    let mut s = ImplicitScratch::new(&test_models::two_bodies());
+                    s.dots = vec![0.0; sum_chunks(n)];
+                    s.advanced = vec![(0.0, false); sum_chunks(n)];
+                    s.dv = vec![Vec3::ZERO; n];
+                    (s.p, s.ap, s.r, s.mass) = (p.clone(), ap.clone(), r.clone(), mass.clone());
+                    s.within = 1e3;
+                    let ab = dot(&a, &b, &mut s.dots);
+                    let (rr, _) = advance(&mut s, 0.37);
+                    (ab.to_bits(), rr.to_bits(), s.r.clone(), s.dv.clone())
+                })
+            })
+        };
+        let one = run(1);
+        assert_eq!(one.0, chunked(&|i| a[i].dot(b[i])).to_bits());
+        let stepped = |i: usize| r[i] - ap[i] * 0.37;
+        assert_eq!(one.1, chunked(&|i| stepped(i).length_squared()).to_bits());
+        for i in 0..n {
+            assert_eq!(one.2[i], stepped(i));
+            assert_eq!(one.3[i], p[i] * 0.37);
+        }
+        for threads in [2, 3, 8] {
+            assert_eq!(run(threads), one, "{threads} threads");
+        }
     }
 
     /// GMRES's basis and the field's corrections are held only for a field whose swirl can pass
