@@ -1945,10 +1945,7 @@ mod tests {
         assert_eq!(one.0, chunked(&|i| a[i].dot(b[i])).to_bits());
         let stepped = |i: usize| r[i] - ap[i] * 0.37;
         assert_eq!(one.1, chunked(&|i| stepped(i).length_squared()).to_bits());
-        for i in 0..n {
-            assert_eq!(one.2[i], stepped(i));
-            assert_eq!(one.3[i], p[i] * 0.37);
-        }
+        assert!((0..n).all(|i| one.2[i] == stepped(i) && one.3[i] == p[i] * 0.37));
         for threads in [2, 3, 8] {
             assert_eq!(run(threads), one, "{threads} threads");
         }
