@@ -293,6 +293,9 @@ pub struct ImplicitScratch {
     /// Per point: mass (kg), and 1 for a point that moves, 0 for one pinned or unused.
     mass: Vec<f64>,
     free: Vec<f64>,
+    /// The masses and moving points of the last step (an `A` kept from it has its masses).
+    last_mass: Vec<f64>,
+    last_free: Vec<f64>,
     /// Per point: the stiffness of its springs, summed (N/m); and the largest of that plus the
     /// contacts' over the mass among the moving points (1/s², see [`rounding_floor`]).
     point_stiffness: Vec<f64>,
@@ -300,11 +303,18 @@ pub struct ImplicitScratch {
     /// The shortest rest length of a spring of the model (m; zero when it has none): the scale
     /// of a move that changes `A` (see [`KEEP_MOVE`]).
     shortest_spring: f64,
+    /// The step size whose last Newton iteration left `A` fit to keep for the next step's first
+    /// (see [`keeps_across_steps`]); `None` once the model's springs, masses or held points
+    /// change.
+    keep_across: Option<f64>,
     /// Newton iterations that kept the last one's `A`, and whether they may (tests only).
     #[cfg(test)]
     kept: u32,
     #[cfg(test)]
     may_keep: bool,
+    /// Steps whose first Newton iteration kept the last step's `A` (tests only).
+    #[cfg(test)]
+    kept_across: u32,
     /// Per point: the damping matrix `dCollision·Σ n nᵀ` of the walls, plane and obstacles it is
     /// in at the step's start.
     start_damping: Vec<Sym>,
@@ -410,6 +420,8 @@ impl ImplicitScratch {
             field: zeros.clone(),
             field_trial: zeros.clone(),
             mass: vec![0.0; n],
+            last_mass: vec![0.0; n],
+            last_free: vec![0.0; n],
             within: 0.0,
             free: vec![0.0; n],
             point_stiffness: vec![0.0; n],
@@ -419,6 +431,9 @@ impl ImplicitScratch {
             kept: 0,
             #[cfg(test)]
             may_keep: true,
+            #[cfg(test)]
+            kept_across: 0,
+            keep_across: None,
             start_damping: vec![[0.0; 6]; n],
             extra: vec![[0.0; 6]; n],
             diag_inv: vec![[0.0; 6]; n],
@@ -474,6 +489,8 @@ impl ImplicitScratch {
             self.list_springs(model);
             self.loaded = Some(model.bodies().to_vec());
         }
+        std::mem::swap(&mut self.mass, &mut self.last_mass);
+        std::mem::swap(&mut self.free, &mut self.last_free);
         for body in model.bodies() {
             let first = body.points().start;
             for q in 0..body.len() {
@@ -483,6 +500,9 @@ impl ImplicitScratch {
         }
         for &p in &model.pins {
             self.free[p as usize] = 0.0;
+        }
+        if self.mass != self.last_mass || self.free != self.last_free {
+            self.keep_across = None;
         }
         // Penalty springs: three walls, the plane and each obstacle at once, at most.
         let contacts = (4 + model.obstacles.len()) as f64 * model.k_collision;
@@ -500,6 +520,7 @@ impl ImplicitScratch {
     /// `SpringMatrix`), with what follows from them: their pairs, each point's stiffness, the
     /// multigrid's levels.
     fn list_springs(&mut self, model: &Model) {
+        self.keep_across = None;
         self.listed_rows.clear();
         self.springs.begin();
         for body in model.bodies() {
@@ -729,10 +750,16 @@ fn newton(
     if converged(model, floor, &s.g, &s.v) {
         return Ok(());
     }
+    // Kept for the next step only where this one ends in Newton's fast regime.
+    let kept = s.keep_across.take();
     let mut norm2 = shift_by_momentum(model, control, force, s, x0, v0, h, norm2);
     let mut iterations = 0;
     // Whether this iteration may solve with the last one's `A` and multigrid.
-    let mut keep = false;
+    let mut keep = keeps_across_steps(s, kept, v0, h);
+    #[cfg(test)]
+    {
+        s.kept_across += u32::from(keep);
+    }
     let mut reduction = CG_REDUCTION;
     // The last iteration's reduction and its fall of `|g|²_M` (how many times smaller).
     let mut last = (CG_REDUCTION, f64::INFINITY);
@@ -742,6 +769,7 @@ fn newton(
         let (norm, vmax) = max_norms(&s.g, &s.v);
         let target = target(model, floor, vmax);
         if norm <= target {
+            s.keep_across = keep.then_some(h);
             return Ok(());
         }
         if iterations == model.newton.max_iterations {
@@ -859,6 +887,35 @@ fn newton(
             switches += 1;
         }
     }
+}
+
+/// Whether a step's first Newton iteration may solve with the last step's `A` and multigrid,
+/// `kept` the step size for which that step left them fit to keep (its last iteration in
+/// Newton's fast regime; see [`KEEP_MOVE`]): at the same step size, where no spring's ends move
+/// apart faster than that regime allows, `h·|v₀[a] − v₀[b]| ≤ KEEP_MOVE·(shortest spring)`.
+/// The first iterate's end positions lie `h·v₀` beyond the step's start, so the springs' blocks
+/// have changed by their relative motion alone (a body moving or sliding as a whole keeps
+/// them). A body settled on a floor then takes its steps without assembling `A`.
+fn keeps_across_steps(s: &ImplicitScratch, kept: Option<f64>, v0: &[Vec3], h: f64) -> bool {
+    #[cfg(test)]
+    if !s.may_keep {
+        return false;
+    }
+    if kept != Some(h) {
+        return false;
+    }
+    // Over the team: which thread finds a fast spring does not matter.
+    let limit = KEEP_MOVE * s.shortest_spring / h;
+    let slow = std::sync::atomic::AtomicBool::new(true);
+    let size = chunk_size(s.rows.len());
+    team::for_each(s.rows.len().div_ceil(size), &|c| {
+        let rows = &s.rows[c * size..((c + 1) * size).min(s.rows.len())];
+        let apart = |r: &Row| (v0[r.a as usize] - v0[r.b as usize]).length_squared();
+        if rows.iter().any(|r| apart(r) > limit * limit) {
+            slow.store(false, std::sync::atomic::Ordering::Relaxed);
+        }
+    });
+    slow.into_inner()
 }
 
 /// Newton's first iterate: `v₀` with each body's moving points shifted by minus the
@@ -2085,6 +2142,87 @@ mod tests {
                 "step {step}: velocities differ by {worst} m/s"
             );
         }
+    }
+
+    /// A step's first Newton iteration keeps the last step's `A` where that step ended in the
+    /// fast regime and no spring's ends move apart faster than the regime allows: a cube
+    /// settled on a plane does, in most steps, and its steps end where those assembling `A` end,
+    /// to within the tolerance; a cube spinning in free flight (its springs turning) never does.
+    #[test]
+    fn a_settled_body_keeps_a_across_steps_and_a_spinning_one_does_not() {
+        let cube = || {
+            Body::lattice_box(
+                Lattice::new([6, 6, 6], Vec3::new(1.0, 1.0, 1.0)),
+                Material::classic(),
+            )
+        };
+        let model = |gravity: f64, plane: bool| {
+            let mut model = ModelBuilder::new()
+                .bodies(vec![cube()])
+                .gravity(Vec3::new(0.0, 0.0, -gravity))
+                .plane(plane.then(|| crate::Plane::new([0.0, 0.0, 1.0, 0.05]).unwrap()))
+                .dt(1.0 / 60.0)
+                .integrator(Integrator::BackwardEuler)
+                .build()
+                .unwrap();
+            model.newton.tolerance = 1e-11;
+            model
+        };
+        // Steps `from..to` (after `from` steps to settle), with `A` kept or not: each step's
+        // end velocities, the steps that kept the last step's `A`, and the Newton iterations.
+        let run = |model: &Model, start: &crate::State, may_keep: bool, steps: [usize; 2]| {
+            let (control, mut force) = (Control::none(), ForceScratch::new(model));
+            let mut s = ImplicitScratch::new(model);
+            let mut state = start.clone();
+            let (mut pos, mut vel, mut ends) = (state.pos.clone(), state.vel.clone(), vec![]);
+            let (mut kept, mut iterations) = (0, 0);
+            for n in 0..steps[1] {
+                s.may_keep = may_keep || n < steps[0];
+                let before = (s.kept_across, s.stats.newton_iterations);
+                let h = model.dt;
+                step(
+                    model, &state, &control, &mut force, &mut s, h, &mut pos, &mut vel,
+                )
+                .unwrap();
+                (state.pos, state.vel) = (pos.clone(), vel.clone());
+                if n >= steps[0] {
+                    kept += s.kept_across - before.0;
+                    iterations += s.stats.newton_iterations - before.1;
+                    ends.push(state.vel.clone());
+                }
+            }
+            (ends, kept, iterations)
+        };
+        let settled = model(9.81, true);
+        let start = crate::State::at_rest(&settled);
+        let (kept_a, kept, _) = run(&settled, &start, true, [40, 80]);
+        let (fresh_a, none, _) = run(&settled, &start, false, [40, 80]);
+        assert!(
+            kept >= 20,
+            "{kept} of 40 settled steps kept the last step's A"
+        );
+        assert_eq!(none, 0);
+        for (step, (a, b)) in kept_a.iter().zip(&fresh_a).enumerate() {
+            let worst = a.iter().zip(b).map(|(a, b)| (*a - *b).length());
+            let worst = worst.fold(0.0, f64::max);
+            assert!(
+                worst < 1e-10,
+                "step {step}: velocities differ by {worst} m/s"
+            );
+        }
+        let free = model(0.0, false);
+        let mut spinning = crate::State::at_rest(&free);
+        let centre = Vec3::new(0.5, 0.5, 0.5);
+        for (v, &p) in spinning.vel.iter_mut().zip(&spinning.pos) {
+            let r = p - centre;
+            *v = Vec3::new(-r.y, r.x, 0.0) * 2.0;
+        }
+        let (_, kept, iterations) = run(&free, &spinning, true, [0, 20]);
+        assert!(
+            iterations >= 20,
+            "{iterations} Newton iterations in 20 steps"
+        );
+        assert_eq!(kept, 0, "a spinning cube kept A across {kept} steps");
     }
 
     /// With a swirling field's exact gradient in it, `A` is `M·∂g/∂v`: `A·d` matches the central
