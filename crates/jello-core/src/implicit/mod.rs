@@ -45,7 +45,10 @@
 //! next iteration solves with the same `A` and multigrid: `A` has changed by about that
 //! fraction, Newton's method still cuts `|g|` about a hundredfold per iteration (the conjugate
 //! gradients' reduction), and the assembly and the multigrid's setup are saved (the 16³
-//! benchmark at 1/60 s and 1e-9 steps 1.5× as fast). Then a backtracking line search on the
+//! benchmark at 1/60 s and 1e-9 steps 1.5× as fast). A step that ended so passes its `A` on to
+//! the next step's first iteration, at the same step size, where no spring's ends move apart
+//! faster than that regime allows (`keeps_across_steps`): a body settled on a floor steps
+//! without assembling `A`. Then a backtracking line search on the
 //! incremental potential (one body and no friction: the common case; a field that is not
 //! uniform has no potential, and its work along the line is added instead), or on `|g|²_M`
 //! otherwise; the potential's fall is computed term by term from differences, so that it stays
@@ -72,10 +75,11 @@
 //!
 //! On lattices of 4 096 points or more a step runs on a team of threads that spin between its
 //! loops ([`crate::team`]): the force evaluations, `A·x`, the conjugate gradients' vector
-//! updates, the assembly, most of the multigrid and the line search's merit are split into
-//! items that each sum in a fixed order whoever computes them (their sums then added in the
-//! items' order), and the rest (the dot products, the small coarse levels) runs in order on the
-//! leading thread; so results do not depend on the thread count. The buffers are sized on the first implicit step and reused, so later steps do
+//! updates and dot products, the assembly, most of the multigrid and the line search's merit
+//! are split into items that each sum in a fixed order whoever computes them (their sums then
+//! added in the items' order; the dot products' items are fixed by the number of points), and
+//! the rest (the small coarse levels, a few pointwise passes) runs in order on the leading
+//! thread; so results do not depend on the thread count. The buffers are sized on the first implicit step and reused, so later steps do
 //! not allocate.
 
 use crate::body::Body;
@@ -895,7 +899,10 @@ fn newton(
 /// apart faster than that regime allows, `h·|v₀[a] − v₀[b]| ≤ KEEP_MOVE·(shortest spring)`.
 /// The first iterate's end positions lie `h·v₀` beyond the step's start, so the springs' blocks
 /// have changed by their relative motion alone (a body moving or sliding as a whole keeps
-/// them). A body settled on a floor then takes its steps without assembling `A`.
+/// them). A body settled on a floor then takes its steps without assembling `A`. What this
+/// does not see (contacts that began, states or parameters set between steps) costs one
+/// iteration at most: unless the kept `A`'s whole step cuts the residual tenfold, the next
+/// iteration assembles `A` afresh, and convergence is judged on the residual alone.
 fn keeps_across_steps(s: &ImplicitScratch, kept: Option<f64>, v0: &[Vec3], h: f64) -> bool {
     #[cfg(test)]
     if !s.may_keep {
