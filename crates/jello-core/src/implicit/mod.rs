@@ -79,8 +79,8 @@
 //! are split into items that each sum in a fixed order whoever computes them (their sums then
 //! added in the items' order; the dot products' items are fixed by the number of points), and
 //! the rest (the small coarse levels, a few pointwise passes) runs in order on the leading
-//! thread; so results do not depend on the thread count. The buffers are sized on the first implicit step and reused, so later steps do
-//! not allocate.
+//! thread; so results do not depend on the thread count. The buffers are sized on the first
+//! implicit step and reused, so later steps do not allocate.
 
 use crate::body::Body;
 use crate::contact::Contacts;
@@ -309,7 +309,7 @@ pub struct ImplicitScratch {
     shortest_spring: f64,
     /// The step size whose last Newton iteration left `A` fit to keep for the next step's first
     /// (see [`keeps_across_steps`]); `None` once the model's springs, masses or held points
-    /// change.
+    /// change, and after a step that did not converge.
     keep_across: Option<f64>,
     /// Newton iterations that kept the last one's `A`, and whether they may (tests only).
     #[cfg(test)]
