@@ -561,7 +561,7 @@ crate::simd::multiversion! {
 }
 
 /// The first point whose position or velocity is not finite, or that is further outside the box
-/// than the escape margin: by the same comparisons as [`is_sound`].
+/// than the escape margin: by the same comparisons as [`block_is_sound`].
 fn find_blow_up(model: &Model, pos: &[Vec3], vel: &[Vec3]) -> Option<(usize, BlowUpCause)> {
     let (lo, hi, m) = (model.bounds.min, model.bounds.max, model.escape_margin);
     let inside = |c: f64, lo: f64, hi: f64| c >= lo - m && c <= hi + m;

@@ -1,6 +1,6 @@
 //! The implicit integrators, stable at any time step: backward Euler, and SDIRK2, whose two
-//! stages are each solved as a backward-Euler step from a point of their own (see `step` below); what
-//! follows is about that solve.
+//! stages are each solved as a backward-Euler step from a point of their own (see `step` below);
+//! what follows is about that solve.
 //!
 //! A step of size `h` finds the end velocity `v₁` with
 //!
@@ -81,12 +81,19 @@
 //! the rest (the small coarse levels, a few pointwise passes) runs in order on the leading
 //! thread; so results do not depend on the thread count. The buffers are sized on the first
 //! implicit step and reused, so later steps do not allocate.
+//!
+//! Where the parts are: this file has the step (backward Euler's and SDIRK2's stages), its
+//! buffers ([`ImplicitScratch`]) and the solver's tuning constants; `newton.rs` Newton's
+//! iterations, the momentum shift, the line search and when a step has converged;
+//! `residual.rs` the residual `g` and the potential's fall; `matrix.rs` the assembly of `A`
+//! and the Newton direction (with its Levenberg–Marquardt shift); `cg.rs` the conjugate
+//! gradients and their sums on the team; `multigrid.rs` their preconditioner; `stencil.rs`
+//! `A·x` and the forces in stencil order; `gmres.rs` the solve where a field swirls; `sym.rs`
+//! symmetric 3×3 blocks.
 
 use crate::body::Body;
 use crate::contact::Contacts;
-use crate::field;
-use crate::forces::{force_pass, ForceScratch};
-use crate::friction::{self, Anchors};
+use crate::forces::ForceScratch;
 use crate::integrator::Integrator;
 use crate::model::Model;
 use crate::soa::Soa;
@@ -94,18 +101,9 @@ use crate::state::{Control, State};
 use crate::team;
 use crate::vec3::Vec3;
 
-mod gmres;
-mod multigrid;
-mod stencil;
-mod sym;
-
-use gmres::Gmres;
-use multigrid::{Multigrid, Operator};
-use stencil::{Precision, SpringMatrix};
-use sym::{add_outer, sym_mul, Sym};
-
 /// `A` itself, the finest level of the multigrid (its held points have zero rows), borrowed
 /// field by field from an [`ImplicitScratch`] so that its other buffers stay free to change.
+/// (Defined before the submodules, which use it too.)
 macro_rules! fine_operator {
     ($s:expr) => {
         Operator {
@@ -120,6 +118,24 @@ macro_rules! fine_operator {
         }
     };
 }
+
+mod cg;
+mod gmres;
+mod matrix;
+mod multigrid;
+mod newton;
+mod residual;
+mod stencil;
+mod sym;
+
+use cg::sum_chunks;
+use gmres::Gmres;
+use matrix::can_swirl;
+use multigrid::Multigrid;
+use newton::{mean_residual, newton};
+use residual::fall_chunks;
+use stencil::{Precision, SpringMatrix};
+use sym::{add_outer, Sym};
 
 /// Converged when `max |g| ≤ TOLERANCE · max(1, max |v₁|)` (m/s), by default.
 pub const TOLERANCE: f64 = 1e-9;
@@ -184,7 +200,7 @@ fn precision_for(reduction: f64) -> Precision {
 }
 
 /// The factor they reach after a line search found no way down along an inexact direction (or
-/// less, where that meets the tolerance: [`enough_reduction`]).
+/// less, where that meets the tolerance: [`enough_reduction`](newton::enough_reduction)).
 const CG_REDUCTION_EXACT: f64 = 1e-8;
 
 /// A field's swirl (the antisymmetric part of its gradient, times `h²/m`) above which `A`
@@ -196,7 +212,8 @@ const CG_REDUCTION_EXACT: f64 = 1e-8;
 const SWIRL_LIMIT: f64 = 1.0;
 
 /// Newton iterations in a row that do not halve `|g|²_M` below its best, where a field swirls,
-/// before Newton's method changes between `A` with and without the swirl (see [`newton`]).
+/// before Newton's method changes between `A` with and without the swirl (see
+/// [`newton`](fn@newton)).
 const SWIRL_STALLS: u32 = 5;
 
 /// Changes between `A` with and without the swirl, at most, in a step.
@@ -204,11 +221,20 @@ const SWIRL_SWITCHES: u32 = 6;
 
 /// How far (times the shortest spring's rest length) the end positions may have moved in a
 /// Newton iteration in its fast regime for the next one to solve with the same `A` (see
-/// [`newton`]): a spring's block changes by about that fraction. At 1e-3, `world.w`'s solves
-/// with a kept `A` (kElastic 8000, 1/60 s) took 31–34 conjugate-gradient iterations instead of
-/// 21–23, which cost more than the assembly saved (10 % slower); at 1e-4 it is 5 % faster than
+/// [`newton`](fn@newton)): a spring's block changes by about that fraction. At 1e-3, `world.w`'s
+/// solves with a kept `A` (kElastic 8000, 1/60 s) took 31–34 conjugate-gradient iterations instead
+/// of 21–23, which cost more than the assembly saved (10 % slower); at 1e-4 it is 5 % faster than
 /// with no `A` kept, and the 16³ benchmark as fast as at 1e-3.
 const KEEP_MOVE: f64 = 1e-4;
+
+/// Fewest points in a chunk of a loop over points spread over threads ([`chunk_size`]):
+/// smaller ones cost more to hand out than they save.
+const MIN_CHUNK: usize = 1024;
+
+/// Points per chunk of a loop over `n` points spread over the team.
+fn chunk_size(n: usize) -> usize {
+    team::chunk_size(n, MIN_CHUNK)
+}
 
 /// Halvings of the Newton step before the line search gives up.
 const MAX_HALVINGS: u32 = 30;
@@ -281,9 +307,9 @@ pub struct ImplicitScratch {
     listed_rows: Vec<Row>,
     /// The bodies whose springs are listed (none before the first step).
     loaded: Option<Vec<Body>>,
-    /// The springs' ends, and each spring's block of `A` at the iterate (see [`Operator`]):
-    /// `axial·ûûᵀ + transverse·(I − ûûᵀ)` of its stiffness plus `damping·û₀û₀ᵀ` of its damper
-    /// along its direction at the step's start.
+    /// The springs' ends, and each spring's block of `A` at the iterate (see
+    /// [`Operator`](multigrid::Operator)): `axial·ûûᵀ + transverse·(I − ûûᵀ)` of its stiffness plus
+    /// `damping·û₀û₀ᵀ` of its damper along its direction at the step's start.
     spring_pairs: Vec<[u32; 2]>,
     spring_blocks: Vec<Sym>,
     /// The same blocks by stencil slot, for `A·x`.
@@ -291,7 +317,7 @@ pub struct ImplicitScratch {
     /// Each spring's direction at the step's start (zero for a spring of zero length).
     start_dir: Vec<Vec3>,
     /// The field's force on each point at the iterate's and the trial's end positions (for the
-    /// line search; see [`field_work`]).
+    /// line search; see `residual::field_work`).
     field: Vec<Vec3>,
     field_trial: Vec<Vec3>,
     /// Per point: mass (kg), and 1 for a point that moves, 0 for one pinned or unused.
@@ -301,14 +327,14 @@ pub struct ImplicitScratch {
     last_mass: Vec<f64>,
     last_free: Vec<f64>,
     /// Per point: the stiffness of its springs, summed (N/m); and the largest of that plus the
-    /// contacts' over the mass among the moving points (1/s², see [`rounding_floor`]).
+    /// contacts' over the mass among the moving points (1/s², see `newton::rounding_floor`).
     point_stiffness: Vec<f64>,
     stiffness_over_mass: f64,
     /// The shortest rest length of a spring of the model (m; zero when it has none): the scale
     /// of a move that changes `A` (see [`KEEP_MOVE`]).
     shortest_spring: f64,
     /// The step size whose last Newton iteration left `A` fit to keep for the next step's first
-    /// (see [`keeps_across_steps`]); `None` once the model's springs, masses or held points
+    /// (see `newton::keeps_across_steps`); `None` once the model's springs, masses or held points
     /// change, and after a step that did not converge.
     keep_across: Option<f64>,
     /// Newton iterations that kept the last one's `A`, and whether they may (tests only).
@@ -365,15 +391,17 @@ pub struct ImplicitScratch {
     /// general 3×3, row-major); used when `swirl` is set.
     field_correction: Vec<[f64; 9]>,
     /// True when the field's swirl at the iterate passes [`SWIRL_LIMIT`] and `swirl_allowed`
-    /// (see [`newton`]): `A` is not symmetric then, and GMRES (with its basis here) solves in
-    /// place of conjugate gradients.
+    /// (see [`newton`](fn@newton)): `A` is not symmetric then, and GMRES (with its basis here)
+    /// solves in place of conjugate gradients.
     swirl: bool,
     swirl_allowed: bool,
     gmres: Gmres,
-    /// [`potential_fall`]'s sums over each chunk of [`FALL_CHUNK`] points and springs.
+    /// [`potential_fall`](fn@residual::potential_fall)'s sums over each chunk of
+    /// `residual::FALL_CHUNK` points and springs.
     falls: Vec<[f64; 3]>,
-    /// The conjugate gradients' sums over each chunk of [`sum_chunk`] points: of a product
-    /// ([`dot`]), and of `r·r` with whether `r` is within its bound there ([`advance`]).
+    /// The conjugate gradients' sums over each chunk of [`sum_chunk`](cg::sum_chunk) points: of a
+    /// product ([`dot`](cg::dot)), and of `r·r` with whether `r` is within its bound there
+    /// ([`advance`](cg::advance)).
     dots: Vec<f64>,
     advanced: Vec<(f64, bool)>,
 }
@@ -720,1139 +748,6 @@ fn backward_euler(
     Ok(())
 }
 
-/// Newton's method for the step from `v = v0` (see the module's documentation), into `s.v`;
-/// `swirls` when the field may swirl past the limit at the integrator's step ([`can_swirl`]).
-///
-/// Where a field swirls, it first runs with the swirl in `A` (see [`SWIRL_LIMIT`]), judged by
-/// `|g|²_M`. Should that stall (there is no potential to descend, and `|g|²_M` has local minima
-/// where `A` is singular, as on a crushed lattice), it starts again from `v0` with `A` symmetric
-/// and the incremental potential (with the field's work) as the merit; that converges linearly
-/// at best (and the field's work is no potential either: near the solution it may fall along no
-/// direction), so after four times [`SWIRL_STALLS`] iterations the swirl goes back into `A`
-/// from the iterate reached, where Newton's method with the exact `A` converges quickly. At
-/// most [`SWIRL_SWITCHES`] such changes a step.
-#[allow(clippy::too_many_arguments)]
-fn newton(
-    model: &Model,
-    control: &Control,
-    force: &mut ForceScratch,
-    s: &mut ImplicitScratch,
-    x0: &[Vec3],
-    v0: &[Vec3],
-    h: f64,
-    swirls: bool,
-) -> Result<(), NotConverged> {
-    // The forces but the dampers are evaluated at zero velocity.
-    s.v_soa.fill_zero();
-    s.v.copy_from_slice(v0);
-    s.swirl_allowed = swirls;
-    s.stats.solves += 1;
-    let floor = rounding_floor(s, x0, h);
-    let norm2 = residual(model, control, force, s, x0, v0, h, false);
-    // Already solved (a body at rest, or moving as a whole without forces): the momentum shift
-    // would cost a residual for nothing.
-    let (norm, vmax) = max_norms(&s.g, &s.v);
-    let target_at_v0 = target(model, floor, vmax);
-    if norm <= target_at_v0 {
-        return Ok(());
-    }
-    // Kept for the next step only where this one ends in Newton's fast regime.
-    let kept = s.keep_across.take();
-    // A shift below half the tolerance is not worth a residual's evaluation.
-    let least = 0.5 * target_at_v0;
-    let mut norm2 = shift_by_momentum(model, control, force, s, x0, v0, h, norm2, least);
-    let mut iterations = 0;
-    // Whether this iteration may solve with the last one's `A` and multigrid.
-    let mut keep = keeps_across_steps(s, kept, v0, h);
-    #[cfg(test)]
-    {
-        s.kept_across += u32::from(keep);
-    }
-    let mut reduction = CG_REDUCTION;
-    // The last iteration's reduction and its fall of `|g|²_M` (how many times smaller).
-    let mut last = (CG_REDUCTION, f64::INFINITY);
-    let mut shift = 0.0;
-    let (mut stalled, mut symmetric, mut switches, mut best) = (0, 0, 0, norm2);
-    loop {
-        let (norm, vmax) = max_norms(&s.g, &s.v);
-        let target = target(model, floor, vmax);
-        if norm <= target {
-            s.keep_across = keep.then_some(h);
-            return Ok(());
-        }
-        if iterations == model.newton.max_iterations {
-            return Err(not_converged(&s.g, iterations));
-        }
-        iterations += 1;
-        s.stats.newton_iterations += 1;
-        // A solve goes no further than the tolerance needs. Conjugate gradients stop once
-        // their linear model puts every point within half the target, however little their
-        // residual fell: near the solution that is much less than `CG_REDUCTION` asks (the 16³
-        // benchmark at 1/60 s, once its cube slides on the floor: 5.1 → 1.9 iterations a
-        // step, for 0.63 → 0.65 Newton iterations; its first 3 s 9–13 % fewer). Half: stopping
-        // at 0.8 of the target saved 5 % more iterations for 5 % more Newton iterations (and
-        // assemblies); at 0.95 the sliding steps took 0.95 Newton iterations each. GMRES (a
-        // swirling field) is bounded by `enough_reduction` where it solves tighter than
-        // `CG_REDUCTION`. Never looser than `CG_REDUCTION` otherwise: loosening that to 0.1
-        // saved 0.3–3 % of the conjugate-gradient iterations at 16³ and 8³, not measured in
-        // time.
-        s.within = 0.5 * target;
-        let solve_to = if reduction < CG_REDUCTION {
-            reduction.max(enough_reduction(s, target).min(CG_REDUCTION))
-        } else {
-            reduction
-        };
-        let own = (keep && solve(s, solve_to, Preconditioner::Multigrid))
-            || newton_direction(
-                model,
-                control,
-                force.anchors(),
-                s,
-                x0,
-                h,
-                solve_to,
-                &mut shift,
-            );
-        let before = norm2;
-        let swirled = s.swirl;
-        let reached = line_search(model, control, force, s, x0, v0, h, norm2, floor);
-        // In the fast regime, with `A` Newton's own and the end positions barely moved, `A` at
-        // the new iterate differs by about `KEEP_MOVE`: keep it, and save its assembly and the
-        // multigrid's setup (on the 16³ benchmark the conjugate gradients need as many
-        // iterations with it; see `KEEP_MOVE` for a lattice where they need more). Not in
-        // a field that is not uniform: its part of `A` is its gradient, which jumps at the faces
-        // of its cells however little a point moves (`leapfrog.w` at 1/60 s took 1.7× as long
-        // with `A` kept).
-        let moved = |dv: &[Vec3]| h * dv.iter().map(|d| d.length()).fold(0.0, f64::max);
-        keep = own
-            && model.field.as_ref().is_none_or(|f| f.uniform().is_some())
-            && matches!(reached, Some((_, true)))
-            && moved(&s.dv) <= KEEP_MOVE * s.shortest_spring;
-        #[cfg(test)]
-        {
-            keep &= s.may_keep;
-            s.kept += u32::from(keep);
-        }
-        let used = solve_to;
-        match reached.map(|(n2, _)| n2) {
-            Some(reached) => norm2 = reached,
-            // An inexact direction may not lead down at all: solve exactly before giving up.
-            None if reduction > CG_REDUCTION_EXACT => reduction = CG_REDUCTION_EXACT,
-            None if swirls && (swirled || !s.swirl_allowed) && switches < SWIRL_SWITCHES => {
-                stalled = SWIRL_STALLS
-            }
-            None => return Err(not_converged(&s.g, iterations)),
-        }
-        // A tighter solve whose step cut `|g|²_M` no more than the looser one's before it was
-        // not held back by the solve: the direction's error is `A`'s own (a friction tie that
-        // slides, whose force turns with the normal force as no symmetric `A` can; a
-        // Levenberg–Marquardt shift), and Newton's method converges linearly however exactly it
-        // solves. Back to the looser reduction (the 32³ cube dropped on a floor with friction at
-        // 1/60 s: its two hardest steps took 948 and 1 025 conjugate-gradient iterations solving
-        // to 1e-8 throughout, 493 and 288 so). Reverting whenever the fall was not twice as large
-        // also cost `leapfrog.w` 1.6× at 1/60 s.
-        //
-        // A Newton step that cuts the residual less than tenfold does not make the next solve
-        // tighter (it did, a hundredfold each time, until 2026-11-27): such steps are held back
-        // by the residual's curvature more than by the solve, and solving tighter cost more than
-        // it saved on every job measured: 10–20 % fewer conjugate-gradient iterations without it
-        // on the benchmark scene at 16³ (1e-9 and 1e-5) and on the 16³ and 32³ cubes dropped on
-        // a floor, 13 % fewer over the corpus at 1/60 s and 0.01 s (`leapfrog.w` a quarter as
-        // many at 1/60 s), for at most 8 % more Newton iterations, with every run still
-        // finishing.
-        let fall = before / norm2;
-        if reached.is_some() && used < last.0 && fall <= last.1 {
-            reduction = last.0;
-        }
-        last = (used, fall);
-        // Progress with the swirl in `A`: `|g|²_M` halved below its best.
-        // Without the swirl, Newton's method converges linearly at best: back to the swirl after
-        // a few times as long, however it went.
-        if swirls && stalled < SWIRL_STALLS {
-            if !s.swirl_allowed {
-                symmetric += 1;
-                if symmetric == 4 * SWIRL_STALLS {
-                    stalled = SWIRL_STALLS;
-                }
-            } else if norm2 < 0.5 * best {
-                (best, stalled) = (norm2, 0);
-            } else if swirled {
-                stalled += 1;
-            }
-        }
-        if stalled >= SWIRL_STALLS && switches < SWIRL_SWITCHES {
-            // Into the other mode, fresh; from the step's start the first time `A` leaves the
-            // swirl out.
-            if s.swirl_allowed && switches == 0 {
-                s.v.copy_from_slice(v0);
-                norm2 = residual(model, control, force, s, x0, v0, h, false);
-            }
-            s.swirl_allowed = !s.swirl_allowed;
-            keep = false;
-            (stalled, symmetric) = (0, 0);
-            (best, reduction, shift) = (norm2, CG_REDUCTION, 0.0);
-            last = (CG_REDUCTION, f64::INFINITY);
-            switches += 1;
-        }
-    }
-}
-
-/// Whether a step's first Newton iteration may solve with the last step's `A` and multigrid,
-/// `kept` the step size for which that step left them fit to keep (its last iteration in
-/// Newton's fast regime; see [`KEEP_MOVE`]): at the same step size, where no spring's ends move
-/// apart faster than that regime allows, `h·|v₀[a] − v₀[b]| ≤ KEEP_MOVE·(shortest spring)`.
-/// The first iterate's end positions lie `h·v₀` beyond the step's start, so the springs' blocks
-/// have changed by their relative motion alone (a body moving or sliding as a whole keeps
-/// them). A body settled on a floor then takes its steps without assembling `A`. What this
-/// does not see (contacts that began, states or parameters set between steps) costs one
-/// iteration at most: unless the kept `A`'s whole step cuts the residual tenfold, the next
-/// iteration assembles `A` afresh, and convergence is judged on the residual alone.
-fn keeps_across_steps(s: &ImplicitScratch, kept: Option<f64>, v0: &[Vec3], h: f64) -> bool {
-    #[cfg(test)]
-    if !s.may_keep {
-        return false;
-    }
-    if kept != Some(h) {
-        return false;
-    }
-    // Over the team: which thread finds a fast spring does not matter.
-    let limit = KEEP_MOVE * s.shortest_spring / h;
-    let slow = std::sync::atomic::AtomicBool::new(true);
-    let size = chunk_size(s.rows.len());
-    team::for_each(s.rows.len().div_ceil(size), &|c| {
-        let rows = &s.rows[c * size..((c + 1) * size).min(s.rows.len())];
-        let apart = |r: &Row| (v0[r.a as usize] - v0[r.b as usize]).length_squared();
-        if rows.iter().any(|r| apart(r) > limit * limit) {
-            slow.store(false, std::sync::atomic::Ordering::Relaxed);
-        }
-    });
-    slow.into_inner()
-}
-
-/// Newton's first iterate: `v₀` with each body's moving points shifted by minus the
-/// mass-weighted mean of their residual there, when that lowers `|g|²_M` (`norm2` at `v₀`);
-/// returns the iterate's `|g|²_M`. That mean is `−h` times the force on the body over its mass
-/// (the springs and other internal forces cancel in it), so the shift is the body's change of
-/// momentum over the step under the forces at `v₀`: a body in free flight is then solved but
-/// for its deformation. From `v₀`, Newton's method spent whole iterations on that uniform part,
-/// which the preconditioner's fine level scatters over the lattice (16³ benchmark at 1/60 s:
-/// 4.5 Newton and 60 CG iterations a step from `v₀`, 3.5 and 55 from here). A shift no larger
-/// than `least` (m/s) is not tried: a body resting on a floor, whose forces balance, would pay a
-/// residual's evaluation for a shift below the tolerance (half the target at `v₀`, from
-/// `newton`): 6–7 % of such a step at 16³ on one thread.
-#[allow(clippy::too_many_arguments)]
-fn shift_by_momentum(
-    model: &Model,
-    control: &Control,
-    force: &mut ForceScratch,
-    s: &mut ImplicitScratch,
-    x0: &[Vec3],
-    v0: &[Vec3],
-    h: f64,
-    norm2: f64,
-    least: f64,
-) -> f64 {
-    let mut largest: f64 = 0.0;
-    for body in model.bodies() {
-        let shift = -mean_residual(s, body.points());
-        largest = largest.max(shift.length());
-        for p in body.points() {
-            s.dv[p] = shift * s.free[p];
-        }
-    }
-    if largest <= least {
-        return norm2;
-    }
-    s.set_trial(1.0);
-    let shifted = residual(model, control, force, s, x0, v0, h, true);
-    if shifted < norm2 {
-        s.take_trial();
-        shifted
-    } else {
-        norm2
-    }
-}
-
-/// The mass-weighted mean residual `Σ m·g / Σ m` of the moving points among `points` (zero
-/// when none moves).
-fn mean_residual(s: &ImplicitScratch, points: std::ops::Range<usize>) -> Vec3 {
-    let (mut mg, mut m) = (Vec3::ZERO, 0.0);
-    for p in points {
-        mg += s.g[p] * (s.mass[p] * s.free[p]);
-        m += s.mass[p] * s.free[p];
-    }
-    if m > 0.0 {
-        mg / m
-    } else {
-        Vec3::ZERO
-    }
-}
-
-/// The residual a step of size `h` from `x0` can be solved to in floating point, at least
-/// (m/s): `ε·h·max(K/m)·max|x|`, `K` a point's spring and contact stiffness summed. The end
-/// positions `x0 + h·v` carry a rounding of `ε·|x|` each, every spring's force `k·ε·|x|` of it,
-/// and the residual `h/m` times their sum; so a stiff lattice at a large step cannot reach a
-/// fixed tolerance (kElastic = kCollision = 10⁶ at 1/60 s: Newton's method stalls near 1e-8
-/// m/s, where this floor is 7e-8), and converges at that floor instead. Negligible otherwise
-/// (the classic cube at 1/60 s: 1.5e-11 m/s).
-fn rounding_floor(s: &ImplicitScratch, x0: &[Vec3], h: f64) -> f64 {
-    let reach = x0
-        .iter()
-        .zip(&s.free)
-        .filter(|&(_, &free)| free != 0.0)
-        .map(|(x, _)| x.x.abs().max(x.y.abs()).max(x.z.abs()))
-        .fold(0.0, f64::max);
-    f64::EPSILON * h * s.stiffness_over_mass * reach
-}
-
-/// The report of a step that stopped with residual `g` after `iterations`.
-fn not_converged(g: &[Vec3], iterations: u32) -> NotConverged {
-    let (point, residual) =
-        g.iter()
-            .map(|g| g.length())
-            .enumerate()
-            .fold(
-                (0, 0.0),
-                |best, (p, r)| if r > best.1 { (p, r) } else { best },
-            );
-    NotConverged {
-        residual,
-        point,
-        iterations,
-    }
-}
-
-/// Backtracks along the Newton direction `s.dv` from the iterate until the merit falls enough
-/// (Armijo), and takes that point as the iterate; returns its `|g|²_M` and whether that was the
-/// whole step `Δv` in the fast regime (it cut `|g|_M` tenfold), or `None` when no step along
-/// `Δv` lowers the merit or the residual. The merit is the incremental potential when the
-/// forces have one (see [`has_potential`]), else `|g|²_M`.
-#[allow(clippy::too_many_arguments)]
-fn line_search(
-    model: &Model,
-    control: &Control,
-    force: &mut ForceScratch,
-    s: &mut ImplicitScratch,
-    x0: &[Vec3],
-    v0: &[Vec3],
-    h: f64,
-    norm2: f64,
-    floor: f64,
-) -> Option<(f64, bool)> {
-    // A direction from a swirling `A` need not lower the potential, only `|g|²_M`.
-    let potential = has_potential(model) && !s.swirl;
-    // The potential's slope along Δv is M·g·Δv (negative); for |g|²_M a plain fall is asked.
-    let slope: f64 = if potential {
-        s.g.iter()
-            .zip(&s.dv)
-            .zip(&s.mass)
-            .map(|((g, d), m)| m * g.dot(*d))
-            .sum()
-    } else {
-        0.0
-    };
-    // The merit's fall to the trial, whose `|g|²_M` is `n2`, from `from`.
-    let fall_to = |s: &mut ImplicitScratch, n2: f64, from: f64| {
-        if !n2.is_finite() {
-            f64::NEG_INFINITY
-        } else if potential {
-            potential_fall(model, control, s, x0, v0, h)
-        } else {
-            from - n2
-        }
-    };
-    let mut alpha = 1.0;
-    for _ in 0..=MAX_HALVINGS {
-        s.set_trial(alpha);
-        let n2 = residual(model, control, force, s, x0, v0, h, true);
-        // A full step that cuts `|g|_M` tenfold is taken without the merit's fall (a third of
-        // the line search's cost): Newton's method is then in its fast regime, where the merit
-        // falls as its quadratic model says, and would not be followed further. So is one that
-        // reaches the tolerance, where the solve stopped as soon as it could (see `within`): the
-        // step is solved (on the 16³ benchmark sliding on its floor, the merit had cost 11 % of
-        // the time).
-        let solved = |s: &ImplicitScratch| converged(model, floor, &s.g_trial, &s.trial);
-        if alpha == 1.0 && (n2 < 1e-2 * norm2 || solved(s)) {
-            s.take_trial();
-            return Some((n2, true));
-        }
-        let fall = fall_to(s, n2, norm2);
-        // At a contact's kink the merit may not fall at all: a step that lowers the residual
-        // is taken too.
-        if fall > -1e-4 * alpha * slope.min(0.0) || n2 < norm2 {
-            s.take_trial();
-            let mut reached = n2;
-            // A full step that lowers the potential by more than ¾ of its slope (a quadratic
-            // model predicts ½) is sliding down a direction where `A` overstates the curvature
-            // (a buckling lattice, whose negative stiffness was clamped): go on along it while
-            // the potential keeps falling.
-            if alpha == 1.0 && slope < 0.0 && fall > -0.75 * slope {
-                for _ in 0..MAX_EXPANSIONS {
-                    s.set_trial(1.0);
-                    let n2 = residual(model, control, force, s, x0, v0, h, true);
-                    if fall_to(s, n2, reached) <= 0.0 {
-                        break;
-                    }
-                    s.take_trial();
-                    reached = n2;
-                    s.dv.iter_mut().for_each(|d| *d = *d * 2.0);
-                }
-            }
-            return Some((reached, false));
-        }
-        alpha *= 0.5;
-    }
-    None
-}
-
-/// The reduction of the Newton system's residual `M·g` (over the moving points) after which its
-/// linear model puts every point's `|g|` at or below `target`, with a factor 2 to spare for the
-/// model's error: `|g′| ≤ |M·g′| / m_min`.
-fn enough_reduction(s: &ImplicitScratch, target: f64) -> f64 {
-    let (mut norm2, mut lightest) = (0.0, f64::INFINITY);
-    for ((g, &m), &free) in s.g.iter().zip(&s.mass).zip(&s.free) {
-        if free != 0.0 && m > 0.0 {
-            norm2 += (m * m) * g.dot(*g);
-            lightest = lightest.min(m);
-        }
-    }
-    if norm2 > 0.0 && lightest.is_finite() {
-        0.5 * lightest * target / norm2.sqrt()
-    } else {
-        0.0
-    }
-}
-
-/// The largest `|g|` a point may keep, where the fastest point's speed is `vmax`: the model's
-/// tolerance (scaled by speeds above 1 m/s; see [`TOLERANCE`]), no finer than the rounding
-/// floor `floor` ([`rounding_floor`]).
-fn target(model: &Model, floor: f64, vmax: f64) -> f64 {
-    (model.newton.tolerance * vmax.max(1.0)).max(floor)
-}
-
-/// Whether the residual `g` at the iterate `v` is within its [`target`].
-fn converged(model: &Model, floor: f64, g: &[Vec3], v: &[Vec3]) -> bool {
-    let (norm, vmax) = max_norms(g, v);
-    norm <= target(model, floor, vmax)
-}
-
-/// `max |g|` and `max |v|`.
-fn max_norms(g: &[Vec3], v: &[Vec3]) -> (f64, f64) {
-    let gmax = g.iter().map(|g| g.length()).fold(0.0, f64::max);
-    let vmax = v.iter().map(|v| v.length()).fold(0.0, f64::max);
-    (gmax, vmax)
-}
-
-/// The residual `g` of the iterate (or, when `trial`, of the trial point) into `s.g` (or
-/// `s.g_trial`); returns `|g|²_M` there (a non-finite value gives infinity, which the line
-/// search never accepts).
-#[allow(clippy::too_many_arguments)]
-fn residual(
-    model: &Model,
-    control: &Control,
-    force: &mut ForceScratch,
-    s: &mut ImplicitScratch,
-    x0: &[Vec3],
-    v0: &[Vec3],
-    h: f64,
-    trial: bool,
-) -> f64 {
-    {
-        let v = if trial { &s.trial } else { &s.v };
-        let [xx, xy, xz] = s.x_soa.parts_mut();
-        for (i, (&x, &v)) in x0.iter().zip(v).enumerate() {
-            let p = x + v * h;
-            (xx[i], xy[i], xz[i]) = (p.x, p.y, p.z);
-        }
-        // The field at the end positions, for the line search's work of the field.
-        let field = if trial {
-            &mut s.field_trial
-        } else {
-            &mut s.field
-        };
-        if let (Some(f), true) = (&model.field, has_potential(model)) {
-            for (out, (&x, &v)) in field.iter_mut().zip(x0.iter().zip(v)) {
-                *out = f.sample(x + v * h);
-            }
-        }
-    }
-    // Every force but the dampers: at zero velocity.
-    force_pass(
-        model,
-        &s.x_soa,
-        &s.v_soa,
-        control,
-        force,
-        s.acc.parts_mut(),
-        &|_, out: [&mut [f64]; 3], a| {
-            for (o, a) in out.into_iter().zip(a) {
-                o.copy_from_slice(&a[..o.len()]);
-            }
-            true
-        },
-    );
-    // The dampers' force −D₀·v, into the residual buffer first.
-    let mut g = std::mem::take(if trial { &mut s.g_trial } else { &mut s.g });
-    let v = if trial { &s.trial } else { &s.v };
-    s.springs.damper_force(&s.start_damping, v, &mut g);
-    for pull in &control.pulls {
-        let p = pull.point as usize;
-        g[p] -= v[p] * pull.damping;
-    }
-    let (ax, ay, az) = (s.acc.x(), s.acc.y(), s.acc.z());
-    for i in 0..g.len() {
-        let a = Vec3::new(ax[i], ay[i], az[i]) + g[i] * (s.free[i] / s.mass[i]);
-        g[i] = v[i] - v0[i] - a * h;
-    }
-    let norm: f64 = g
-        .iter()
-        .zip(&s.mass)
-        .map(|(g, m)| m * g.length_squared())
-        .sum();
-    if trial {
-        s.g_trial = g;
-    } else {
-        s.g = g;
-    }
-    if norm.is_finite() {
-        norm
-    } else {
-        f64::INFINITY
-    }
-}
-
-/// The work of the field from the iterate's end positions to the trial's (J), by the trapezoid
-/// rule: its part of the potential's fall (see [`potential_fall`]). A field that is not uniform
-/// has no potential; along a line this is the work that would be its potential's fall, to
-/// second order, and its slope at the iterate is the field's part of `M·g·Δv`, as the line
-/// search needs.
-fn field_work(s: &ImplicitScratch, h: f64) -> f64 {
-    let mut work = 0.0;
-    for ((((&a, &b), &v), &t), &free) in s
-        .field
-        .iter()
-        .zip(&s.field_trial)
-        .zip(&s.v)
-        .zip(&s.trial)
-        .zip(&s.free)
-    {
-        work += free * 0.5 * (a + b).dot(t - v) * h;
-    }
-    work
-}
-
-/// True when the merit can be the incremental potential: one body (contacts between bodies are
-/// found by a grid the merit does not have) and no friction ties; a field's part is added along
-/// each line (see [`field_work`]).
-fn has_potential(model: &Model) -> bool {
-    model.bodies().len() == 1 && (model.friction == 0.0 || model.obstacles.is_empty())
-}
-
-/// How much the incremental potential `½|v − v₀|²_M + ½h·vᵀD₀v + U(x₀ + h·v)` falls from the
-/// iterate `v` to the trial `t` (J; with [`field_work`], so that its slope is `−M·g·Δv`). Each
-/// term's change is computed from the difference of its arguments (`a² − b² = (a − b)(a + b)`),
-/// not as the difference of two sums: near the solution the fall is far below the rounding of
-/// the potential itself, and the line search must still see it.
-fn potential_fall(
-    model: &Model,
-    control: &Control,
-    s: &mut ImplicitScratch,
-    x0: &[Vec3],
-    v0: &[Vec3],
-    h: f64,
-) -> f64 {
-    let mut falls = std::mem::take(&mut s.falls);
-    let fall = fall_by_chunks(model, control, s, &mut falls, x0, v0, h);
-    s.falls = falls;
-    fall
-}
-
-/// [`potential_fall`], summed over fixed chunks of [`FALL_CHUNK`] points and springs spread over
-/// the team (their sums into `falls`), then the chunks' sums in order: the same bits on any
-/// number of threads. Run by the leader alone, this pass over every spring took an eighth of the
-/// 32³ benchmark's crushing steps on two threads (their line searches backtrack far), the other
-/// thread waiting.
-fn fall_by_chunks(
-    model: &Model,
-    control: &Control,
-    s: &ImplicitScratch,
-    falls: &mut [[f64; 3]],
-    x0: &[Vec3],
-    v0: &[Vec3],
-    h: f64,
-) -> f64 {
-    let (v, t) = (&s.v[..], &s.trial[..]);
-    let at = |p: usize, w: &[Vec3]| x0[p] + w[p] * h;
-    let (points, springs) = (v.len(), s.rows.len());
-    team::for_each_mut(falls, &|c, fall| {
-        let [mut moved, mut stretched, mut outside] = [0.0; 3];
-        // Kinetic part and the contacts' dampers; penalty springs, gravity and control forces,
-        // on the moving points (the others do not move).
-        for p in c * FALL_CHUNK..((c + 1) * FALL_CHUNK).min(points) {
-            let step = t[p] - v[p];
-            moved -= 0.5 * s.mass[p] * step.dot((t[p] - v0[p]) + (v[p] - v0[p]));
-            moved -= 0.5 * h * step.dot(sym_mul(&s.start_damping[p], t[p] + v[p]));
-            if s.free[p] != 0.0 {
-                outside += contact_change(model, at(p, v), at(p, t), step * h);
-                let mut push = model.gravity * s.mass[p];
-                if let Some(f) = control.forces.get(p) {
-                    push += *f;
-                }
-                moved += push.dot(step * h);
-            }
-        }
-        // Springs and their dampers.
-        let chunk = c * FALL_CHUNK..((c + 1) * FALL_CHUNK).min(springs);
-        for (row, &u) in s.rows[chunk.clone()].iter().zip(&s.start_dir[chunk]) {
-            let (a, b) = (row.a as usize, row.b as usize);
-            let relative = (t[a] - v[a]) - (t[b] - v[b]);
-            let (wv, wt) = (u.dot(v[a] - v[b]), u.dot(t[a] - t[b]));
-            stretched -= 0.5 * h * row.d * u.dot(relative) * (wt + wv);
-            let (dv, dt) = (at(a, v) - at(b, v), at(a, t) - at(b, t));
-            let (lv, lt) = (dv.length(), dt.length());
-            if lv + lt > 0.0 {
-                let lengthening = (relative * h).dot(dt + dv) / (lt + lv);
-                stretched -= 0.5 * row.k * lengthening * (lt + lv - 2.0 * row.rest);
-            }
-        }
-        *fall = [moved, stretched, outside];
-    });
-    let mut fall = field_work(s, h);
-    let mut outside = 0.0;
-    for [moved, stretched, out] in &*falls {
-        fall += moved + stretched;
-        outside += out;
-    }
-    for pull in &control.pulls {
-        let p = pull.point as usize;
-        let step = t[p] - v[p];
-        fall -= 0.5 * h * pull.damping * step.dot(t[p] + v[p]);
-        let (xv, xt) = (at(p, v), at(p, t));
-        fall -= 0.5 * pull.stiffness * (step * -h).dot((pull.target - xt) + (pull.target - xv));
-    }
-    fall - 0.5 * model.k_collision * outside
-}
-
-/// The change of a point's `Σ depth²` over its contacts from `xv` to `xt = xv + step`: for
-/// contacts with the same flat surface at both (the same normal), `(dₜ − dᵥ)(dₜ + dᵥ)` with
-/// `dₜ − dᵥ = −n·step` exactly; otherwise the difference of the sums.
-fn contact_change(model: &Model, xv: Vec3, xt: Vec3, step: Vec3) -> f64 {
-    let (mut at_v, mut at_t) = (model.contacts(xv), model.contacts(xt));
-    let mut paired = 0.0;
-    loop {
-        match (at_v.next(), at_t.next()) {
-            (None, None) => return paired,
-            (Some(cv), Some(ct)) if cv.normal == ct.normal => {
-                paired += -ct.normal.dot(step) * (ct.depth + cv.depth);
-            }
-            _ => break,
-        }
-    }
-    let sum = |c: &mut dyn Iterator<Item = crate::obstacle::Contact>| {
-        c.map(|c| c.depth * c.depth).sum::<f64>()
-    };
-    let whole_v = sum(&mut model.contacts(xv));
-    let whole_t = sum(&mut model.contacts(xt));
-    whole_t - whole_v
-}
-
-/// Solves for the Newton direction at the iterate into `s.dv`, with the springs' true transverse
-/// stiffness (a compressed spring's is negative; clamping it slows Newton's method down to a
-/// crawl on a crushed lattice). When that makes `A` indefinite, the masses in it are scaled up
-/// by a shift until it is not: a Levenberg–Marquardt step, which keeps the true curvature where
-/// it is positive, and becomes Newton's method again as the shift decays (a quarter per solve
-/// that needs none larger) near the solution. Only when no shift up to ~40 will do are the
-/// negative stiffnesses clamped at zero. `shift` carries over between iterations of a step.
-/// True when `A` was Newton's own (the true stiffness, no shift) and the multigrid
-/// preconditioned it: a matrix the next iteration may keep.
-#[allow(clippy::too_many_arguments)]
-fn newton_direction(
-    model: &Model,
-    control: &Control,
-    anchors: &Anchors,
-    s: &mut ImplicitScratch,
-    x0: &[Vec3],
-    h: f64,
-    reduction: f64,
-    shift: &mut f64,
-) -> bool {
-    // The preconditioner that solved, if any.
-    let mut solve_with = |curvature| {
-        assemble(model, control, anchors, s, x0, h, curvature);
-        // Where `A` is nearly indefinite its coarse copies may be indefinite, and the cycle with
-        // them, though `A` is not: the diagonal alone then decides, as it did before the
-        // multigrid.
-        if solve(s, reduction, Preconditioner::Multigrid) {
-            Some(Preconditioner::Multigrid)
-        } else if s.multigrid_failed && solve(s, reduction, Preconditioner::Diagonal) {
-            Some(Preconditioner::Diagonal)
-        } else {
-            None
-        }
-    };
-    if let Some(solved) = solve_with(Curvature::True { shift: *shift }) {
-        let own = *shift == 0.0 && solved == Preconditioner::Multigrid;
-        *shift = if *shift < 1e-3 { 0.0 } else { *shift * 0.25 };
-        return own;
-    }
-    let mut tried = if *shift == 0.0 { 1e-2 } else { *shift * 4.0 };
-    for _ in 0..5 {
-        if solve_with(Curvature::True { shift: tried }).is_some() {
-            *shift = tried;
-            return false;
-        }
-        tried *= 8.0;
-    }
-    solve_with(Curvature::Clamped);
-    false
-}
-
-/// Which stiffness [`assemble`] puts in `A`.
-#[derive(Clone, Copy, Debug)]
-enum Curvature {
-    /// The true one (a compressed spring's transverse stiffness is negative), with the masses
-    /// scaled by `1 + shift` (a Levenberg–Marquardt shift, 0 for Newton's method itself).
-    True { shift: f64 },
-    /// Negative transverse stiffnesses clamped at zero: `A` is positive definite.
-    Clamped,
-}
-
-/// The blocks of `A` at the iterate, the contact and pull parts, and the inverted diagonal.
-fn assemble(
-    model: &Model,
-    control: &Control,
-    anchors: &Anchors,
-    s: &mut ImplicitScratch,
-    x0: &[Vec3],
-    h: f64,
-    curvature: Curvature,
-) {
-    s.stats.assemblies += 1;
-    let h2 = h * h;
-    let (clamp, shift) = match curvature {
-        Curvature::True { shift } => (false, shift),
-        Curvature::Clamped => (true, 0.0),
-    };
-    let at = |p: usize, v: &[Vec3]| x0[p] + v[p] * h;
-    for (i, e) in s.extra.iter_mut().enumerate() {
-        *e = [0.0; 6];
-        e[..3].fill(s.mass[i] * (1.0 + shift));
-    }
-    let floor = if clamp { 0.0 } else { f64::MIN };
-    s.springs.assemble(x0, &s.v, h, floor, &mut s.spring_blocks);
-    // Penalty springs of walls, plane and obstacles where the iterate is, with the obstacles'
-    // friction ties, their dampers as at the start, and pulls.
-    let kc = model.k_collision;
-    let mut swirl: f64 = 0.0;
-    for (i, e) in s.extra.iter_mut().enumerate() {
-        if s.free[i] == 0.0 {
-            continue;
-        }
-        for (e, d) in e.iter_mut().zip(&s.start_damping[i]) {
-            *e += h * d;
-        }
-        let p = at(i, &s.v);
-        if let Some(field) = model.field.as_ref().filter(|f| f.uniform().is_none()) {
-            let gradient = field.gradient(p);
-            let k = field_stiffness(&gradient);
-            for (e, k) in e.iter_mut().zip(k) {
-                *e += h2 * k;
-            }
-            if let Some(c) = s.field_correction.get_mut(i) {
-                *c = field_correction(&gradient, &k).map(|c| h2 * c);
-                swirl = swirl.max(h2 * field::swirl(&gradient) / s.mass[i]);
-            }
-        }
-        let walls = model
-            .bounds
-            .wall_contacts(p)
-            .chain(model.plane.and_then(|pl| pl.contact(p)));
-        for c in walls {
-            add_outer(e, c.normal, h2 * kc);
-        }
-        for (o, c) in model
-            .obstacles
-            .iter()
-            .enumerate()
-            .filter_map(|(o, ob)| ob.contact(p).map(|c| (o, c)))
-        {
-            add_outer(e, c.normal, h2 * kc);
-            // The friction tie: its holding stiffness, or its sliding one (a tie that slides
-            // with its holding stiffness in `A` cut Newton's steps along the slide to
-            // `m/(m + h²·kc)`, and scenes with friction crept to a standstill).
-            if let Some(&anchor) = anchors.of(o).get(i) {
-                let law = [kc, model.friction];
-                let (k, sliding) = friction::obstacle_stiffness(p, c.depth, c.normal, anchor, law);
-                e[..3].iter_mut().for_each(|e| *e += h2 * k);
-                add_outer(e, c.normal, -h2 * k);
-                if let Some(along) = sliding {
-                    add_outer(e, along, -h2 * k);
-                }
-            }
-        }
-    }
-    s.swirl = s.swirl_allowed && swirl > SWIRL_LIMIT;
-    for pull in &control.pulls {
-        let e = &mut s.extra[pull.point as usize];
-        let c = h * pull.damping + h2 * pull.stiffness;
-        e[..3].iter_mut().for_each(|e| *e += c);
-    }
-    // Contacts between bodies: each pair of balls that overlap at the iterate is a penalty
-    // spring of rest length the sum of their radii, pushing only (undamped here, as in `f`).
-    s.pair_rows.clear();
-    s.pair_blocks.clear();
-    if model.bodies().len() > 1 {
-        {
-            let [xx, xy, xz] = s.x_soa.parts_mut();
-            for i in 0..s.v.len() {
-                let p = at(i, &s.v);
-                (xx[i], xy[i], xz[i]) = (p.x, p.y, p.z);
-            }
-        }
-        s.contacts.compute(model, &s.x_soa, &s.v_soa);
-        let (rows, blocks, v) = (&mut s.pair_rows, &mut s.pair_blocks, &s.v);
-        s.contacts.for_each_pair(model, &s.x_soa, |a, b, reach| {
-            let d = at(a, v) - at(b, v);
-            let l = d.length();
-            if l > 0.0 {
-                let transverse = if clamp {
-                    0.0
-                } else {
-                    h2 * kc * (1.0 - reach / l)
-                };
-                rows.push([a as u32, b as u32]);
-                blocks.push(spring_block(d / l, h2 * kc, transverse));
-            }
-        });
-    }
-    // The diagonal blocks: the point's own part plus each spring's and contact's block at both
-    // ends; then the coarse levels.
-    Operator::invert_diagonal(
-        &s.extra,
-        (&s.spring_pairs, &s.spring_blocks),
-        (&s.pair_rows, &s.pair_blocks),
-        Some(s.multigrid.fine_incidence()),
-        &mut s.diag_inv,
-    );
-    s.multigrid.assemble(&fine_operator!(s));
-}
-
-/// A spring's block of `A` (without its damper): `axial·uuᵀ + transverse·(I − uuᵀ)`.
-fn spring_block(u: Vec3, axial: f64, transverse: f64) -> Sym {
-    let mut m = [transverse, transverse, transverse, 0.0, 0.0, 0.0];
-    add_outer(&mut m, u, axial - transverse);
-    m
-}
-
-/// The field's stiffness at `p` for `A`: minus the symmetric part of its gradient (a field has
-/// no potential, so its gradient need not be symmetric, and `A` must be), made positive
-/// semi-definite by adding its Gershgorin bound on the smallest eigenvalue when that is negative.
-/// A field that pulls towards a point (stiffer there than the masses) needs it, or Newton's
-/// method crawls.
-fn field_stiffness(&[dx, dy, dz]: &[Vec3; 3]) -> Sym {
-    let mut k: Sym = [
-        -dx.x,
-        -dy.y,
-        -dz.z,
-        -0.5 * (dy.x + dx.y),
-        -0.5 * (dz.x + dx.z),
-        -0.5 * (dz.y + dy.z),
-    ];
-    let lowest = (k[0] - k[3].abs() - k[4].abs())
-        .min(k[1] - k[3].abs() - k[5].abs())
-        .min(k[2] - k[4].abs() - k[5].abs());
-    if lowest < 0.0 {
-        k[..3].iter_mut().for_each(|k| *k -= lowest);
-    }
-    k
-}
-
-/// What `A` needs besides the field's stiffness in `extra` for the field's exact gradient
-/// `J` (`gradient[j]` the derivative along axis `j`), `−J − k`, row-major (N/m).
-fn field_correction(gradient: &[Vec3; 3], k: &Sym) -> [f64; 9] {
-    let jacobian = |i: usize, j: usize| gradient[j].to_array()[i];
-    let sym = |i: usize, j: usize| match (i, j) {
-        (0, 0) | (1, 1) | (2, 2) => k[i],
-        (0, 1) | (1, 0) => k[3],
-        (0, 2) | (2, 0) => k[4],
-        _ => k[5],
-    };
-    std::array::from_fn(|e| {
-        let (i, j) = (e / 3, e % 3);
-        -jacobian(i, j) - sym(i, j)
-    })
-}
-
-/// True when the model's field may swirl past [`SWIRL_LIMIT`] at a step of size `h`: the
-/// field's largest swirl ([`ForceField::max_swirl`](crate::ForceField::max_swirl)) times `h²`
-/// over the lightest point mass (an SDIRK2 stage is shorter than `h`). Only then does the solver
-/// hold GMRES's basis and the field's corrections (for `h = dt`), and take turns between the two
-/// kinds of `A`.
-fn can_swirl(model: &Model, h: f64) -> bool {
-    let lightest = model
-        .bodies()
-        .iter()
-        .map(|b| b.material.mass)
-        .fold(f64::INFINITY, f64::min);
-    model
-        .field
-        .as_ref()
-        .is_some_and(|f| h * h * f.max_swirl() / lightest > SWIRL_LIMIT)
-}
-
-/// `y = A·x` over the free points (others give 0).
-#[allow(clippy::too_many_arguments)]
-fn apply_to(
-    springs: &mut SpringMatrix,
-    extra: &[Sym],
-    free: &[f64],
-    pair_rows: &[[u32; 2]],
-    pair_blocks: &[Sym],
-    field_correction: Option<&[[f64; 9]]>,
-    x: &[Vec3],
-    y: &mut [Vec3],
-    precision: Precision,
-) {
-    springs.apply(extra, free, x, y, precision);
-    for (&[a, c], b) in pair_rows.iter().zip(pair_blocks) {
-        let (a, c) = (a as usize, c as usize);
-        let f = sym_mul(b, x[a] - x[c]);
-        y[a] += f * free[a];
-        y[c] -= f * free[c];
-    }
-    for (((y, &x), c), &free) in y
-        .iter_mut()
-        .zip(x)
-        .zip(field_correction.unwrap_or(&[]))
-        .zip(free)
-    {
-        let row = |i: usize| c[3 * i] * x.x + c[3 * i + 1] * x.y + c[3 * i + 2] * x.z;
-        *y += Vec3::new(row(0), row(1), row(2)) * free;
-    }
-}
-
-/// `s.ap = A·s.p` (`A` symmetric), the springs' part in `precision`.
-fn apply(s: &mut ImplicitScratch, precision: Precision) {
-    let pairs = (&s.pair_rows[..], &s.pair_blocks[..]);
-    apply_to(
-        &mut s.springs,
-        &s.extra,
-        &s.free,
-        pairs.0,
-        pairs.1,
-        None,
-        &s.p,
-        &mut s.ap,
-        precision,
-    );
-}
-
-/// Fewest points in a chunk of a loop over points spread over threads ([`chunk_size`]):
-/// smaller ones cost more to hand out than they save.
-const MIN_CHUNK: usize = 1024;
-
-/// Points, and springs, per chunk of [`potential_fall`]'s sums (fixed: the chunks decide the
-/// order of the additions).
-const FALL_CHUNK: usize = 4096;
-
-/// Chunks of [`potential_fall`] for `points` points and `springs` springs.
-fn fall_chunks(points: usize, springs: usize) -> usize {
-    points.max(springs).div_ceil(FALL_CHUNK)
-}
-
-/// Points per chunk of the conjugate gradients' sums over `n` points: fixed by `n` alone (the
-/// chunks decide the order of the additions: the same bits on any number of threads), at most
-/// [`team::OWNED_ITEMS`] of them (so each stays on one thread from loop to loop), and no fewer
-/// than [`MIN_CHUNK`] points each.
-fn sum_chunk(n: usize) -> usize {
-    n.div_ceil(team::OWNED_ITEMS).max(MIN_CHUNK)
-}
-
-/// Chunks of [`sum_chunk`] points in `n` points.
-fn sum_chunks(n: usize) -> usize {
-    n.div_ceil(sum_chunk(n))
-}
-
-/// `a·b`: each chunk of [`sum_chunk`] points summed in order on the team (into `sums`, one per
-/// chunk), then the chunks' sums in order. Summed by the leader alone, the conjugate gradients'
-/// products kept the other thread waiting (16³ benchmark, 2 threads).
-fn dot(a: &[Vec3], b: &[Vec3], sums: &mut [f64]) -> f64 {
-    let size = sum_chunk(a.len());
-    team::for_each_mut(sums, &|c, sum| {
-        let chunk = c * size..((c + 1) * size).min(a.len());
-        *sum = a[chunk.clone()]
-            .iter()
-            .zip(&b[chunk])
-            .map(|(a, b)| a.dot(*b))
-            .sum();
-    });
-    sums.iter().sum()
-}
-
-/// One step of the conjugate gradients, `Δv += α·p` and `r −= α·A·p`, on the team; returns
-/// the new `r·r` (summed as [`dot`] sums) and whether `r` is within `m·s.within` at every point
-/// (never when `s.within` is 0: then only the reduction stops a solve).
-fn advance(s: &mut ImplicitScratch, alpha: f64) -> (f64, bool) {
-    let (p, ap, mass, bound) = (&s.p[..], &s.ap[..], &s.mass[..], s.within);
-    let size = sum_chunk(p.len());
-    let sums = &mut s.advanced[..];
-    team::for_each_chunk_into([&mut s.dv, &mut s.r], size, sums, &|c, [dv, r]| {
-        let at = c * size;
-        let (p, ap, mass) = (&p[at..], &ap[at..], &mass[at..]);
-        let (mut rr, mut within) = (0.0, bound > 0.0);
-        for i in 0..dv.len() {
-            dv[i] += p[i] * alpha;
-            r[i] -= ap[i] * alpha;
-            let r2 = r[i].length_squared();
-            rr += r2;
-            within &= r2 <= (mass[i] * bound) * (mass[i] * bound);
-        }
-        (rr, within)
-    });
-    let rr = s.advanced.iter().map(|&(rr, _)| rr).sum();
-    (rr, s.advanced.iter().all(|&(_, within)| within))
-}
-
-/// Points per chunk of a loop over `n` points spread over the team.
-fn chunk_size(n: usize) -> usize {
-    team::chunk_size(n, MIN_CHUNK)
-}
-
-/// The preconditioner of [`solve`].
-#[derive(Clone, Copy, Debug, PartialEq)]
-enum Preconditioner {
-    /// A multigrid cycle ([`Multigrid::precondition`]).
-    Multigrid,
-    /// `A`'s diagonal blocks.
-    Diagonal,
-}
-
-/// Solves `A·Δv = −M·g` into `s.dv` by conjugate gradients preconditioned by `preconditioner`,
-/// from zero, until its residual has fallen by `reduction` or is within `m·s.within` at every
-/// point; false when `A` turns out not to be positive definite, or the preconditioner (then
-/// `s.multigrid_failed` says which).
-fn solve(s: &mut ImplicitScratch, reduction: f64, preconditioner: Preconditioner) -> bool {
-    s.multigrid_failed = false;
-    if s.swirl {
-        return solve_swirl(s, reduction, preconditioner);
-    }
-    let precondition = |s: &mut ImplicitScratch| {
-        let fine = fine_operator!(s);
-        precondition_with(preconditioner, &mut s.multigrid, &fine, &s.r, &mut s.z);
-    };
-    // A negative `r·z` shows an indefinite preconditioner, `A` itself only with the diagonal.
-    let fail = |s: &mut ImplicitScratch| {
-        s.multigrid_failed = preconditioner == Preconditioner::Multigrid;
-        false
-    };
-    let precision = precision_for(reduction);
-    s.dv.fill(Vec3::ZERO);
-    set_right_hand_side(s);
-    precondition(s);
-    s.p.copy_from_slice(&s.z);
-    let mut rr = dot(&s.r, &s.r, &mut s.dots);
-    let target = rr * reduction * reduction;
-    let mut rz = dot(&s.r, &s.z, &mut s.dots);
-    if !rz.is_finite() {
-        return false;
-    }
-    if rz < 0.0 {
-        return fail(s);
-    }
-    // Whether the residual is within its bound at every point (not judged before a first step).
-    let mut within = false;
-    for _ in 0..MAX_CG {
-        if rr <= target || rz == 0.0 || within {
-            break;
-        }
-        apply(s, precision);
-        s.stats.linear_iterations += 1;
-        let pap = dot(&s.p, &s.ap, &mut s.dots);
-        if pap <= 0.0 || !pap.is_finite() {
-            return false;
-        }
-        (rr, within) = advance(s, rz / pap);
-        precondition(s);
-        let rz_next = dot(&s.r, &s.z, &mut s.dots);
-        if rz_next < 0.0 {
-            return fail(s);
-        }
-        let beta = rz_next / rz;
-        rz = rz_next;
-        let z = &s.z;
-        let size = chunk_size(z.len());
-        team::for_each_chunk([&mut s.p], size, &|c, [p]| {
-            for (p, &z) in p.iter_mut().zip(&z[c * size..]) {
-                *p = z + *p * beta;
-            }
-        });
-    }
-    true
-}
-
-/// Solves `A·Δv = −M·g` into `s.dv` by GMRES when `A` holds a field's swirl (so is not
-/// symmetric), preconditioned as [`solve`] is, from `A`'s symmetric part. True when the residual
-/// fell by `reduction`; with the diagonal preconditioner, also when it fell by half at least,
-/// which is enough for a direction along which `|g|²_M` falls.
-fn solve_swirl(s: &mut ImplicitScratch, reduction: f64, preconditioner: Preconditioner) -> bool {
-    set_right_hand_side(s);
-    let mut gmres = std::mem::take(&mut s.gmres);
-    let reached = {
-        let fine = fine_operator!(s);
-        let (springs, multigrid) = (&mut s.springs, &mut s.multigrid);
-        let pairs = (&s.pair_rows[..], &s.pair_blocks[..]);
-        let correction = Some(&s.field_correction[..]);
-        let precision = precision_for(reduction);
-        let apply = |x: &[Vec3], y: &mut [Vec3]| {
-            apply_to(
-                springs, &s.extra, &s.free, pairs.0, pairs.1, correction, x, y, precision,
-            );
-        };
-        let precondition = |r: &[Vec3], z: &mut [Vec3]| {
-            precondition_with(preconditioner, multigrid, &fine, r, z);
-        };
-        gmres.solve(&s.r, &mut s.dv, reduction, MAX_CG, apply, precondition)
-    };
-    s.gmres = gmres;
-    s.stats.linear_iterations += reached.iterations as u64;
-    if reached.relative_residual <= reduction {
-        return true;
-    }
-    match preconditioner {
-        Preconditioner::Multigrid => {
-            s.multigrid_failed = true;
-            false
-        }
-        Preconditioner::Diagonal => reached.relative_residual <= 0.5,
-    }
-}
-
-/// `z = P⁻¹·r` for the preconditioner `preconditioner` of `A` (`fine`).
-fn precondition_with(
-    preconditioner: Preconditioner,
-    multigrid: &mut Multigrid,
-    fine: &Operator,
-    r: &[Vec3],
-    z: &mut [Vec3],
-) {
-    match preconditioner {
-        Preconditioner::Multigrid => multigrid.precondition(fine, r, z),
-        Preconditioner::Diagonal => {
-            let free = fine.free.unwrap_or(&[]);
-            for ((z, &r), (d, &f)) in z.iter_mut().zip(r).zip(fine.diag_inv.iter().zip(free)) {
-                *z = sym_mul(d, r) * f;
-            }
-        }
-    }
-}
-
-/// The Newton system's right-hand side `−M·g` into `s.r` (zero at held points).
-fn set_right_hand_side(s: &mut ImplicitScratch) {
-    for ((r, &g), (&m, &free)) in s.r.iter_mut().zip(&s.g).zip(s.mass.iter().zip(&s.free)) {
-        *r = g * (-m * free);
-    }
-}
-
 /// Models and values for the unit tests of the solver's parts.
 #[cfg(test)]
 mod test_models {
@@ -1896,6 +791,10 @@ mod test_models {
 
 #[cfg(test)]
 mod tests {
+    use super::cg::{advance, apply_to, dot, sum_chunk};
+    use super::matrix::{assemble, Curvature};
+    use super::newton::{enough_reduction, max_norms, shift_by_momentum};
+    use super::residual::residual;
     use super::test_models::values;
     use super::*;
     use crate::body::{Body, Material};

@@ -919,7 +919,7 @@ mod tests {
     /// start directions are each spring's.
     #[test]
     fn blocks_by_slot_are_the_blocks_of_each_spring() {
-        use super::super::spring_block;
+        use super::super::matrix::spring_block;
         use super::super::sym::add_outer;
         let model = two_bodies();
         let n = model.point_count();
