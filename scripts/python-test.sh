@@ -22,7 +22,7 @@ fi
 cargo fmt --manifest-path python/Cargo.toml --check
 PYO3_PYTHON="$PWD/$venv/bin/python" cargo clippy --manifest-path python/Cargo.toml --all-targets --quiet -- -D warnings
 
-cargo build --release
+cargo build --release -p jello-cli
 "$venv/bin/python" -m pip install --quiet "./python[test]"
 # The GPU tests fail, rather than skip, without an adapter: scripts/setup.sh installs Mesa's
 # lavapipe. JELLO_REQUIRE_GPU=0 lets them skip on a machine without one.
