@@ -181,15 +181,10 @@ pub(super) fn assemble(
             }
         });
     }
-    // The diagonal blocks: the point's own part plus each spring's and contact's block at both
-    // ends; then the coarse levels.
-    Operator::invert_diagonal(
-        &s.extra,
-        (&s.spring_pairs, &s.spring_blocks),
-        (&s.pair_rows, &s.pair_blocks),
-        Some(s.multigrid.fine_incidence()),
-        &mut s.diag_inv,
-    );
+    // The diagonal blocks: the point's own part plus each spring's block at both ends, in
+    // stencil order, and each contact's; then the coarse levels.
+    s.springs.diagonal(&s.extra, &mut s.diag_inv);
+    Operator::add_and_invert((&s.pair_rows, &s.pair_blocks), &mut s.diag_inv);
     s.multigrid.assemble(&fine_operator!(s));
 }
 

@@ -215,10 +215,17 @@ impl Operator<'_> {
                 }
             }
         }
+        Operator::add_and_invert((more_pairs, more_blocks), diag_inv);
+    }
+
+    /// `diag_inv`, the diagonal blocks summed but for the pairs `more_pairs` (found at the
+    /// iterate), with those added in order, then inverted.
+    pub fn add_and_invert((more_pairs, more_blocks): (&[[u32; 2]], &[Sym]), diag_inv: &mut [Sym]) {
         for (&[a, c], b) in more_pairs.iter().zip(more_blocks) {
             add_sym(&mut diag_inv[a as usize], b);
             add_sym(&mut diag_inv[c as usize], b);
         }
+        let size = team::chunk_size(diag_inv.len(), MIN_NODES);
         team::for_each_chunk([diag_inv], size, &|_, [d]| {
             for d in d.iter_mut() {
                 *d = sym_inverse(d);
@@ -270,8 +277,6 @@ pub(super) struct Multigrid {
     down: Restriction,
     /// The fine level's points.
     points: usize,
-    /// Each fine point's pairs (see [`Multigrid::fine_incidence`]).
-    fine_incidence: Incidence,
     levels: Vec<Level>,
 }
 
@@ -322,13 +327,7 @@ impl Multigrid {
         }
         self.levels = levels;
         self.points = model.point_count();
-        self.fine_incidence = Incidence::of(self.points, pairs);
         self.built_for = pairs.to_vec();
-    }
-
-    /// Each fine point's pairs among those the levels were built for.
-    pub fn fine_incidence(&self) -> &Incidence {
-        &self.fine_incidence
     }
 
     /// The coarse operators for the fine operator `fine` (after each assembly of `A`).
