@@ -767,21 +767,26 @@ mod test_models {
         }
     }
 
+    /// A body of `points` lattice points (unit spacing) whose cells are kept where the values
+    /// of `seed` exceed `above`, the rest holes.
+    pub fn with_holes(points: [usize; 3], seed: u64, above: f64) -> Body {
+        let mut next = values(seed);
+        let cells = points.iter().map(|n| n - 1).product::<usize>();
+        let cells = (0..cells).map(|_| next() > above).collect();
+        let lattice = Lattice::new(points, Vec3::new(1.0, 1.0, 1.0));
+        Body::from_cells(lattice, cells, Material::classic()).unwrap()
+    }
+
+    /// A full box of `points` lattice points (unit spacing) with its first corner at `at`.
+    pub fn box_at(points: [usize; 3], at: Vec3) -> Body {
+        let lattice = Lattice::new(points, Vec3::new(1.0, 1.0, 1.0));
+        Body::lattice_box(lattice, Material::classic()).placed(at, rotation_xyz([0.0; 3]))
+    }
+
     /// Two bodies, one with holes, one with an axis of a single point.
     pub fn two_bodies() -> Model {
-        let mut next = values(7);
-        let cells = (0..5 * 4 * 6).map(|_| next() > -0.6).collect();
-        let holes = Body::from_cells(
-            Lattice::new([6, 5, 7], Vec3::new(1.0, 1.0, 1.0)),
-            cells,
-            Material::classic(),
-        )
-        .unwrap();
-        let flat = Body::lattice_box(
-            Lattice::new([4, 1, 5], Vec3::new(1.0, 1.0, 1.0)),
-            Material::classic(),
-        )
-        .placed(Vec3::new(3.0, 0.0, 0.0), rotation_xyz([0.0; 3]));
+        let holes = with_holes([6, 5, 7], 7, -0.6);
+        let flat = box_at([4, 1, 5], Vec3::new(3.0, 0.0, 0.0));
         ModelBuilder::new()
             .bodies(vec![holes, flat])
             .build()

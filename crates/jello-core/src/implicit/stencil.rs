@@ -862,10 +862,8 @@ crate::simd::multiversion! {
 
 #[cfg(test)]
 mod tests {
-    use super::super::test_models::{two_bodies, values};
+    use super::super::test_models::{box_at, two_bodies, values, with_holes};
     use super::*;
-    use crate::body::Material;
-    use crate::lattice::Lattice;
     use crate::model::ModelBuilder;
 
     /// A matrix with `model`'s springs listed, and their ends (flat indices) in listed order.
@@ -976,29 +974,19 @@ mod tests {
     #[test]
     fn the_diagonal_by_slot_is_the_sum_over_springs() {
         use super::super::sym::add_sym;
-        let mut next = values(29);
-        let cells = (0..15 * 14 * 13).map(|_| next() > -0.7).collect();
-        let holes = Body::from_cells(
-            Lattice::new([16, 15, 14], Vec3::new(1.0, 1.0, 1.0)),
-            cells,
-            Material::classic(),
-        )
-        .unwrap();
-        let cube = Body::lattice_box(
-            Lattice::new([14, 13, 12], Vec3::new(1.0, 1.0, 1.0)),
-            Material::classic(),
-        )
-        .placed(
-            Vec3::new(20.0, 0.0, 0.0),
-            crate::body::rotation_xyz([0.0; 3]),
-        );
+        let holes = with_holes([16, 15, 14], 29, -0.7);
+        let cube = box_at([14, 13, 12], Vec3::new(20.0, 0.0, 0.0));
         let model = ModelBuilder::new()
             .bodies(vec![holes, cube, two_bodies().body(0).clone()])
             .build()
             .unwrap();
         let n = model.point_count();
-        assert!(n > 2 * 2048, "{n} points: more than one chunk");
+        assert!(
+            n > 2 * MIN_POINTS_PER_RANGE,
+            "{n} points: more than one chunk"
+        );
         let (mut matrix, springs) = listed(&model);
+        let mut next = values(29);
         let mut sym = || -> Sym { std::array::from_fn(|_| next()) };
         let blocks: Vec<Sym> = springs.iter().map(|_| sym()).collect();
         for (i, b) in blocks.iter().enumerate() {
