@@ -44,6 +44,8 @@ pub struct Contacts {
     radius: Vec<f64>,
     /// Per body: the mass of a point (kg), for the friction's cap.
     mass: Vec<f64>,
+    /// The pairs of balls that overlapped in the last [`Contacts::compute`], once each.
+    pairs: Vec<Pair>,
     /// Side of a grid cell (m).
     cell: f64,
 }
@@ -69,6 +71,9 @@ impl Contacts {
             point_cells: vec![[0; 3]; n],
             radius,
             mass: bodies.iter().map(|b| b.material.mass).collect(),
+            // Room for 8 a point (two lattices of the same spacing touch at most 8 points of
+            // the other), so that stepping does not allocate.
+            pairs: Vec::with_capacity(8 * active),
             cell,
         }
     }
@@ -98,9 +103,11 @@ impl Contacts {
             point_cells,
             radius,
             mass,
+            pairs,
             cell,
         } = self;
         forces.fill_zero();
+        pairs.clear();
         if bodies.len() < 2 {
             return;
         }
@@ -159,52 +166,49 @@ impl Contacts {
                         Vec3::new(vx[e], vy[e], vz[e]),
                     );
                     let reach = radius[b] + radius[eb];
+                    let d = pa - pb;
+                    if d.length_squared() >= reach * reach {
+                        return;
+                    }
+                    let (ma, me) = (mass[b], mass[eb]);
+                    if a < e {
+                        let reduced = ma * me / (ma + me);
+                        pairs.push(Pair {
+                            a,
+                            b: e,
+                            reach,
+                            reduced,
+                        });
+                    }
                     // The friction's cap: the pair's reduced mass over the step (none needed
-                    // without friction, so no division per candidate pair then).
+                    // without friction, so no division per pair then).
                     let c_max = if mu > 0.0 {
-                        mass[b] * mass[eb] / ((mass[b] + mass[eb]) * model.dt)
+                        ma * me / ((ma + me) * model.dt)
                     } else {
                         0.0
                     };
-                    f += pair_force(pa - pb, va - vb, reach, [kc, dc, mu, c_max]);
+                    f += pair_force(d, va - vb, reach, [kc, dc, mu, c_max]);
                 });
                 (fx[a], fy[a], fz[a]) = (f.x, f.y, f.z);
             }
         }
     }
 
-    /// After [`Contacts::compute`] at positions `p`: every pair of balls of different bodies
-    /// that overlap, once each (`a < b`), with the sum of their radii. In a fixed order.
-    pub(crate) fn for_each_pair(
-        &self,
-        model: &Model,
-        p: &Soa,
-        mut pair: impl FnMut(usize, usize, f64),
-    ) {
-        let bodies = model.bodies();
-        if bodies.len() < 2 {
-            return;
-        }
-        let grid = Grid {
-            starts: &self.starts,
-            entries: &self.entries,
-            entry_cells: &self.entry_cells,
-            entry_body: &self.entry_body,
-        };
-        let (px, py, pz) = (p.x(), p.y(), p.z());
-        for (b, body) in bodies.iter().enumerate() {
-            for a in active_points(body) {
-                let pa = Vec3::new(px[a], py[a], pz[a]);
-                grid.for_each_near(body, self.point_cells[a], |e, eb| {
-                    let reach = self.radius[b] + self.radius[eb];
-                    let d = pa - Vec3::new(px[e], py[e], pz[e]);
-                    if a < e && d.length_squared() < reach * reach {
-                        pair(a, e, reach);
-                    }
-                });
-            }
-        }
+    /// The pairs of balls of different bodies that overlapped in the last
+    /// [`Contacts::compute`], once each (`a < b`), in a fixed order.
+    pub(crate) fn pairs(&self) -> &[Pair] {
+        &self.pairs
     }
+}
+
+/// Two balls of different bodies that overlap: their points (`a < b`), the sum of their radii
+/// (m) and the pair's reduced mass (kg: the friction's cap is that over the time step).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Pair {
+    pub a: usize,
+    pub b: usize,
+    pub reach: f64,
+    pub reduced: f64,
 }
 
 /// The hashed grid of the active points, as [`Contacts::compute`] sorted them.

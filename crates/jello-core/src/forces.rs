@@ -169,6 +169,11 @@ impl ForceScratch {
         &self.anchors
     }
 
+    /// The contacts between bodies of the last force evaluation (their grid at its positions).
+    pub(crate) fn contacts(&self) -> &Contacts {
+        &self.contacts
+    }
+
     /// The anchors, to be put back after a step that is taken again (see [`crate::cutback`]).
     pub(crate) fn anchors_mut(&mut self) -> &mut Anchors {
         &mut self.anchors
@@ -392,6 +397,35 @@ where
     T: Split,
     U: Fn(usize, T, [&[f64]; 3]) -> bool + Sync,
 {
+    force_pass_with(model, p, v, control, scratch, outs, update, Ties::Held)
+}
+
+/// Whether a [`force_pass`] reads the obstacles' friction anchors.
+#[derive(Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Ties {
+    /// Points tied to an anchor feel its spring and damper (every force evaluation of a step).
+    Held,
+    /// As if no point had an anchor: at zero velocities the pass then has no friction at all
+    /// (the implicit integrators add it themselves, at the iterate's velocities).
+    Ignored,
+}
+
+/// [`force_pass`], with the obstacles' friction anchors read or not.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn force_pass_with<T, U>(
+    model: &Model,
+    p: &Soa,
+    v: &Soa,
+    control: &Control,
+    scratch: &mut ForceScratch,
+    outs: T,
+    update: &U,
+    ties: Ties,
+) -> bool
+where
+    T: Split,
+    U: Fn(usize, T, [&[f64]; 3]) -> bool + Sync,
+{
     let n = model.point_count();
     assert!(
         p.len() == n && v.len() == n && outs.points() == n,
@@ -417,7 +451,7 @@ where
         contacts,
         anchors,
     } = scratch;
-    let anchors = (!anchors.is_empty()).then_some(&*anchors);
+    let anchors = (!anchors.is_empty() && ties == Ties::Held).then_some(&*anchors);
     // Contacts between bodies first: every chunk's update reads them.
     let several = model.bodies().len() > 1;
     if several {

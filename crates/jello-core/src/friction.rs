@@ -82,29 +82,61 @@ fn across(a: Vec3, n: Vec3) -> Vec3 {
     a - n * a.dot(n)
 }
 
-/// The stiffness of [`obstacle`]'s tie at zero velocity (minus its derivative with respect to
-/// `p`), as the implicit integrators take it: `k` (N/m) across the normal `n`, except along the
-/// unit direction returned with it, where there is none. While the tie holds
-/// (`|f| ≤ μ·kc·depth`) that is `kc` and no direction; once it slides, the force keeps the
-/// limit's size and turns with the offset, so `(limit/|f|)·kc` and nothing along the force. No
-/// anchor, or no friction: no tie (`k` = 0). The limit's growth with depth is left out (it would
-/// make the stiffness unsymmetric).
-pub(crate) fn obstacle_stiffness(
+/// What [`obstacle`]'s friction adds to the implicit integrators' Newton matrix
+/// `A = M − h·∂F/∂v` (velocities `v` at the step's end, positions `p = x₀ + h·v`) at a point
+/// moving at `v`: `c·(I − nnᵀ − eeᵀ)`, returned as `c` and the unit vector `e` (none: `eeᵀ` is
+/// zero). A tie that holds (`|f| ≤ μ·kc·depth`) is a spring and damper across the normal:
+/// `c = h·(h·kc + dc)`; once it slides, its force keeps the limit's size and turns with the
+/// offset and the velocity: `c = h·(h·kc + dc)·limit/|f|`, and nothing along the force `e`. No
+/// anchor: [`sliding_tangent`]. No friction: nothing. The limit's growth with depth and the
+/// normal's turning are left out (they would make `A` unsymmetric).
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn obstacle_tangent(
     p: Vec3,
+    v: Vec3,
     depth: f64,
     n: Vec3,
     anchor: Vec3,
-    [kc, mu]: [f64; 2],
+    [kc, dc, mu]: [f64; 3],
+    c_max: f64,
+    h: f64,
 ) -> (f64, Option<Vec3>) {
-    if mu <= 0.0 || anchor.x.is_nan() {
+    let limit = mu * kc * depth;
+    if mu <= 0.0 {
         return (0.0, None);
     }
-    let f = across(p - anchor, n) * -kc;
-    let (size, limit) = (f.length(), mu * kc * depth);
+    if anchor.x.is_nan() {
+        return sliding_tangent(n, v, limit, c_max, h);
+    }
+    let f = across(p - anchor, n) * -kc - across(v, n) * dc;
+    let (size, c) = (f.length(), h * (h * kc + dc));
     if size > limit {
-        (kc * limit / size, Some(f * (1.0 / size)))
+        (c * limit / size, Some(f * (1.0 / size)))
     } else {
-        (kc, None)
+        (c, None)
+    }
+}
+
+/// What [`sliding`] friction (at normal `n`, relative velocity `v`, normal force `normal`, cap
+/// `c_max`) adds to the Newton matrix of a step of size `h`, as [`obstacle_tangent`] returns it:
+/// while the cap binds (`c_max·|vt| ≤ normal`) it is a damper across the normal, `c = h·c_max`;
+/// beyond, the force keeps its size and turns with `vt`: `c = h·normal/|vt|`, nothing along `vt`.
+pub(crate) fn sliding_tangent(
+    n: Vec3,
+    v: Vec3,
+    normal: f64,
+    c_max: f64,
+    h: f64,
+) -> (f64, Option<Vec3>) {
+    if normal <= 0.0 {
+        return (0.0, None);
+    }
+    let vt = across(v, n);
+    let speed = vt.length();
+    if c_max * speed <= normal {
+        (h * c_max, None)
+    } else {
+        (h * normal / speed, Some(vt * (1.0 / speed)))
     }
 }
 

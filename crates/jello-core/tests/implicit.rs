@@ -101,6 +101,199 @@ fn a_damped_spring_follows_each_methods_recurrence() {
     }
 }
 
+/// Two bars of two points, each a body moving as one (so that its own spring stays at rest),
+/// side by side with their balls overlapping along y and pressed together: each pair of
+/// points in contact is a damped penalty spring, so the overlap `s` follows each method's
+/// recurrence with `ω² = 2kc/m`, `γ = 2dc/m` for as long as it lasts. Without the contacts'
+/// dampers between bodies in the implicit step (until 2026-11-28) the overlap followed the
+/// undamped recurrence instead.
+#[test]
+fn bodies_pressed_together_follow_each_methods_recurrence() {
+    let (kc, dc, m) = (100.0, 5.0, 1.0);
+    let material = Material {
+        mass: m,
+        stiffness: [50.0; 3],
+        damping: [0.5; 3],
+    };
+    let bar = || Body::lattice_box(Lattice::new([2, 1, 1], Vec3::new(1.0, 1.0, 1.0)), material);
+    for integrator in [Integrator::BackwardEuler, Integrator::Sdirk2] {
+        for h in [0.01, 1.0 / 60.0] {
+            let model = ModelBuilder::new()
+                .bodies(vec![bar(), bar()])
+                .bounds(far_walls())
+                .collision(kc, dc)
+                .integrator(integrator)
+                .dt(h)
+                .build()
+                .unwrap();
+            // Balls of radius 0.5: the bars overlap by 0.1 and close at 1 m/s.
+            let (low, high) = (Vec3::new(0.0, 0.5, 0.0), Vec3::new(0.0, -0.5, 0.0));
+            let mut state = State::new(
+                vec![
+                    Vec3::new(0.0, 0.0, 0.0),
+                    Vec3::new(1.0, 0.0, 0.0),
+                    Vec3::new(0.0, 0.9, 0.0),
+                    Vec3::new(1.0, 0.9, 0.0),
+                ],
+                vec![low, low, high, high],
+            );
+            let (w2, gamma) = (2.0 * kc / m, 2.0 * dc / m);
+            let mut y = (0.1, 1.0);
+            let mut scratch = Scratch::new(&model);
+            let mut steps = 0;
+            // While the pair overlaps at both ends of the step.
+            while oscillator_step(integrator, y, w2, gamma, h).0 > 0.0 {
+                step(&model, &mut state, &Control::none(), &mut scratch).unwrap();
+                y = oscillator_step(integrator, y, w2, gamma, h);
+                steps += 1;
+                for (a, b) in [(0, 2), (1, 3)] {
+                    let overlap = 1.0 - (state.pos[b].y - state.pos[a].y);
+                    let closing = state.vel[a].y - state.vel[b].y;
+                    let at = format!("{integrator}, h {h}, step {steps}, pair {a}–{b}");
+                    assert!((overlap - y.0).abs() < 1e-9, "{at}: {overlap} vs {}", y.0);
+                    assert!((closing - y.1).abs() < 1e-8, "{at}: {closing} vs {}", y.1);
+                }
+            }
+            assert!(
+                steps >= 8,
+                "{integrator}, h {h}: only {steps} steps in contact"
+            );
+        }
+    }
+}
+
+/// A point tied by friction to a floor is held across the normal by a spring of the collision
+/// stiffness and a damper of the collision damping: a bar of two points resting on a floor
+/// (their depth bearing their weight), tied where it rests and then pushed along it at
+/// 0.5 m/s, within the friction cone all along, follows each method's recurrence with
+/// `ω² = kc/m`, `γ = dc/m`. Without the tie's damper in the implicit step (until 2026-11-28)
+/// it followed the undamped recurrence instead.
+#[test]
+fn a_bar_tied_to_a_floor_follows_each_methods_recurrence() {
+    let (kc, dc, m, g, mu) = (1000.0, 8.0, 1.0, 9.81, 5.0);
+    let material = Material {
+        mass: m,
+        stiffness: [50.0; 3],
+        damping: [0.5; 3],
+    };
+    let bar = Body::lattice_box(Lattice::new([2, 1, 1], Vec3::new(1.0, 1.0, 1.0)), material);
+    let floor = Plane::facing([0.0, 0.0, 1.0, 0.0], Vec3::new(0.0, 0.0, 1.0)).unwrap();
+    for integrator in [Integrator::BackwardEuler, Integrator::Sdirk2] {
+        for h in [0.01, 1.0 / 60.0] {
+            let model = ModelBuilder::new()
+                .bodies(vec![bar.clone()])
+                .bounds(far_walls())
+                .obstacle(Obstacle::Plane(floor))
+                .collision(kc, dc)
+                .friction(mu)
+                .gravity(Vec3::new(0.0, 0.0, -g))
+                .integrator(integrator)
+                .dt(h)
+                .build()
+                .unwrap();
+            let depth = m * g / kc;
+            let mut state = State::new(
+                vec![Vec3::new(0.0, 0.0, -depth), Vec3::new(1.0, 0.0, -depth)],
+                vec![Vec3::ZERO; 2],
+            );
+            let mut scratch = Scratch::new(&model);
+            // At rest, one step ties the points where they are.
+            step(&model, &mut state, &Control::none(), &mut scratch).unwrap();
+            let anchors = [state.pos[0].x, state.pos[1].x];
+            state.vel.fill(Vec3::new(0.5, 0.0, 0.0));
+            let (w2, gamma) = (kc / m, dc / m);
+            let mut y = (0.0, 0.5);
+            for n in 1..=60 {
+                step(&model, &mut state, &Control::none(), &mut scratch).unwrap();
+                y = oscillator_step(integrator, y, w2, gamma, h);
+                for (p, anchor) in anchors.iter().enumerate() {
+                    let (offset, speed) = (state.pos[p].x - anchor, state.vel[p].x);
+                    let at = format!("{integrator}, h {h}, step {n}, point {p}");
+                    assert!((offset - y.0).abs() < 1e-9, "{at}: {offset} vs {}", y.0);
+                    assert!((speed - y.1).abs() < 1e-8, "{at}: {speed} vs {}", y.1);
+                    assert!(
+                        (state.pos[p].z + depth).abs() < 1e-9,
+                        "{at}: left the floor"
+                    );
+                }
+                // Within the cone (the closed form holds only there).
+                assert!(kc * y.0.abs() + dc * y.1.abs() < 0.5 * mu * m * g);
+            }
+        }
+    }
+}
+
+/// Friction between bodies, as the model has it: against the sliding velocity, of size `μ`
+/// times the normal force but never more than a damper of the pair's reduced mass over the step
+/// (see `friction::sliding`). A bar of two points lies on a held one (each of its points on one
+/// of the other's balls, its depth bearing its weight) and slides across it at 0.5 m/s: each
+/// backward-Euler step takes `μ·g·h` off its speed while that leaves more than `2μgh` (the
+/// friction at its full size, below the cap), then a third of its speed (at the cap, the
+/// reduced mass `m/2`: `v₁ = v₀ − (h/m)·(m/2h)·v₁`), each within 0.5 %. Without
+/// friction between bodies in the implicit step (until 2026-11-28) it slid on at 0.5 m/s. The
+/// balls are large (radius 10 m) so that the bar's 3 cm of sliding barely tilts their contact
+/// (the test adds the little that does to the closed form).
+#[test]
+fn a_bar_sliding_on_another_is_slowed_by_their_friction() {
+    let (kc, m, g, mu, h) = (1000.0, 1.0, 9.81, 0.5, 1.0 / 60.0);
+    let material = Material {
+        mass: m,
+        stiffness: [50.0; 3],
+        damping: [0.5; 3],
+    };
+    let bar = || Body::lattice_box(Lattice::new([2, 1, 1], Vec3::new(20.0, 1.0, 1.0)), material);
+    let model = ModelBuilder::new()
+        .bodies(vec![bar(), bar()])
+        .pins([0, 1])
+        .bounds(far_walls())
+        .collision(kc, 5.0)
+        .friction(mu)
+        .gravity(Vec3::new(0.0, 0.0, -g))
+        .integrator(Integrator::BackwardEuler)
+        .dt(h)
+        .build()
+        .unwrap();
+    let top = 20.0 - m * g / kc;
+    let mut state = State::new(
+        vec![
+            Vec3::new(0.0, 0.0, 0.0),
+            Vec3::new(20.0, 0.0, 0.0),
+            Vec3::new(0.0, 0.0, top),
+            Vec3::new(20.0, 0.0, top),
+        ],
+        vec![
+            Vec3::ZERO,
+            Vec3::ZERO,
+            Vec3::new(0.0, 0.5, 0.0),
+            Vec3::new(0.0, 0.5, 0.0),
+        ],
+    );
+    let mut scratch = Scratch::new(&model);
+    let (fall, mut capped) = (mu * g * h, 0);
+    for n in 1..=12 {
+        let before = state.vel[2].y;
+        step(&model, &mut state, &Control::none(), &mut scratch).unwrap();
+        // The contact's normal tilts by y/20 (the sum of the radii) from the top of the lower
+        // ball, and the normal force, about the weight, pushes the bar on by g·y/20 (at the
+        // step's end, where backward Euler takes the forces).
+        let push = g * h * state.pos[2].y / 20.0;
+        let expected = if before - fall > 2.0 * fall {
+            before + push - fall
+        } else {
+            capped += 1;
+            (before + push) * 2.0 / 3.0
+        };
+        for p in [2, 3] {
+            let v = state.vel[p];
+            assert!(
+                (v.y - expected).abs() < 0.005 * (before - expected) && v.x.abs() < 1e-9,
+                "step {n}, point {p}: {v:?}, expected {expected} m/s along y"
+            );
+        }
+    }
+    assert!(capped >= 6, "the cap bound at {capped} steps only");
+}
+
 /// A stiff undamped spring at 100 times RK4's stable step: RK4 blows up; each implicit method
 /// keeps the stretch bounded and the energy from ever growing, and damps the stiff mode away
 /// (L-stable).

@@ -209,6 +209,34 @@ fn implicit_steps_in_a_swirling_field_do_not_allocate() {
     });
 }
 
+/// One cube dropped onto another under each implicit method (contacts between bodies, with
+/// their dampers and friction, in every residual and matrix), counted once it has landed: no
+/// allocation.
+#[test]
+fn implicit_steps_with_bodies_in_contact_do_not_allocate() {
+    counted(|| {
+        for integrator in [Integrator::BackwardEuler, Integrator::Sdirk2] {
+            let model = common::stacked_cubes()
+                .integrator(integrator)
+                .dt(0.01)
+                .build()
+                .unwrap();
+            let mut state = State::at_rest(&model);
+            let mut scratch = Scratch::new(&model);
+            let control = Control::none();
+            for _ in 0..30 {
+                step(&model, &mut state, &control, &mut scratch).unwrap();
+            }
+            let before = ALLOCATIONS.load(Ordering::SeqCst);
+            for _ in 0..20 {
+                step(&model, &mut state, &control, &mut scratch).unwrap();
+            }
+            let made = ALLOCATIONS.load(Ordering::SeqCst) - before;
+            assert_eq!(made, 0, "{integrator}: {made} allocations in 20 steps");
+        }
+    });
+}
+
 /// Steps cut back into halves and quarters (a scattered cube, and Newton's method allowed too
 /// few iterations for the full step, as in `tests/cutback.rs`; a sphere with friction in its
 /// bottom, so that friction anchors are saved and put back too), and one that fails at the

@@ -1,6 +1,7 @@
 //! The Newton direction: `A = M + h·D₀ + h²·K` assembled at the iterate (with a
 //! Levenberg–Marquardt shift where the true stiffness leaves it indefinite) and solved for.
 
+use crate::contact::Pair;
 use crate::field;
 use crate::friction::{self, Anchors};
 use crate::model::Model;
@@ -96,9 +97,9 @@ pub(super) fn assemble(
     }
     let floor = if clamp { 0.0 } else { f64::MIN };
     s.springs.assemble(x0, &s.v, h, floor, &mut s.spring_blocks);
-    // Penalty springs of walls, plane and obstacles where the iterate is, with the obstacles'
-    // friction ties, their dampers as at the start, and pulls.
-    let kc = model.k_collision;
+    // Penalty springs of walls, plane and obstacles where the iterate is, their dampers as at
+    // the start, friction along the obstacles' surfaces at the iterate, and pulls.
+    let (kc, dc) = (model.k_collision, model.d_collision);
     let mut swirl: f64 = 0.0;
     for (i, e) in s.extra.iter_mut().enumerate() {
         if s.free[i] == 0.0 {
@@ -133,17 +134,17 @@ pub(super) fn assemble(
             .filter_map(|(o, ob)| ob.contact(p).map(|c| (o, c)))
         {
             add_outer(e, c.normal, h2 * kc);
-            // The friction tie: its holding stiffness, or its sliding one (a tie that slides
-            // with its holding stiffness in `A` cut Newton's steps along the slide to
-            // `m/(m + h²·kc)`, and scenes with friction crept to a standstill).
-            if let Some(&anchor) = anchors.of(o).get(i) {
-                let law = [kc, model.friction];
-                let (k, sliding) = friction::obstacle_stiffness(p, c.depth, c.normal, anchor, law);
-                e[..3].iter_mut().for_each(|e| *e += h2 * k);
-                add_outer(e, c.normal, -h2 * k);
-                if let Some(along) = sliding {
-                    add_outer(e, along, -h2 * k);
-                }
+            // Friction: the tie's spring and damper while it holds, its sliding part once it
+            // slides (a tie that slides with its holding stiffness in `A` cut Newton's steps
+            // along the slide to `m/(m + h²·kc)`, and scenes with friction crept to a
+            // standstill); sliding friction where the point has no anchor yet.
+            if model.friction > 0.0 {
+                let anchor = anchors.of(o).get(i).copied().unwrap_or(friction::NONE);
+                let (c_max, law) = (s.mass[i] / model.dt, [kc, dc, model.friction]);
+                let (depth, n) = (c.depth, c.normal);
+                let tangent =
+                    friction::obstacle_tangent(p, s.v[i], depth, n, anchor, law, c_max, h);
+                add_tangent(e, n, tangent);
             }
         }
     }
@@ -154,7 +155,8 @@ pub(super) fn assemble(
         e[..3].iter_mut().for_each(|e| *e += c);
     }
     // Contacts between bodies: each pair of balls that overlap at the iterate is a penalty
-    // spring of rest length the sum of their radii, pushing only (undamped here, as in `f`).
+    // spring of rest length the sum of their radii, pushing only, with its sliding friction;
+    // each pair that overlapped at the step's start a damper along its direction then.
     s.pair_rows.clear();
     s.pair_blocks.clear();
     if model.bodies().len() > 1 {
@@ -166,9 +168,15 @@ pub(super) fn assemble(
             }
         }
         s.contacts.compute(model, &s.x_soa, &s.v_soa);
-        let (rows, blocks, v) = (&mut s.pair_rows, &mut s.pair_blocks, &s.v);
-        s.contacts.for_each_pair(model, &s.x_soa, |a, b, reach| {
-            let d = at(a, v) - at(b, v);
+        let mu = model.friction;
+        for &Pair {
+            a,
+            b,
+            reach,
+            reduced,
+        } in s.contacts.pairs()
+        {
+            let d = at(a, &s.v) - at(b, &s.v);
             let l = d.length();
             if l > 0.0 {
                 let transverse = if clamp {
@@ -176,16 +184,43 @@ pub(super) fn assemble(
                 } else {
                     h2 * kc * (1.0 - reach / l)
                 };
-                rows.push([a as u32, b as u32]);
-                blocks.push(spring_block(d / l, h2 * kc, transverse));
+                let n = d / l;
+                let mut block = spring_block(n, h2 * kc, transverse);
+                if mu > 0.0 {
+                    let normal = mu * kc * (reach - l);
+                    let c_max = reduced / model.dt;
+                    let tangent = friction::sliding_tangent(n, s.v[a] - s.v[b], normal, c_max, h);
+                    add_tangent(&mut block, n, tangent);
+                }
+                s.pair_rows.push([a as u32, b as u32]);
+                s.pair_blocks.push(block);
             }
-        });
+        }
+        for &(pair, n) in &s.start_pairs {
+            let mut block = [0.0; 6];
+            add_outer(&mut block, n, h * dc);
+            s.pair_rows.push(pair);
+            s.pair_blocks.push(block);
+        }
     }
     // The diagonal blocks: the point's own part plus each spring's block at both ends, in
     // stencil order, and each contact's; then the coarse levels.
     s.springs.diagonal(&s.extra, &mut s.diag_inv);
     Operator::add_and_invert((&s.pair_rows, &s.pair_blocks), &mut s.diag_inv);
     s.multigrid.assemble(&fine_operator!(s));
+}
+
+/// `m += c·(I − nnᵀ − eeᵀ)` for friction's part of `A` across the unit normal `n`, given as `c`
+/// and `e` (see [`friction::obstacle_tangent`]).
+fn add_tangent(m: &mut Sym, n: Vec3, (c, e): (f64, Option<Vec3>)) {
+    if c == 0.0 {
+        return;
+    }
+    m[..3].iter_mut().for_each(|m| *m += c);
+    add_outer(m, n, -c);
+    if let Some(e) = e {
+        add_outer(m, e, -c);
+    }
 }
 
 /// A spring's block of `A` (without its damper): `axial·uuᵀ + transverse·(I − uuᵀ)`.

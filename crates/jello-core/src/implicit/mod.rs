@@ -9,17 +9,20 @@
 //! ```
 //!
 //! where `f` is every force of [`crate::forces`] but the dampers (springs, field, gravity, walls,
-//! plane, obstacles with their friction ties, contacts between bodies, control forces, pulls),
-//! at the end positions, and `D₀·v₁` the dampers' force: each spring's along its direction at the
-//! step's start, each wall's, plane's and obstacle's along its normal for the points in contact
-//! at the step's start, each pull's. Pinned and unused points keep their velocity. The dampers
-//! are taken at the start because they switch on at a contact's surface with a jump of
-//! `dCollision·|v·n|`: taken at the end, a point that reaches a surface during the step can
-//! have no solution at all; and with their directions fixed, the equations are the stationarity
-//! of the incremental potential `½|v − v₀|²_M + ½h·vᵀD₀v + U(x₀ + h·v)` whenever the other
-//! forces have a potential `U`, which Newton's method can minimise. (Dampers between bodies
-//! and on friction ties are not in `D₀` yet: in the implicit integrator those contacts are
-//! undamped.) The scheme is first order; as `h → 0` it agrees with the explicit integrators.
+//! plane, obstacles, contacts between bodies, control forces, pulls), at the end positions, with
+//! friction (the obstacles' ties, spring and damper, and sliding friction; between bodies,
+//! sliding friction) at the end positions and velocities (`contacts.rs`), and `D₀·v₁` the
+//! dampers' force: each spring's along its direction at the step's start, each wall's,
+//! plane's and obstacle's along its normal for the points in contact at the step's start,
+//! each contact's between bodies along the direction of the pair that overlapped then, each
+//! pull's. Pinned and unused points keep their velocity. The dampers are taken at the start
+//! because they switch on at a contact's surface with a jump of `dCollision·|v·n|`: taken at
+//! the end, a point that reaches a surface during the step can have no solution at all
+//! (friction has no such jump: its size grows from zero with the depth); and with their
+//! directions fixed, the equations are the stationarity of the incremental potential
+//! `½|v − v₀|²_M + ½h·vᵀD₀v + U(x₀ + h·v)` whenever the other forces have a potential `U`
+//! (one body, no friction), which Newton's method can minimise. The scheme is first order; as
+//! `h → 0` it agrees with the explicit integrators.
 //!
 //! Newton's method, from `v₀` shifted by each body's change of momentum where that lowers the
 //! residual (`shift_by_momentum`): each iteration solves `A·Δv = −M·g` with
@@ -27,10 +30,11 @@
 //! negative transverse stiffness; when that leaves `A` not positive definite, the masses in `A`
 //! are scaled up by a Levenberg–Marquardt shift until it is, and only when no shift up to ~40
 //! will do is that stiffness clamped at zero), of the penalty springs the point is in at the
-//! iterate (with an obstacle's friction ties along its surface: their full stiffness while they
-//! hold, their sliding stiffness once they slide), of the contacts between
-//! bodies at the iterate (each pair of overlapping balls a pushing spring), of the
-//! pulls and of the field (the symmetric part of minus its gradient, made positive
+//! iterate (with friction along an obstacle's surface: a tie's spring and damper while it
+//! holds, their sliding part once it slides, and sliding friction), of the contacts between
+//! bodies at the iterate (each pair of overlapping balls a pushing spring, with its friction,
+//! and a damper for each pair that overlapped at the step's start), of the pulls and of the
+//! field (the symmetric part of minus its gradient, made positive
 //! semi-definite), by conjugate gradients preconditioned with a multigrid cycle over aggregates
 //! of the lattice (`multigrid.rs`; `A·x` itself runs in stencil order, `stencil.rs`). They
 //! stop when their residual has fallen a hundredfold, or sooner where their linear model already
@@ -85,7 +89,8 @@
 //! Where the parts are: this file has the step (backward Euler's and SDIRK2's stages), its
 //! buffers ([`ImplicitScratch`]) and the solver's tuning constants; `newton.rs` Newton's
 //! iterations, the momentum shift, the line search and when a step has converged;
-//! `residual.rs` the residual `g` and the potential's fall; `matrix.rs` the assembly of `A`
+//! `residual.rs` the residual `g` and the potential's fall; `contacts.rs` the contacts'
+//! friction and the dampers between bodies in `g`; `matrix.rs` the assembly of `A`
 //! and the Newton direction (with its Levenberg–Marquardt shift); `cg.rs` the conjugate
 //! gradients and their sums on the team; `multigrid.rs` their preconditioner; `stencil.rs`
 //! `A·x` and the forces in stencil order; `gmres.rs` the solve where a field swirls; `sym.rs`
@@ -120,6 +125,7 @@ macro_rules! fine_operator {
 }
 
 mod cg;
+mod contacts;
 mod gmres;
 mod matrix;
 mod multigrid;
@@ -129,6 +135,7 @@ mod stencil;
 mod sym;
 
 use cg::sum_chunks;
+use contacts::StartPair;
 use gmres::Gmres;
 use matrix::can_swirl;
 use multigrid::Multigrid;
@@ -348,6 +355,8 @@ pub struct ImplicitScratch {
     /// Per point: the damping matrix `dCollision·Σ n nᵀ` of the walls, plane and obstacles it is
     /// in at the step's start.
     start_damping: Vec<Sym>,
+    /// The dampers between bodies: the pairs of points that overlap at the step's start.
+    start_pairs: Vec<StartPair>,
     /// Per point: the walls', plane's, obstacles' and pulls' part of `A`, then the inverse of the
     /// diagonal block.
     extra: Vec<Sym>,
@@ -439,6 +448,7 @@ impl ImplicitScratch {
         let n = model.point_count();
         // A step cut back is shorter than `dt`, so swirls less.
         let swirls = can_swirl(model, model.dt);
+        let several = model.bodies().len() > 1;
         let zeros = vec![Vec3::ZERO; n];
         ImplicitScratch {
             stats: SolverStats::default(),
@@ -467,6 +477,7 @@ impl ImplicitScratch {
             kept_across: 0,
             keep_across: None,
             start_damping: vec![[0.0; 6]; n],
+            start_pairs: Vec::with_capacity(if several { 8 * n } else { 0 }),
             extra: vec![[0.0; 6]; n],
             diag_inv: vec![[0.0; 6]; n],
             v: zeros.clone(),
@@ -485,9 +496,10 @@ impl ImplicitScratch {
             acc: Soa::zeros(n),
             contacts: Contacts::new(model),
             // Room for 8 contacts a point (two lattices of the same spacing touch at most 8
-            // points of the other), so stepping does not allocate.
-            pair_rows: Vec::with_capacity(if model.bodies().len() > 1 { 8 * n } else { 0 }),
-            pair_blocks: Vec::with_capacity(if model.bodies().len() > 1 { 8 * n } else { 0 }),
+            // points of the other) at the iterate, and as many dampers from the step's start,
+            // so stepping does not allocate.
+            pair_rows: Vec::with_capacity(if several { 16 * n } else { 0 }),
+            pair_blocks: Vec::with_capacity(if several { 16 * n } else { 0 }),
             multigrid: Multigrid::default(),
             multigrid_failed: false,
             field_correction: vec![[0.0; 9]; if swirls { n } else { 0 }],
@@ -602,9 +614,19 @@ impl ImplicitScratch {
     }
 
     /// The dampers at `x0` (the step's start): the springs' directions (also into the stencil
-    /// matrix, whose product gives the dampers' force in each residual) and the contacts each
-    /// point is in.
+    /// matrix, whose product gives the dampers' force in each residual), the contacts each
+    /// point is in, and the pairs of points of different bodies that overlap.
     fn start_dampers(&mut self, model: &Model, x0: &[Vec3]) {
+        if model.bodies().len() > 1 {
+            let [xx, xy, xz] = self.x_soa.parts_mut();
+            for (i, p) in x0.iter().enumerate() {
+                (xx[i], xy[i], xz[i]) = (p.x, p.y, p.z);
+            }
+            let (contacts, pairs) = (&mut self.contacts, &mut self.start_pairs);
+            contacts::start_pairs(model, contacts, &self.x_soa, &self.v_soa, pairs);
+        } else {
+            self.start_pairs.clear();
+        }
         self.springs.start_dampers(x0, &mut self.start_dir);
         for ((d, &p), &free) in self.start_damping.iter_mut().zip(x0).zip(&self.free) {
             *d = [0.0; 6];

@@ -1,12 +1,13 @@
 //! The residual `g` of the backward-Euler equations at an iterate, and the merit the line search
 //! judges a trial by: the incremental potential's fall, computed term by term from differences.
 
-use crate::forces::{force_pass, ForceScratch};
+use crate::forces::{force_pass_with, ForceScratch, Ties};
 use crate::model::Model;
 use crate::state::Control;
 use crate::team;
 use crate::vec3::Vec3;
 
+use super::contacts;
 use super::sym::sym_mul;
 use super::ImplicitScratch;
 
@@ -52,8 +53,8 @@ pub(super) fn residual(
             }
         }
     }
-    // Every force but the dampers: at zero velocity.
-    force_pass(
+    // Every force but the dampers and friction: at zero velocity, without the friction ties.
+    force_pass_with(
         model,
         &s.x_soa,
         &s.v_soa,
@@ -66,8 +67,9 @@ pub(super) fn residual(
             }
             true
         },
+        Ties::Ignored,
     );
-    // The dampers' force −D₀·v, into the residual buffer first.
+    // The dampers' force −D₀·v and friction, into the residual buffer first.
     let mut g = std::mem::take(if trial { &mut s.g_trial } else { &mut s.g });
     let v = if trial { &s.trial } else { &s.v };
     s.springs.damper_force(&s.start_damping, v, &mut g);
@@ -75,6 +77,17 @@ pub(super) fn residual(
         let p = pull.point as usize;
         g[p] -= v[p] * pull.damping;
     }
+    contacts::add_forces(
+        model,
+        force.anchors(),
+        force.contacts(),
+        &s.start_pairs,
+        &s.x_soa,
+        v,
+        &s.mass,
+        &s.free,
+        &mut g,
+    );
     let (ax, ay, az) = (s.acc.x(), s.acc.y(), s.acc.z());
     for i in 0..g.len() {
         let a = Vec3::new(ax[i], ay[i], az[i]) + g[i] * (s.free[i] / s.mass[i]);
