@@ -52,8 +52,18 @@ impl<'a> Problem<'a> {
             body.for_each_spring(|s| {
                 let (a, b) = (first + s.a, first + s.b);
                 let (k, d, rest) = (s.stiffness, s.damping, s.rest);
-                lists[a].push(End { other: b, k, d, rest });
-                lists[b].push(End { other: a, k, d, rest });
+                lists[a].push(End {
+                    other: b,
+                    k,
+                    d,
+                    rest,
+                });
+                lists[b].push(End {
+                    other: a,
+                    k,
+                    d,
+                    rest,
+                });
             });
         }
         let mut starts = vec![0];
@@ -195,12 +205,11 @@ fn main() {
         let (x0, v0) = (sim.state.pos.clone(), sim.state.vel.clone());
         let before = sim.solver_stats();
         let start = Instant::now();
-        sim.step().expect("Newton's method converges on the benchmark");
+        sim.step()
+            .expect("Newton's method converges on the benchmark");
         let newton_ms = start.elapsed().as_secs_f64() * 1e3;
         let after = sim.solver_stats();
-        let mut v: Vec<Vec3> = (v0.iter())
-            .map(|&v| v + model.gravity * model.dt)
-            .collect();
+        let mut v: Vec<Vec3> = (v0.iter()).map(|&v| v + model.gravity * model.dt).collect();
         if let Some(g) = model.field.as_ref().and_then(|f| f.uniform()) {
             v.iter_mut()
                 .zip(&problem.mass)
