@@ -101,10 +101,10 @@ pub(crate) fn obstacle_tangent(
     c_max: f64,
     h: f64,
 ) -> (f64, Option<Vec3>) {
-    let limit = mu * kc * depth;
     if mu <= 0.0 {
         return (0.0, None);
     }
+    let limit = mu * kc * depth;
     if anchor.x.is_nan() {
         return sliding_tangent(n, v, limit, c_max, h);
     }
