@@ -1,7 +1,7 @@
 //! The contacts' forces that depend on velocity, in an implicit step: the friction of obstacles
 //! (each tie's spring and damper, or sliding friction where a point has no anchor yet) and of
 //! contacts between bodies, at the iterate's positions and velocities, as the explicit
-//! integrators take them; and the dampers between bodies, along the directions of the pairs
+//! integrators take them (but for sliding friction's cap: [`friction::implicit_cap`]); and the dampers between bodies, along the directions of the pairs
 //! that overlap at the step's start, as the walls', plane's and obstacles' dampers are taken
 //! (`start_damping`: a damper that switches on at a surface with a jump can leave a step with no
 //! solution). The force pass of the residual runs at zero velocities and without the ties
@@ -70,7 +70,7 @@ pub(super) fn add_forces(
                 continue;
             }
             let p = at(i);
-            let c_max = mass[i] / model.dt;
+            let c_max = friction::implicit_cap(mass[i], model.dt, kc);
             for (o, obstacle) in model.obstacles.iter().enumerate() {
                 if let Some(c) = obstacle.contact(p) {
                     let anchor = anchors.of(o).get(i).copied().unwrap_or(friction::NONE);
@@ -95,7 +95,8 @@ pub(super) fn add_forces(
             let l = d.length();
             if l > 0.0 {
                 let normal = mu * kc * (reach - l);
-                let f = friction::sliding(d / l, v[a] - v[b], normal, reduced / model.dt);
+                let c_max = friction::implicit_cap(reduced, model.dt, kc);
+                let f = friction::sliding(d / l, v[a] - v[b], normal, c_max);
                 force[a] += f;
                 force[b] -= f;
             }
@@ -263,7 +264,7 @@ mod tests {
             };
             let anchor = force.anchors().of(0)[i];
             let law = [model.k_collision, model.d_collision, model.friction];
-            let c_max = 0.5 / H;
+            let c_max = friction::implicit_cap(0.5, H, model.k_collision);
             let (_, along) =
                 friction::obstacle_tangent(p, v, c.depth, c.normal, anchor, law, c_max, H);
             regimes[2 * anchor.x.is_nan() as usize + along.is_some() as usize] += 1;

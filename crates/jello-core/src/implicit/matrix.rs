@@ -140,7 +140,8 @@ pub(super) fn assemble(
             // standstill); sliding friction where the point has no anchor yet.
             if model.friction > 0.0 {
                 let anchor = anchors.of(o).get(i).copied().unwrap_or(friction::NONE);
-                let (c_max, law) = (s.mass[i] / model.dt, [kc, dc, model.friction]);
+                let c_max = friction::implicit_cap(s.mass[i], model.dt, kc);
+                let law = [kc, dc, model.friction];
                 let (depth, n) = (c.depth, c.normal);
                 let tangent =
                     friction::obstacle_tangent(p, s.v[i], depth, n, anchor, law, c_max, h);
@@ -188,7 +189,7 @@ pub(super) fn assemble(
                 let mut block = spring_block(n, h2 * kc, transverse);
                 if mu > 0.0 {
                     let normal = mu * kc * (reach - l);
-                    let c_max = reduced / model.dt;
+                    let c_max = friction::implicit_cap(reduced, model.dt, kc);
                     let tangent = friction::sliding_tangent(n, s.v[a] - s.v[b], normal, c_max, h);
                     add_tangent(&mut block, n, tangent);
                 }
