@@ -85,12 +85,13 @@ fn across(a: Vec3, n: Vec3) -> Vec3 {
 /// The cap of [`sliding`] friction in the implicit integrators, for a contact of mass `mass`
 /// (a point's, or a pair's reduced mass) at a step `dt` with collision stiffness `kc`: that mass
 /// over the shorter of `dt` and the contact's own time `√(mass/kc)`. The explicit integrators
-/// cap at `mass/dt` for their stability, and their steps resolve the contact (`dt` below about
-/// twice its own time), so the two agree wherever an explicit step is stable. The implicit ones
-/// need no cap for stability, but Coulomb's law jumps at zero sliding speed and Newton's method
-/// needs it continuous: the cap keeps it so, and taken over `dt` at a frame-rate step it would
-/// let a body resting on another on a slope slide at `2·g·sin θ·dt` (8 cm/s at 15° and 1/60 s)
-/// instead of creeping at `2·g·sin θ·√(m/kc)`.
+/// cap at `mass/dt` for their stability, and a stable explicit step is at most a few times the
+/// contact's own time, so the two agree wherever the step resolves the contact (`dt` up to that
+/// time) and differ by at most that factor where an explicit step is still stable. The implicit
+/// ones need no cap for stability, but Coulomb's law jumps at zero sliding speed and Newton's
+/// method needs it continuous: the cap keeps it so, and taken over `dt` at a frame-rate step it
+/// would let a body resting on another on a slope slide at `2·g·sin θ·dt` (8 cm/s at 15° and
+/// 1/60 s) instead of creeping at `2·g·sin θ·√(m/kc)`.
 pub(crate) fn implicit_cap(mass: f64, dt: f64, kc: f64) -> f64 {
     let own = if kc > 0.0 { (mass / kc).sqrt() } else { dt };
     mass / dt.min(own)
