@@ -225,7 +225,8 @@ fn a_bar_tied_to_a_floor_follows_each_methods_recurrence() {
 
 /// Friction between bodies, as the model has it: against the sliding velocity, of size `μ`
 /// times the normal force but never more than a damper of the pair's reduced mass over the step
-/// (see `friction::sliding`). A bar of two points lies on a held one (each of its points on one
+/// (see `friction::sliding`; the step here is shorter than the contact's own time, so the
+/// implicit integrators' cap is that too: `friction::implicit_cap`). A bar of two points lies on a held one (each of its points on one
 /// of the other's balls, its depth bearing its weight) and slides across it at 0.5 m/s: each
 /// backward-Euler step takes `μ·g·h` off its speed while that leaves more than `2μgh` (the
 /// friction at its full size, below the cap), then a third of its speed (at the cap, the
