@@ -14,7 +14,10 @@
 //! dt = 1/60 s is taken by the integrator; vertex block descent then solves the same step from
 //! the same start, from `v₀` plus the step's gravity, until every point's residual is within
 //! the tolerance (default 1e-9 m/s, times the fastest point's speed above 1 m/s, as the
-//! integrator judges it), or gives up after 20 000 sweeps. One thread each.
+//! integrator judges it), or gives up after 20 000 sweeps. Block descent runs on one thread;
+//! Newton's method runs on rayon's threads from 4 096 points, so pin the run to one core
+//! (`taskset -c 1 cargo run …`, as for the figures in docs/implicit.md) to compare one thread
+//! with one.
 
 use std::time::Instant;
 
