@@ -17,10 +17,16 @@ PORT ?= 7878
 FUZZ_SECONDS ?= 60
 FUZZ_TARGET ?=
 
-.PHONY: build web run test examples fuzz bench
+.PHONY: setup build web run test examples fuzz bench
 
+# What the tests need and a fresh machine may lack (rustfmt, clippy, the wasm32 target, a
+# Vulkan driver): scripts/setup.sh adds what is missing and does nothing otherwise.
+setup:
+	scripts/setup.sh
+
+# The `jello` binary (the GPU backend is a feature of its own: `--features gpu`).
 build:
-	cargo build --release
+	cargo build --release -p jello-cli
 
 web:
 	scripts/web.sh
@@ -33,7 +39,7 @@ run: build web
 # jello-cli is built again (`-p jello-cli --features gpu` unifies features differently and rebuilt
 # jello-core and the whole wgpu stack: 210 s of a CI run against 17 s). The release build is the
 # `jello` binary alone, all the examples, the Python tests and the browser tests use of it.
-test:
+test: setup
 	cargo fmt --all --check
 	cargo clippy --workspace --all-targets -- -D warnings
 	cargo clippy --workspace --all-targets --features jello-cli/gpu -- -D warnings
