@@ -1,12 +1,12 @@
 //! Building scenes in Python as `jello create OUT.toml` does: bodies (`cube`, `mesh`) with their
 //! placement, motion, material, pins and regions; obstacles (`sphere`, `box`); then `create`
 //! with the plane, gravity or field, walls, collision springs and time stepping. Each function
-//! fills the scene file's own types (`jello_core::scene_file`), so a built scene is exactly what
+//! fills the scene file's own types (`jello_core::formats::scene`), so a built scene is exactly what
 //! its saved `.toml` reads back as, and the core checks it as it checks a file.
 
 use std::path::PathBuf;
 
-use jello_core::scene_file::{
+use jello_core::formats::scene::{
     BodySpec, BoxSpec, CubeSpec, FieldSpec, MeshSpec, ObstacleSpec, PinSpec, RegionSpec, SceneFile,
     ShakeSpec, DEFAULT_CELLS,
 };

@@ -14,7 +14,7 @@ use pyo3::prelude::*;
 /// The SIMD tier the force loops run on this CPU: "baseline", "avx2" or "avx512".
 #[pyfunction]
 fn simd_tier() -> &'static str {
-    jello_core::simd::active_tier().name()
+    jello_core::compute::simd::active_tier().name()
 }
 
 /// The integrators' names, as `Simulation.integrator` and world files spell them.
@@ -30,7 +30,7 @@ fn integrators() -> Vec<&'static str> {
 fn _jello(m: &Bound<'_, PyModule>) -> PyResult<()> {
     let py = m.py();
     // A JELLO_SIMD the core cannot honour is said at import (the core then runs the best tier).
-    if let Err(e) = jello_core::simd::tier_from_env() {
+    if let Err(e) = jello_core::compute::simd::tier_from_env() {
         let warnings = py.import("warnings")?;
         warnings.call_method1("warn", (format!("jello: {e}; running the best tier"),))?;
     }

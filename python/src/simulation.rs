@@ -5,7 +5,7 @@ use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
 use jello_core::diagnostics::{energy, max_penetration};
-use jello_core::implicit::Newton;
+use jello_core::model::solver::Newton;
 use jello_core::{Integrator, Material, ModelBuilder};
 use jello_io::Source;
 use numpy::PyArray2;

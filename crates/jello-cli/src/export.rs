@@ -1,12 +1,12 @@
 //! `jello run --export OUT.glb`: the run's surface (each body's skin, or the cage of a body
-//! without one) as one animated binary glTF file (morph targets, see [`jello_core::gltf`]),
+//! without one) as one animated binary glTF file (morph targets, see [`jello_io::gltf`]),
 //! written atomically once the run succeeds.
 
 use std::path::{Path, PathBuf};
 
-use jello_core::gltf::{MeshAnimation, MAX_FRAMES};
 use jello_core::surface::{CageVertices, Surface};
 use jello_core::{Model, State, Vec3};
+use jello_io::gltf::{MeshAnimation, MAX_FRAMES};
 
 use crate::error::CliError;
 use jello_io::{check_writable_target, write_atomic};

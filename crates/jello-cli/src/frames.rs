@@ -5,8 +5,8 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 use clap::ValueEnum;
+use jello_core::formats::world::Num;
 use jello_core::surface::{CageVertices, Surface};
-use jello_core::world::Num;
 use jello_core::{Model, State, Vec3};
 
 use crate::error::CliError;

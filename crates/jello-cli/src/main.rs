@@ -58,7 +58,7 @@ fn main() {
     let matches = Cli::command().get_matches();
     let cli = Cli::from_arg_matches(&matches).unwrap_or_else(|e| e.exit());
     // A JELLO_SIMD the core cannot honour is reported before anything runs.
-    if let Err(e) = jello_core::simd::tier_from_env() {
+    if let Err(e) = jello_core::compute::simd::tier_from_env() {
         eprintln!("jello: error: {e}");
         std::process::exit(error::EXIT_USAGE);
     }

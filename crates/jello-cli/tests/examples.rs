@@ -92,7 +92,7 @@ fn every_example_loads_and_runs() {
 /// the shapes' skins are the meshes `jello shape` makes.
 #[test]
 fn every_example_scene_loads_and_runs_a_second() {
-    use jello_core::scene_file::SceneFile;
+    use jello_core::formats::scene::SceneFile;
     use jello_core::TriMesh;
 
     let mut seen = Vec::new();

@@ -4,7 +4,7 @@
 use std::path::PathBuf;
 use std::process::{Command, Output};
 
-use jello_core::simd::Tier;
+use jello_core::compute::simd::Tier;
 
 fn jello(simd: Option<&str>, args: &[&str]) -> Output {
     let mut cmd = Command::new(env!("CARGO_BIN_EXE_jello"));

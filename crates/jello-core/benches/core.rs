@@ -1,5 +1,5 @@
 //! Criterion benchmarks of the force pass and of one RK4 step on the benchmark scene
-//! (`jello_core::scenes::benchmark`) at N = 8, 16, 32, 64, 128.
+//! (`jello_core::benchmark::benchmark`) at N = 8, 16, 32, 64, 128.
 //!
 //! `cargo bench -p jello-core` (all sizes; 128³ takes a few minutes), or a subset:
 //! `cargo bench -p jello-core -- 'force_pass/32'`. Threads: rayon's default (all cores); set
@@ -8,16 +8,16 @@
 use std::time::Duration;
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
+use jello_core::compute::soa::Soa;
 use jello_core::forces::{accelerations_soa, ForceScratch};
-use jello_core::soa::Soa;
-use jello_core::{scenes, Control, Integrator, Simulation};
+use jello_core::{benchmark, Control, Integrator, Simulation};
 
 const SIZES: [usize; 5] = [8, 16, 32, 64, 128];
 
 fn force_pass(c: &mut Criterion) {
     let mut group = c.benchmark_group("force_pass");
     for n in SIZES {
-        let (model, state) = scenes::benchmark(n, Integrator::Rk4).unwrap();
+        let (model, state) = benchmark::scene(n, Integrator::Rk4).unwrap();
         let (p, v) = (Soa::from_aos(&state.pos), Soa::from_aos(&state.vel));
         let mut acc = Soa::zeros(model.point_count());
         let mut scratch = ForceScratch::new(&model);
@@ -34,7 +34,7 @@ fn force_pass(c: &mut Criterion) {
 fn rk4_step(c: &mut Criterion) {
     let mut group = c.benchmark_group("rk4_step");
     for n in SIZES {
-        let (model, state) = scenes::benchmark(n, Integrator::Rk4).unwrap();
+        let (model, state) = benchmark::scene(n, Integrator::Rk4).unwrap();
         // Springs evaluated per step: four force passes.
         group.throughput(Throughput::Elements(4 * model.spring_count() as u64));
         configure(&mut group, n);

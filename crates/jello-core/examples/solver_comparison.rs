@@ -21,8 +21,8 @@
 
 use std::time::Instant;
 
-use jello_core::implicit::Newton;
-use jello_core::{scenes, Integrator, Model, Simulation, Vec3};
+use jello_core::model::solver::Newton;
+use jello_core::{benchmark, Integrator, Model, Simulation, Vec3};
 
 const MAX_SWEEPS: usize = 20_000;
 
@@ -192,7 +192,7 @@ fn main() {
     let n: usize = arg(0, "16").parse().expect("N: a lattice size");
     let steps: usize = arg(1, "60").parse().expect("STEPS: a step count");
     let tolerance: f64 = arg(2, "1e-9").parse().expect("TOLERANCE: m/s");
-    let (model, state) = scenes::benchmark(n, Integrator::BackwardEuler).expect("the scene");
+    let (model, state) = benchmark::scene(n, Integrator::BackwardEuler).expect("the scene");
     let newton = Newton {
         tolerance,
         ..Newton::default()

@@ -4,7 +4,7 @@ use crate::model::Model;
 use crate::state::State;
 use crate::vec3::Vec3;
 
-pub use crate::forces::max_penetration;
+pub use crate::contact::obstacles::max_penetration;
 
 /// Mechanical energy (J) of a state. The force field is not a potential, so its work is not part
 /// of it: with a field, the total changes by the work the field does.

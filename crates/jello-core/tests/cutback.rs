@@ -1,4 +1,4 @@
-//! Cutbacks (`jello_core::cutback`): an implicit step whose solve fails is taken again in halves,
+//! Cutbacks (`jello_core::integrate::cutback`): an implicit step whose solve fails is taken again in halves,
 //! each half the same method at the smaller step, and only a failure at the smallest allowed
 //! size is reported, with the state back at the step's start.
 //!
@@ -10,7 +10,7 @@
 mod common;
 
 use common::{deformed, max_diff, Lcg as Rng};
-use jello_core::implicit::{Newton, MAX_CUTBACKS};
+use jello_core::model::solver::{Newton, MAX_CUTBACKS};
 use jello_core::{
     step, BlowUpCause, Control, CutbackStats, Integrator, Model, ModelBuilder, Scratch, Simulation,
     State, Vec3,

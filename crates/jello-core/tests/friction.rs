@@ -25,7 +25,10 @@ fn block_on_floor(theta: f64, mu: f64, v0: f64) -> Simulation {
     };
     let side = 0.3;
     let body = Body::lattice_box(Lattice::new([4; 3], Vec3::new(side, side, side)), material)
-        .placed(Vec3::new(0.0, 0.0, side / 2.0), jello_core::body::IDENTITY);
+        .placed(
+            Vec3::new(0.0, 0.0, side / 2.0),
+            jello_core::model::body::IDENTITY,
+        );
     let floor = Plane::facing([0.0, 0.0, 1.0, 0.0], Vec3::new(0.0, 0.0, 1.0)).unwrap();
     let far = Aabb::new(Vec3::new(-50.0, -50.0, -50.0), Vec3::new(50.0, 50.0, 50.0)).unwrap();
     let settle = ModelBuilder::new()

@@ -1,4 +1,4 @@
-//! The implicit integrators (backward Euler and SDIRK2, `jello_core::implicit`): their
+//! The implicit integrators (backward Euler and SDIRK2, `jello_core::integrate::implicit`): their
 //! recurrences in closed form, stability far past the explicit limit, energy, convergence order,
 //! momentum, threads, and the report of a step that does not converge.
 
@@ -6,8 +6,9 @@ mod common;
 
 use common::{max_diff, stacked_cubes, Lcg as Rng};
 use jello_core::diagnostics::{energy, momentum};
-use jello_core::implicit::{Newton, SDIRK2_C, SDIRK2_GAMMA};
-use jello_core::stability::stable_dt;
+use jello_core::integrate::implicit::{SDIRK2_C, SDIRK2_GAMMA};
+use jello_core::integrate::stability::stable_dt;
+use jello_core::Newton;
 use jello_core::{
     step, Aabb, BlowUpCause, Body, Control, ForceField, Integrator, Lattice, Material, Model,
     ModelBuilder, Obstacle, Plane, Scratch, State, Vec3,
@@ -921,7 +922,7 @@ fn sdirk2_damps_a_slow_oscillation_far_less_than_backward_euler() {
         (Integrator::BackwardEuler, be),
         (Integrator::Sdirk2, sdirk2),
     ] {
-        let rho = jello_core::stability::spectral_radius(
+        let rho = jello_core::integrate::stability::spectral_radius(
             integrator,
             (2.0 * std::f64::consts::PI).powi(2),
             0.0,

@@ -5,7 +5,7 @@ mod common;
 
 use common::Lcg;
 use jello_core::forces::accelerations;
-use jello_core::{scenes, Control, Integrator, Lattice, Model, ModelBuilder, Simulation, Vec3};
+use jello_core::{benchmark, Control, Integrator, Lattice, Model, ModelBuilder, Simulation, Vec3};
 
 /// Accelerations straight from SPEC.md: every spring of `model.springs()` once, then the walls and
 /// the mass (no field or plane in these models).
@@ -80,7 +80,7 @@ fn run_on(threads: usize, n: usize, integrator: Integrator, steps: u64) -> Vec<u
         .build()
         .unwrap();
     pool.install(|| {
-        let (model, state) = scenes::benchmark(n, integrator).unwrap();
+        let (model, state) = benchmark::scene(n, integrator).unwrap();
         let mut sim = Simulation::new(model, state);
         sim.advance(steps).unwrap();
         sim.state

@@ -15,7 +15,7 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::{Mutex, OnceLock};
 
 use jello_core::forces::PARALLEL_MIN_POINTS;
-use jello_core::implicit::{Newton, MAX_CUTBACKS};
+use jello_core::model::solver::{Newton, MAX_CUTBACKS};
 use jello_core::{
     step, Aabb, Body, Control, ForceField, Integrator, Lattice, Material, ModelBuilder, Obstacle,
     Plane, Pull, Scratch, Sphere, SpringScale, State, Vec3,

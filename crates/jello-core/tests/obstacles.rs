@@ -14,7 +14,7 @@ mod common;
 use jello_core::diagnostics::{centre_of_mass, energy, max_penetration, momentum};
 use jello_core::forces::accelerations;
 use jello_core::{
-    scenes, step, Aabb, Control, ForceField, Integrator, Lattice, Model, ModelBuilder, Obstacle,
+    benchmark, step, Aabb, Control, ForceField, Integrator, Lattice, Model, ModelBuilder, Obstacle,
     Plane, Scratch, Sphere, State, Vec3, World,
 };
 
@@ -312,7 +312,7 @@ fn cube_dropped_on_a_sphere_comes_to_rest_on_it() {
 fn threaded_contacts_are_bit_identical() {
     let run = |threads: usize| {
         common::on_threads(threads, || {
-            let (model, mut state) = scenes::benchmark(22, Integrator::Rk4).unwrap();
+            let (model, mut state) = benchmark::scene(22, Integrator::Rk4).unwrap();
             let model = ModelBuilder::new()
                 .lattice(model.body(0).lattice().clone())
                 .mass(model.body(0).material.mass)

@@ -12,9 +12,9 @@
 mod common;
 
 use jello_core::diagnostics::centre_of_mass;
-use jello_core::motion::Motion;
+use jello_core::model::motion::Motion;
 use jello_core::{
-    scenes, step, Aabb, Control, ForceField, Integrator, Lattice, ModelBuilder, Pull, Scratch,
+    benchmark, step, Aabb, Control, ForceField, Integrator, Lattice, ModelBuilder, Pull, Scratch,
     State, Vec3,
 };
 
@@ -251,7 +251,7 @@ fn a_pull_follows_the_damped_oscillator_and_rk4_stays_fourth_order() {
 fn pins_and_pulls_are_bit_identical_on_any_thread_count() {
     let run = |threads: usize| {
         common::on_threads(threads, || {
-            let (scene, mut state) = scenes::benchmark(22, Integrator::Rk4).unwrap();
+            let (scene, mut state) = benchmark::scene(22, Integrator::Rk4).unwrap();
             let n = scene.point_count() as u32;
             let model = ModelBuilder::new()
                 .lattice(scene.body(0).lattice().clone())

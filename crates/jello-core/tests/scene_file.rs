@@ -4,7 +4,7 @@
 #[path = "common/meshes.rs"]
 mod meshes;
 
-use jello_core::scene_file::{BodySpec, CubeSpec, MeshSpec, ObstacleSpec, PinSpec, ShakeSpec};
+use jello_core::formats::scene::{BodySpec, CubeSpec, MeshSpec, ObstacleSpec, PinSpec, ShakeSpec};
 use jello_core::surface::{CageVertices, Surface};
 use jello_core::{SceneFile, Vec3};
 use meshes::torus;

@@ -9,7 +9,7 @@
 mod common;
 
 use common::Lcg;
-use jello_core::simd::{force_tier, Tier};
+use jello_core::compute::simd::{force_tier, Tier};
 use jello_core::{
     Aabb, Control, ForceField, Integrator, Lattice, Model, ModelBuilder, Obstacle, Plane, Pull,
     Scratch, Sphere, State, Vec3,

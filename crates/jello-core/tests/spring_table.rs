@@ -7,7 +7,7 @@ mod common;
 use common::{max_diff, Lcg as Rng};
 use jello_core::diagnostics::energy;
 use jello_core::forces::{accelerations, PARALLEL_MIN_POINTS};
-use jello_core::stability::stable_dt;
+use jello_core::integrate::stability::stable_dt;
 use jello_core::{
     step, Aabb, Body, Control, Integrator, Lattice, Material, Model, ModelBuilder, Scratch, Spring,
     SpringScale, State, Vec3,

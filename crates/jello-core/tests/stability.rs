@@ -1,6 +1,6 @@
 //! The stability estimate is close to where the classic world really becomes unstable.
 
-use jello_core::stability::stable_dt;
+use jello_core::integrate::stability::stable_dt;
 use jello_core::{Integrator, ModelBuilder, Simulation, State, Vec3};
 
 /// The classic jello, deformed as in the official jello.w (corner dragged by 1/7 per axis).

@@ -8,8 +8,8 @@
 //! slab thinner than a cell keeps a layer; the skin reproduces the mesh at rest to 1e-12 m and
 //! follows an affine motion of the lattice exactly; bad input is an error.
 
-use jello_core::skin::Skin;
-use jello_core::voxel::Voxels;
+use jello_core::model::skin::Skin;
+use jello_core::model::voxel::Voxels;
 use jello_core::Vec3;
 
 #[path = "common/meshes.rs"]

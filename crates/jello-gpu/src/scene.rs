@@ -3,7 +3,7 @@
 //! control forces, per-spring values, friction anchors, and the pins on paths with the table of
 //! their steps. Here is the only place that knows those layouts on the host.
 
-use jello_core::lattice::STENCIL;
+use jello_core::model::lattice::STENCIL;
 use jello_core::{Control, Model, Obstacle, State, Vec3};
 
 /// Bodies the uniform block holds, at most (the shader's `MAX_BODIES`: WebGPU's 64 KiB of

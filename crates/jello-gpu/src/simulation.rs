@@ -5,7 +5,7 @@ use std::cell::RefCell;
 use std::collections::HashMap;
 use std::fmt;
 
-use jello_core::stability;
+use jello_core::integrate::stability;
 use jello_core::{BlowUp, BlowUpCause, Control, Integrator, Model, State, Vec3};
 use wgpu::util::DeviceExt;
 

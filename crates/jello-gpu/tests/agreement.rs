@@ -235,7 +235,7 @@ fn models_the_shader_does_not_cover_are_refused() {
         .map(|b| {
             small.clone().placed(
                 Vec3::new(-1.9 + 0.1 * (b % 30) as f64, 0.1 * (b / 30) as f64, 0.0),
-                jello_core::body::IDENTITY,
+                jello_core::model::body::IDENTITY,
             )
         })
         .collect();

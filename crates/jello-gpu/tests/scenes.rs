@@ -1,9 +1,9 @@
 //! Several bodies, obstacles with friction, pulls, and pins moving on paths on the GPU, against
 //! the f64 CPU core (on lavapipe where there is no GPU; see `agreement.rs`).
 
-use jello_core::body::rotation_xyz;
 use jello_core::diagnostics::{body_centre_of_mass, max_penetration, momentum};
-use jello_core::motion::Motion;
+use jello_core::model::body::rotation_xyz;
+use jello_core::model::motion::Motion;
 use jello_core::{
     Aabb, Body, Control, Integrator, Lattice, Material, Model, ModelBuilder, Obstacle, Plane, Pull,
     Simulation, Sphere, State, Vec3,

@@ -2,9 +2,12 @@
 //!
 //! Files for Jello's faces (the `jello` command line and the Python package): bounded reads,
 //! atomic writes, and a world (`.w`) or scene (`.toml`) loaded into a [`Simulation`] and saved
-//! back. The core does no I/O; this crate is where the faces' file rules live, once.
+//! back. The core does no I/O; this crate is where the faces' file rules live, once. It also
+//! writes animated meshes as binary glTF ([`gltf`]), which only the faces need.
 
 #![warn(missing_docs)]
+
+pub mod gltf;
 
 use std::fmt;
 use std::fs;

@@ -18,9 +18,9 @@
 
 #![warn(missing_docs)]
 
-use jello_core::implicit::Newton;
-use jello_core::scene_file::SceneFile;
-use jello_core::stability;
+use jello_core::formats::scene::SceneFile;
+use jello_core::integrate::stability;
+use jello_core::model::solver::Newton;
 use jello_core::surface::{CageVertices, Surface};
 use jello_core::{
     Aabb, BlowUp, BlowUpCause, ForceField, Integrator, Lattice, Material, Model, ModelBuilder,
@@ -453,14 +453,14 @@ impl JelloSim {
     }
 
     /// Largest stable time step (s) of the current integrator for this model at rest (see
-    /// `jello_core::stability`); 0 when none is stable.
+    /// `jello_core::integrate::stability`); 0 when none is stable.
     #[wasm_bindgen(js_name = stableDt)]
     pub fn stable_dt(&self) -> f64 {
         stability::stable_dt(&self.sim.model, self.sim.model.integrator)
     }
 
     /// Sets integrator, time step and the implicit integrators' tolerance (m/s; above 0, at most
-    /// `jello_core::implicit::MAX_TOLERANCE`), and the springs' stiffness and damping (every
+    /// `jello_core::model::solver::MAX_TOLERANCE`), and the springs' stiffness and damping (every
     /// kind) and the point mass, by building a new model that keeps everything else; the state
     /// (positions, velocities, time) carries on. Stiffness, damping and mass are shown as the
     /// first body's; one that differs from that is given to every body, one that does not leaves

@@ -3,7 +3,7 @@
 use std::time::{Duration, Instant};
 
 use clap::Args;
-use jello_core::{scenes, simd, Integrator, Model, Simulation, SolverStats, State};
+use jello_core::{benchmark, compute::simd, Integrator, Model, Simulation, SolverStats, State};
 
 use super::{
     parse_integrator, parse_positive, parse_tolerance, require_implicit, solver_work_per_step,
@@ -91,7 +91,7 @@ struct Measurement {
     dt: f64,
     steps: u64,
     wall: f64,
-    /// Measured steps that an implicit integrator took in parts (see `jello_core::cutback`).
+    /// Measured steps that an implicit integrator took in parts (see `jello_core::integrate::cutback`).
     split_steps: u64,
     /// The implicit integrator's tolerance (m/s); `None` for an explicit one.
     tolerance: Option<f64>,
@@ -230,7 +230,7 @@ fn scene(
     tolerance: Option<f64>,
 ) -> Result<(Model, State), CliError> {
     let (model, state) =
-        scenes::benchmark(n, integrator).map_err(|e| CliError::input(e.to_string()))?;
+        benchmark::scene(n, integrator).map_err(|e| CliError::input(e.to_string()))?;
     let mut model = match dt {
         Some(dt) => model
             .to_builder()
@@ -280,7 +280,7 @@ fn measure(
     // 96 MiB of the peak memory this reports. The old state goes first.
     sim.state.pos = Vec::new();
     sim.state.vel = Vec::new();
-    sim.state = scenes::benchmark(n, integrator)
+    sim.state = benchmark::scene(n, integrator)
         .map_err(|e| CliError::input(e.to_string()))?
         .1;
     let split_before = sim.cutbacks().split_steps;

@@ -5,11 +5,11 @@ use std::path::PathBuf;
 use std::str::FromStr;
 
 use clap::Args;
-use jello_core::body::rotation_xyz;
 use jello_core::diagnostics::centre_of_mass;
-use jello_core::field::RES_RANGE;
-use jello_core::field_preset::parse_numbers;
-use jello_core::scene_file::RegionSpec;
+use jello_core::formats::scene::RegionSpec;
+use jello_core::model::body::rotation_xyz;
+use jello_core::model::field::RES_RANGE;
+use jello_core::model::field_preset::parse_numbers;
 use jello_core::{defaults, Aabb, FieldPreset, Integrator, Lattice, Vec3, World};
 
 use super::{

@@ -5,7 +5,7 @@ use std::path::PathBuf;
 
 use clap::Args;
 use jello_core::diagnostics::{energy, max_penetration, model_centre_of_mass, momentum};
-use jello_core::stability::{spectral_radius, ModeBounds};
+use jello_core::integrate::stability::{spectral_radius, ModeBounds};
 use jello_core::{Integrator, Model, SpringKind, SpringScale};
 
 use super::parse_integrator;

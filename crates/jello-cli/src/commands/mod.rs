@@ -33,9 +33,9 @@ pub fn parse_positive(s: &str) -> Result<f64, String> {
 }
 
 /// Parses an implicit integrator's tolerance (m/s) for clap: above 0 and at most
-/// [`jello_core::implicit::MAX_TOLERANCE`].
+/// [`jello_core::model::solver::MAX_TOLERANCE`].
 pub fn parse_tolerance(s: &str) -> Result<f64, String> {
-    let max = jello_core::implicit::MAX_TOLERANCE;
+    let max = jello_core::model::solver::MAX_TOLERANCE;
     match s.parse::<f64>() {
         Ok(v) if v.is_finite() && v > 0.0 && v <= max => Ok(v),
         _ => Err(format!(
@@ -44,9 +44,9 @@ pub fn parse_tolerance(s: &str) -> Result<f64, String> {
     }
 }
 
-/// The values clap takes for `--cutbacks`: 0 to [`jello_core::implicit::MAX_CUTBACKS`] halvings.
+/// The values clap takes for `--cutbacks`: 0 to [`jello_core::model::solver::MAX_CUTBACKS`] halvings.
 pub fn cutbacks_range() -> clap::builder::RangedI64ValueParser<u32> {
-    clap::value_parser!(u32).range(0..=jello_core::implicit::MAX_CUTBACKS as i64)
+    clap::value_parser!(u32).range(0..=jello_core::model::solver::MAX_CUTBACKS as i64)
 }
 
 /// A usage error unless `integrator` is implicit: `flag` only means something to those.

@@ -1,12 +1,12 @@
 //! `jello create OUT.toml`: a scene of bodies (voxelised meshes and lattice cubes), obstacles and
-//! pinned points, written as one self-contained TOML file (see [`jello_core::scene_file`]).
+//! pinned points, written as one self-contained TOML file (see [`jello_core::formats::scene`]).
 //!
 //! Per-body options apply to the `--mesh` or `--cube` they follow on the command line, so
 //! `--mesh a.obj --cells 8 --at 0,0,1 --cube 5 --velocity 0,0,-1` makes two bodies with their
 //! own settings.
 
 use clap::ArgMatches;
-use jello_core::scene_file::{
+use jello_core::formats::scene::{
     BodySpec, BoxSpec, Collision, CubeSpec, MeshSpec, ObstacleSpec, PinSpec, SceneFile, Settings,
     ShakeSpec, DEFAULT_CELLS, DEFAULT_FRICTION,
 };

@@ -5,7 +5,7 @@
 use std::path::PathBuf;
 
 use clap::Args;
-use jello_core::mesh::SHAPES;
+use jello_core::formats::mesh::SHAPES;
 use jello_core::TriMesh;
 
 use crate::error::CliError;

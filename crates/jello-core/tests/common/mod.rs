@@ -92,7 +92,7 @@ pub fn max_diff(a: &[Vec3], b: &[Vec3]) -> f64 {
 /// A full `n³` lattice body of side `side`, its corner at `at`.
 pub fn cube(n: usize, side: f64, at: Vec3, material: Material) -> Body {
     Body::lattice_box(Lattice::new([n; 3], Vec3::new(side, side, side)), material)
-        .placed(at, jello_core::body::IDENTITY)
+        .placed(at, jello_core::model::body::IDENTITY)
 }
 
 /// A soft material of `mass` per point (stiffness 400 N/m, damping 1 N·s/m on every spring).

@@ -1,0 +1,18 @@
+//! Contact: what keeps bodies out of the walls, the plane, the obstacles and each other.
+//!
+//! - [`obstacles`]: the penalty law of the walls, the plane and the obstacles (SPEC.md), and the
+//!   deepest penetration;
+//! - [`bodies`]: contacts between bodies, their penalty law and the overlap diagnostic;
+//! - [`broad_phase`]: the hashed uniform grid that finds the points of other bodies near a point;
+//! - [`friction`]: Coulomb friction, on obstacles (anchored ties) and between bodies (sliding).
+//!
+//! Contact reads the model; the force pass ([`crate::forces`]) and the implicit integrators
+//! call it.
+
+pub mod bodies;
+pub mod broad_phase;
+pub mod friction;
+pub mod obstacles;
+
+pub use bodies::{overlap, pair_force, Contacts};
+pub use obstacles::max_penetration;

@@ -1,0 +1,250 @@
+//! The linear solves for the Newton direction: conjugate gradients (GMRES where a field swirls)
+//! preconditioned by the multigrid cycle, with `A·x` in stencil order and the dot products
+//! summed over fixed chunks on the step's team.
+
+use crate::compute::team;
+use crate::vec3::Vec3;
+
+use super::multigrid::{Multigrid, Operator};
+use super::stencil::{Precision, SpringMatrix};
+use super::sym::{sym_mul, Sym};
+use super::{chunk_size, precision_for, ImplicitScratch, MAX_CG, MIN_CHUNK};
+
+/// `y = A·x` over the free points (others give 0).
+#[allow(clippy::too_many_arguments)]
+pub(super) fn apply_to(
+    springs: &mut SpringMatrix,
+    extra: &[Sym],
+    free: &[f64],
+    pair_rows: &[[u32; 2]],
+    pair_blocks: &[Sym],
+    field_correction: Option<&[[f64; 9]]>,
+    x: &[Vec3],
+    y: &mut [Vec3],
+    precision: Precision,
+) {
+    springs.apply(extra, free, x, y, precision);
+    for (&[a, c], b) in pair_rows.iter().zip(pair_blocks) {
+        let (a, c) = (a as usize, c as usize);
+        let f = sym_mul(b, x[a] - x[c]);
+        y[a] += f * free[a];
+        y[c] -= f * free[c];
+    }
+    for (((y, &x), c), &free) in y
+        .iter_mut()
+        .zip(x)
+        .zip(field_correction.unwrap_or(&[]))
+        .zip(free)
+    {
+        let row = |i: usize| c[3 * i] * x.x + c[3 * i + 1] * x.y + c[3 * i + 2] * x.z;
+        *y += Vec3::new(row(0), row(1), row(2)) * free;
+    }
+}
+
+/// `s.ap = A·s.p` (`A` symmetric), the springs' part in `precision`.
+fn apply(s: &mut ImplicitScratch, precision: Precision) {
+    let pairs = (&s.pair_rows[..], &s.pair_blocks[..]);
+    apply_to(
+        &mut s.springs,
+        &s.extra,
+        &s.free,
+        pairs.0,
+        pairs.1,
+        None,
+        &s.p,
+        &mut s.ap,
+        precision,
+    );
+}
+
+/// Points per chunk of the conjugate gradients' sums over `n` points: fixed by `n` alone (the
+/// chunks decide the order of the additions: the same bits on any number of threads), at most
+/// [`team::OWNED_ITEMS`] of them (so each stays on one thread from loop to loop), and no fewer
+/// than [`MIN_CHUNK`] points each.
+pub(super) fn sum_chunk(n: usize) -> usize {
+    n.div_ceil(team::OWNED_ITEMS).max(MIN_CHUNK)
+}
+
+/// Chunks of [`sum_chunk`] points in `n` points.
+pub(super) fn sum_chunks(n: usize) -> usize {
+    n.div_ceil(sum_chunk(n))
+}
+
+/// `a·b`: each chunk of [`sum_chunk`] points summed in order on the team (into `sums`, one per
+/// chunk), then the chunks' sums in order. Summed by the leader alone, the conjugate gradients'
+/// products kept the other thread waiting (16³ benchmark, 2 threads).
+pub(super) fn dot(a: &[Vec3], b: &[Vec3], sums: &mut [f64]) -> f64 {
+    let size = sum_chunk(a.len());
+    team::for_each_mut(sums, &|c, sum| {
+        let chunk = c * size..((c + 1) * size).min(a.len());
+        *sum = a[chunk.clone()]
+            .iter()
+            .zip(&b[chunk])
+            .map(|(a, b)| a.dot(*b))
+            .sum();
+    });
+    sums.iter().sum()
+}
+
+/// One step of the conjugate gradients, `Δv += α·p` and `r −= α·A·p`, on the team; returns
+/// the new `r·r` (summed as [`dot`] sums) and whether `r` is within `m·s.within` at every point
+/// (never when `s.within` is 0: then only the reduction stops a solve).
+pub(super) fn advance(s: &mut ImplicitScratch, alpha: f64) -> (f64, bool) {
+    let (p, ap, mass, bound) = (&s.p[..], &s.ap[..], &s.mass[..], s.within);
+    let size = sum_chunk(p.len());
+    let sums = &mut s.advanced[..];
+    team::for_each_chunk_into([&mut s.dv, &mut s.r], size, sums, &|c, [dv, r]| {
+        let at = c * size;
+        let (p, ap, mass) = (&p[at..], &ap[at..], &mass[at..]);
+        let (mut rr, mut within) = (0.0, bound > 0.0);
+        for i in 0..dv.len() {
+            dv[i] += p[i] * alpha;
+            r[i] -= ap[i] * alpha;
+            let r2 = r[i].length_squared();
+            rr += r2;
+            within &= r2 <= (mass[i] * bound) * (mass[i] * bound);
+        }
+        (rr, within)
+    });
+    let rr = s.advanced.iter().map(|&(rr, _)| rr).sum();
+    (rr, s.advanced.iter().all(|&(_, within)| within))
+}
+
+/// The preconditioner of [`solve`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(super) enum Preconditioner {
+    /// A multigrid cycle ([`Multigrid::precondition`]).
+    Multigrid,
+    /// `A`'s diagonal blocks.
+    Diagonal,
+}
+
+/// Solves `A·Δv = −M·g` into `s.dv` by conjugate gradients preconditioned by `preconditioner`,
+/// from zero, until its residual has fallen by `reduction` or is within `m·s.within` at every
+/// point; false when `A` turns out not to be positive definite, or the preconditioner (then
+/// `s.multigrid_failed` says which).
+pub(super) fn solve(
+    s: &mut ImplicitScratch,
+    reduction: f64,
+    preconditioner: Preconditioner,
+) -> bool {
+    s.multigrid_failed = false;
+    if s.swirl {
+        return solve_swirl(s, reduction, preconditioner);
+    }
+    let precondition = |s: &mut ImplicitScratch| {
+        let fine = fine_operator!(s);
+        precondition_with(preconditioner, &mut s.multigrid, &fine, &s.r, &mut s.z);
+    };
+    // A negative `r·z` shows an indefinite preconditioner, `A` itself only with the diagonal.
+    let fail = |s: &mut ImplicitScratch| {
+        s.multigrid_failed = preconditioner == Preconditioner::Multigrid;
+        false
+    };
+    let precision = precision_for(reduction);
+    s.dv.fill(Vec3::ZERO);
+    set_right_hand_side(s);
+    precondition(s);
+    s.p.copy_from_slice(&s.z);
+    let mut rr = dot(&s.r, &s.r, &mut s.dots);
+    let target = rr * reduction * reduction;
+    let mut rz = dot(&s.r, &s.z, &mut s.dots);
+    if !rz.is_finite() {
+        return false;
+    }
+    if rz < 0.0 {
+        return fail(s);
+    }
+    // Whether the residual is within its bound at every point (not judged before a first step).
+    let mut within = false;
+    for _ in 0..MAX_CG {
+        if rr <= target || rz == 0.0 || within {
+            break;
+        }
+        apply(s, precision);
+        s.stats.linear_iterations += 1;
+        let pap = dot(&s.p, &s.ap, &mut s.dots);
+        if pap <= 0.0 || !pap.is_finite() {
+            return false;
+        }
+        (rr, within) = advance(s, rz / pap);
+        precondition(s);
+        let rz_next = dot(&s.r, &s.z, &mut s.dots);
+        if rz_next < 0.0 {
+            return fail(s);
+        }
+        let beta = rz_next / rz;
+        rz = rz_next;
+        let z = &s.z;
+        let size = chunk_size(z.len());
+        team::for_each_chunk([&mut s.p], size, &|c, [p]| {
+            for (p, &z) in p.iter_mut().zip(&z[c * size..]) {
+                *p = z + *p * beta;
+            }
+        });
+    }
+    true
+}
+
+/// Solves `A·Δv = −M·g` into `s.dv` by GMRES when `A` holds a field's swirl (so is not
+/// symmetric), preconditioned as [`solve`] is, from `A`'s symmetric part. True when the residual
+/// fell by `reduction`; with the diagonal preconditioner, also when it fell by half at least,
+/// which is enough for a direction along which `|g|²_M` falls.
+fn solve_swirl(s: &mut ImplicitScratch, reduction: f64, preconditioner: Preconditioner) -> bool {
+    set_right_hand_side(s);
+    let mut gmres = std::mem::take(&mut s.gmres);
+    let reached = {
+        let fine = fine_operator!(s);
+        let (springs, multigrid) = (&mut s.springs, &mut s.multigrid);
+        let pairs = (&s.pair_rows[..], &s.pair_blocks[..]);
+        let correction = Some(&s.field_correction[..]);
+        let precision = precision_for(reduction);
+        let apply = |x: &[Vec3], y: &mut [Vec3]| {
+            apply_to(
+                springs, &s.extra, &s.free, pairs.0, pairs.1, correction, x, y, precision,
+            );
+        };
+        let precondition = |r: &[Vec3], z: &mut [Vec3]| {
+            precondition_with(preconditioner, multigrid, &fine, r, z);
+        };
+        gmres.solve(&s.r, &mut s.dv, reduction, MAX_CG, apply, precondition)
+    };
+    s.gmres = gmres;
+    s.stats.linear_iterations += reached.iterations as u64;
+    if reached.relative_residual <= reduction {
+        return true;
+    }
+    match preconditioner {
+        Preconditioner::Multigrid => {
+            s.multigrid_failed = true;
+            false
+        }
+        Preconditioner::Diagonal => reached.relative_residual <= 0.5,
+    }
+}
+
+/// `z = P⁻¹·r` for the preconditioner `preconditioner` of `A` (`fine`).
+fn precondition_with(
+    preconditioner: Preconditioner,
+    multigrid: &mut Multigrid,
+    fine: &Operator,
+    r: &[Vec3],
+    z: &mut [Vec3],
+) {
+    match preconditioner {
+        Preconditioner::Multigrid => multigrid.precondition(fine, r, z),
+        Preconditioner::Diagonal => {
+            let free = fine.free.unwrap_or(&[]);
+            for ((z, &r), (d, &f)) in z.iter_mut().zip(r).zip(fine.diag_inv.iter().zip(free)) {
+                *z = sym_mul(d, r) * f;
+            }
+        }
+    }
+}
+
+/// The Newton system's right-hand side `−M·g` into `s.r` (zero at held points).
+fn set_right_hand_side(s: &mut ImplicitScratch) {
+    for ((r, &g), (&m, &free)) in s.r.iter_mut().zip(&s.g).zip(s.mass.iter().zip(&s.free)) {
+        *r = g * (-m * free);
+    }
+}

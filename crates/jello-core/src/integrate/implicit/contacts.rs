@@ -1,0 +1,317 @@
+//! The contacts' forces that depend on velocity, in an implicit step: the friction of obstacles
+//! (each tie's spring and damper, or sliding friction where a point has no anchor yet) and of
+//! contacts between bodies, at the iterate's positions and velocities, as the explicit
+//! integrators take them (but for sliding friction's cap: [`friction::implicit_cap`]); and the dampers between bodies, along the directions of the pairs
+//! that overlap at the step's start, as the walls', plane's and obstacles' dampers are taken
+//! (`start_damping`: a damper that switches on at a surface with a jump can leave a step with no
+//! solution). The force pass of the residual runs at zero velocities and without the ties
+//! ([`Ties::Ignored`](crate::forces::Ties)), so these are all of the contacts' friction and
+//! damping but the dampers along the walls', plane's and obstacles' normals. Their part of `A`
+//! is assembled with the rest (`matrix.rs`).
+
+use crate::compute::soa::Soa;
+use crate::contact::bodies::Pair;
+use crate::contact::friction::{self, Anchors};
+use crate::contact::Contacts;
+use crate::model::Model;
+use crate::vec3::Vec3;
+
+/// A damper between two bodies' points that overlap at the step's start: the points, and the
+/// unit vector from the second to the first.
+pub(super) type StartPair = ([u32; 2], Vec3);
+
+/// The pairs of points of different bodies that overlap at positions `x` (in `x_soa`, through
+/// `contacts`, whose grid this leaves at `x`), with their directions, into `pairs`; none
+/// without collision damping.
+pub(super) fn start_pairs(
+    model: &Model,
+    contacts: &mut Contacts,
+    x_soa: &Soa,
+    zero: &Soa,
+    pairs: &mut Vec<StartPair>,
+) {
+    pairs.clear();
+    if model.bodies().len() < 2 || model.d_collision == 0.0 {
+        return;
+    }
+    contacts.compute(model, x_soa, zero);
+    let (px, py, pz) = (x_soa.x(), x_soa.y(), x_soa.z());
+    let at = |i: usize| Vec3::new(px[i], py[i], pz[i]);
+    for &Pair { a, b, .. } in contacts.pairs() {
+        let d = at(a) - at(b);
+        let l = d.length();
+        if l > 0.0 {
+            pairs.push(([a as u32, b as u32], d / l));
+        }
+    }
+}
+
+/// What the residual's force pass leaves out, added to `force` (N per point): friction at the
+/// positions `x_soa` and velocities `v`, and the dampers between bodies along `start_pairs`.
+/// `contacts` is the force pass's, its grid at `x_soa`; `mass` per point (kg), `free` 1 for a
+/// moving point (0: nothing is added to it).
+#[allow(clippy::too_many_arguments)]
+pub(super) fn add_forces(
+    model: &Model,
+    anchors: &Anchors,
+    contacts: &Contacts,
+    start_pairs: &[StartPair],
+    x_soa: &Soa,
+    v: &[Vec3],
+    mass: &[f64],
+    free: &[f64],
+    force: &mut [Vec3],
+) {
+    let (kc, dc, mu) = (model.k_collision, model.d_collision, model.friction);
+    let (px, py, pz) = (x_soa.x(), x_soa.y(), x_soa.z());
+    let at = |i: usize| Vec3::new(px[i], py[i], pz[i]);
+    if mu > 0.0 && !model.obstacles.is_empty() {
+        for (i, f) in force.iter_mut().enumerate() {
+            if free[i] == 0.0 {
+                continue;
+            }
+            let p = at(i);
+            let c_max = friction::implicit_cap(mass[i], model.dt, kc);
+            for (o, obstacle) in model.obstacles.iter().enumerate() {
+                if let Some(c) = obstacle.contact(p) {
+                    let anchor = anchors.of(o).get(i).copied().unwrap_or(friction::NONE);
+                    let law = [kc, dc, mu];
+                    *f += friction::obstacle(p, v[i], c.depth, c.normal, anchor, law, c_max);
+                }
+            }
+        }
+    }
+    if model.bodies().len() < 2 {
+        return;
+    }
+    if mu > 0.0 {
+        for &Pair {
+            a,
+            b,
+            reach,
+            reduced,
+        } in contacts.pairs()
+        {
+            let d = at(a) - at(b);
+            let l = d.length();
+            if l > 0.0 {
+                let normal = mu * kc * (reach - l);
+                let c_max = friction::implicit_cap(reduced, model.dt, kc);
+                let f = friction::sliding(d / l, v[a] - v[b], normal, c_max);
+                force[a] += f;
+                force[b] -= f;
+            }
+        }
+    }
+    for &([a, b], n) in start_pairs {
+        let (a, b) = (a as usize, b as usize);
+        let f = n * (dc * n.dot(v[a] - v[b]));
+        force[a] -= f;
+        force[b] += f;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::cg::apply_to;
+    use super::super::matrix::{assemble, Curvature};
+    use super::super::residual::residual;
+    use super::super::stencil::Precision;
+    use super::super::test_models::values;
+    use super::super::ImplicitScratch;
+    use crate::contact::friction;
+    use crate::forces::ForceScratch;
+    use crate::model::body::{Body, Material, IDENTITY};
+    use crate::model::lattice::Lattice;
+    use crate::model::obstacle::{Obstacle, Plane};
+    use crate::model::{Aabb, Model, ModelBuilder};
+    use crate::state::{Control, State};
+    use crate::vec3::Vec3;
+
+    const H: f64 = 1.0 / 60.0;
+
+    /// A box of `points` lattice points, unit spacing, 0.5 kg a point, first corner at `at`.
+    fn heavy_box(points: [usize; 3], at: Vec3) -> Body {
+        let size = points.map(|n| (n - 1) as f64);
+        let material = Material {
+            mass: 0.5,
+            stiffness: [200.0; 3],
+            damping: [0.5; 3],
+        };
+        let size = Vec3::new(size[0], size[1], size[2]);
+        Body::lattice_box(Lattice::new(points, size), material).placed(at, IDENTITY)
+    }
+
+    fn far() -> Aabb {
+        Aabb::new(Vec3::new(-50.0, -50.0, -50.0), Vec3::new(50.0, 50.0, 50.0)).unwrap()
+    }
+
+    /// `A·d` (with `A` assembled at the iterate `v`) and the central difference of `M·g` along
+    /// `d` there, for the free points, and the largest entry of `A·d`.
+    fn derivative(
+        model: &Model,
+        force: &mut ForceScratch,
+        x0: &[Vec3],
+        v: &[Vec3],
+        d: &[Vec3],
+    ) -> (Vec<Vec3>, Vec<Vec3>, f64) {
+        let control = Control::none();
+        let mut s = ImplicitScratch::new(model);
+        s.load(model);
+        s.start_dampers(model, x0);
+        let mut m_g = |s: &mut ImplicitScratch, v: &[Vec3]| {
+            s.v.copy_from_slice(v);
+            residual(model, &control, force, s, x0, x0, H, false);
+            (s.g.iter().zip(&s.mass).zip(&s.free))
+                .map(|((&g, &m), &free)| g * (m * free))
+                .collect::<Vec<_>>()
+        };
+        let eps = 1e-6;
+        let along = |sign: f64| -> Vec<Vec3> {
+            v.iter()
+                .zip(d)
+                .map(|(&v, &d)| v + d * (sign * eps))
+                .collect()
+        };
+        let (up, down) = (m_g(&mut s, &along(1.0)), m_g(&mut s, &along(-1.0)));
+        let difference = up
+            .iter()
+            .zip(&down)
+            .map(|(&u, &w)| (u - w) / (2.0 * eps))
+            .collect();
+        m_g(&mut s, v);
+        let shift = Curvature::True { shift: 0.0 };
+        assemble(model, &control, force.anchors(), &mut s, x0, H, shift);
+        let mut ad = vec![Vec3::ZERO; d.len()];
+        let (rows, blocks) = (&s.pair_rows[..], &s.pair_blocks[..]);
+        let (extra, free) = (&s.extra[..], &s.free[..]);
+        apply_to(
+            &mut s.springs,
+            extra,
+            free,
+            rows,
+            blocks,
+            None,
+            d,
+            &mut ad,
+            Precision::Double,
+        );
+        let scale = ad.iter().map(|a| a.max_abs()).fold(0.0, f64::max);
+        (ad, difference, scale)
+    }
+
+    fn assert_close(ad: &[Vec3], difference: &[Vec3], scale: f64) {
+        for (p, (&a, &f)) in ad.iter().zip(difference).enumerate() {
+            assert!(
+                (a - f).max_abs() <= 1e-6 * scale,
+                "point {p}: A·d {a:?}, difference {f:?}"
+            );
+        }
+    }
+
+    /// `A` is the derivative of `M·g` (the residual times the masses) with obstacle friction:
+    /// ties that hold and ties that slide, points with no anchor yet whose friction is at its
+    /// cap or at its full size, each with its damper across the floor's normal (the directions
+    /// of change lie in the floor where a point touches it: `A` leaves out the friction
+    /// limit's growth with depth).
+    #[test]
+    fn a_with_obstacle_friction_is_the_derivative_of_the_residual() {
+        let floor = Plane::facing([0.0, 0.0, 1.0, 0.0], Vec3::new(0.0, 0.0, 1.0)).unwrap();
+        let model = ModelBuilder::new()
+            .bodies(vec![heavy_box([5, 4, 2], Vec3::new(0.0, 0.0, -0.05))])
+            .bounds(far())
+            .obstacle(Obstacle::Plane(floor))
+            .collision(2000.0, 5.0)
+            .friction(0.5)
+            .gravity(Vec3::new(0.0, 0.0, -9.81))
+            .dt(H)
+            .build()
+            .unwrap();
+        let mut next = values(5);
+        let mut random = || Vec3::new(next(), next(), next());
+        let rest = State::at_rest(&model).pos;
+        let touches = |p: Vec3| p.z < 0.0;
+        let across = |a: Vec3, p: Vec3| {
+            if touches(p) {
+                Vec3::new(a.x, a.y, 0.0)
+            } else {
+                a
+            }
+        };
+        // Every third point on the floor has no anchor (it was off the floor when they were
+        // tied); the others are tied 0 to 2 cm from where they are.
+        let tied: Vec<Vec3> = (rest.iter().enumerate())
+            .map(|(i, &p)| match (touches(p), i % 3) {
+                (true, 0) => p + Vec3::new(0.0, 0.0, 1.0),
+                _ => p + across(random(), p) * 0.02,
+            })
+            .collect();
+        let mut force = ForceScratch::new(&model);
+        force.update_anchors(&model, &tied);
+        let x0: Vec<Vec3> = rest
+            .iter()
+            .map(|&p| p + across(random(), p) * 0.01)
+            .collect();
+        // Speeds of 0.5 or 4 m/s across the floor, so that both of friction's regimes occur.
+        let v: Vec<Vec3> = (x0.iter().enumerate())
+            .map(|(i, &p)| across(random(), p) * if i % 5 < 2 { 0.5 } else { 4.0 })
+            .collect();
+        let d: Vec<Vec3> = x0.iter().map(|&p| across(random(), p)).collect();
+        let mut regimes = [0; 4];
+        for (i, (&x, &v)) in x0.iter().zip(&v).enumerate() {
+            let p = x + v * H;
+            let Some(c) = model.obstacles[0].contact(p) else {
+                continue;
+            };
+            let anchor = force.anchors().of(0)[i];
+            let law = [model.k_collision, model.d_collision, model.friction];
+            let c_max = friction::implicit_cap(0.5, H, model.k_collision);
+            let (_, along) =
+                friction::obstacle_tangent(p, v, c.depth, c.normal, anchor, law, c_max, H);
+            regimes[2 * anchor.x.is_nan() as usize + along.is_some() as usize] += 1;
+        }
+        assert!(
+            regimes.iter().all(|&n| n > 0),
+            "holding, sliding, capped, uncapped: {regimes:?}"
+        );
+        let (ad, difference, scale) = derivative(&model, &mut force, &x0, &v, &d);
+        assert_close(&ad, &difference, scale);
+    }
+
+    /// `A` is the derivative of `M·g` with contacts between bodies: the penalty springs of the
+    /// pairs that overlap at the iterate and the dampers of those that overlapped at the step's
+    /// start.
+    #[test]
+    fn a_with_contacts_between_bodies_is_the_derivative_of_the_residual() {
+        let model = ModelBuilder::new()
+            .bodies(vec![
+                heavy_box([3, 3, 3], Vec3::ZERO),
+                heavy_box([3, 4, 3], Vec3::new(1.5, 0.4, 0.3)),
+            ])
+            .bounds(far())
+            .collision(2000.0, 50.0)
+            .pins([4])
+            .dt(H)
+            .build()
+            .unwrap();
+        let mut next = values(9);
+        let mut random = || Vec3::new(next(), next(), next());
+        let x0 = State::at_rest(&model).pos;
+        let v: Vec<Vec3> = x0.iter().map(|_| random()).collect();
+        let d: Vec<Vec3> = x0.iter().map(|_| random()).collect();
+        let mut force = ForceScratch::new(&model);
+        let (ad, difference, scale) = derivative(&model, &mut force, &x0, &v, &d);
+        assert_close(&ad, &difference, scale);
+        // The dampers matter: without them `A·d` misses by far more.
+        let mut s = ImplicitScratch::new(&model);
+        s.load(&model);
+        s.start_dampers(&model, &x0);
+        assert!(s.start_pairs.len() >= 4, "{} pairs", s.start_pairs.len());
+        let undamped = model.to_builder().collision(2000.0, 0.0).build().unwrap();
+        let (ad, _, _) = derivative(&undamped, &mut force, &x0, &v, &d);
+        let worst = (ad.iter().zip(&difference))
+            .map(|(&a, &f)| (a - f).max_abs())
+            .fold(0.0, f64::max);
+        assert!(worst > 1e-3 * scale, "{worst} against {scale}");
+    }
+}

@@ -1,0 +1,288 @@
+//! The Newton direction: `A = M + h·D₀ + h²·K` assembled at the iterate (with a
+//! Levenberg–Marquardt shift where the true stiffness leaves it indefinite) and solved for.
+
+use crate::contact::bodies::Pair;
+use crate::contact::friction::{self, Anchors};
+use crate::model::field;
+use crate::model::Model;
+use crate::state::Control;
+use crate::vec3::Vec3;
+
+use super::cg::{solve, Preconditioner};
+use super::multigrid::Operator;
+use super::sym::{add_outer, Sym};
+use super::{ImplicitScratch, SWIRL_LIMIT};
+
+/// Solves for the Newton direction at the iterate into `s.dv`, with the springs' true transverse
+/// stiffness (a compressed spring's is negative; clamping it slows Newton's method down to a
+/// crawl on a crushed lattice). When that makes `A` indefinite, the masses in it are scaled up
+/// by a shift until it is not: a Levenberg–Marquardt step, which keeps the true curvature where
+/// it is positive, and becomes Newton's method again as the shift decays (a quarter per solve
+/// that needs none larger) near the solution. Only when no shift up to ~40 will do are the
+/// negative stiffnesses clamped at zero. `shift` carries over between iterations of a step.
+/// True when `A` was Newton's own (the true stiffness, no shift) and the multigrid
+/// preconditioned it: a matrix the next iteration may keep.
+#[allow(clippy::too_many_arguments)]
+pub(super) fn newton_direction(
+    model: &Model,
+    control: &Control,
+    anchors: &Anchors,
+    s: &mut ImplicitScratch,
+    x0: &[Vec3],
+    h: f64,
+    reduction: f64,
+    shift: &mut f64,
+) -> bool {
+    // The preconditioner that solved, if any.
+    let mut solve_with = |curvature| {
+        assemble(model, control, anchors, s, x0, h, curvature);
+        // Where `A` is nearly indefinite its coarse copies may be indefinite, and the cycle with
+        // them, though `A` is not: the diagonal alone then decides, as it did before the
+        // multigrid.
+        if solve(s, reduction, Preconditioner::Multigrid) {
+            Some(Preconditioner::Multigrid)
+        } else if s.multigrid_failed && solve(s, reduction, Preconditioner::Diagonal) {
+            Some(Preconditioner::Diagonal)
+        } else {
+            None
+        }
+    };
+    if let Some(solved) = solve_with(Curvature::True { shift: *shift }) {
+        let own = *shift == 0.0 && solved == Preconditioner::Multigrid;
+        *shift = if *shift < 1e-3 { 0.0 } else { *shift * 0.25 };
+        return own;
+    }
+    let mut tried = if *shift == 0.0 { 1e-2 } else { *shift * 4.0 };
+    for _ in 0..5 {
+        if solve_with(Curvature::True { shift: tried }).is_some() {
+            *shift = tried;
+            return false;
+        }
+        tried *= 8.0;
+    }
+    solve_with(Curvature::Clamped);
+    false
+}
+
+/// Which stiffness [`assemble`] puts in `A`.
+#[derive(Clone, Copy, Debug)]
+pub(super) enum Curvature {
+    /// The true one (a compressed spring's transverse stiffness is negative), with the masses
+    /// scaled by `1 + shift` (a Levenberg–Marquardt shift, 0 for Newton's method itself).
+    True { shift: f64 },
+    /// Negative transverse stiffnesses clamped at zero: `A` is positive definite.
+    Clamped,
+}
+
+/// The blocks of `A` at the iterate, the contact and pull parts, and the inverted diagonal.
+pub(super) fn assemble(
+    model: &Model,
+    control: &Control,
+    anchors: &Anchors,
+    s: &mut ImplicitScratch,
+    x0: &[Vec3],
+    h: f64,
+    curvature: Curvature,
+) {
+    s.stats.assemblies += 1;
+    let h2 = h * h;
+    let (clamp, shift) = match curvature {
+        Curvature::True { shift } => (false, shift),
+        Curvature::Clamped => (true, 0.0),
+    };
+    let at = |p: usize, v: &[Vec3]| x0[p] + v[p] * h;
+    for (i, e) in s.extra.iter_mut().enumerate() {
+        *e = [0.0; 6];
+        e[..3].fill(s.mass[i] * (1.0 + shift));
+    }
+    let floor = if clamp { 0.0 } else { f64::MIN };
+    s.springs.assemble(x0, &s.v, h, floor, &mut s.spring_blocks);
+    // Penalty springs of walls, plane and obstacles where the iterate is, their dampers as at
+    // the start, friction along the obstacles' surfaces at the iterate, and pulls.
+    let (kc, dc) = (model.k_collision, model.d_collision);
+    let mut swirl: f64 = 0.0;
+    for (i, e) in s.extra.iter_mut().enumerate() {
+        if s.free[i] == 0.0 {
+            continue;
+        }
+        for (e, d) in e.iter_mut().zip(&s.start_damping[i]) {
+            *e += h * d;
+        }
+        let p = at(i, &s.v);
+        if let Some(field) = model.field.as_ref().filter(|f| f.uniform().is_none()) {
+            let gradient = field.gradient(p);
+            let k = field_stiffness(&gradient);
+            for (e, k) in e.iter_mut().zip(k) {
+                *e += h2 * k;
+            }
+            if let Some(c) = s.field_correction.get_mut(i) {
+                *c = field_correction(&gradient, &k).map(|c| h2 * c);
+                swirl = swirl.max(h2 * field::swirl(&gradient) / s.mass[i]);
+            }
+        }
+        let walls = model
+            .bounds
+            .wall_contacts(p)
+            .chain(model.plane.and_then(|pl| pl.contact(p)));
+        for c in walls {
+            add_outer(e, c.normal, h2 * kc);
+        }
+        for (o, c) in model
+            .obstacles
+            .iter()
+            .enumerate()
+            .filter_map(|(o, ob)| ob.contact(p).map(|c| (o, c)))
+        {
+            add_outer(e, c.normal, h2 * kc);
+            // Friction: the tie's spring and damper while it holds, its sliding part once it
+            // slides (a tie that slides with its holding stiffness in `A` cut Newton's steps
+            // along the slide to `m/(m + h²·kc)`, and scenes with friction crept to a
+            // standstill); sliding friction where the point has no anchor yet.
+            if model.friction > 0.0 {
+                let anchor = anchors.of(o).get(i).copied().unwrap_or(friction::NONE);
+                let c_max = friction::implicit_cap(s.mass[i], model.dt, kc);
+                let law = [kc, dc, model.friction];
+                let (depth, n) = (c.depth, c.normal);
+                let tangent =
+                    friction::obstacle_tangent(p, s.v[i], depth, n, anchor, law, c_max, h);
+                add_tangent(e, n, tangent);
+            }
+        }
+    }
+    s.swirl = s.swirl_allowed && swirl > SWIRL_LIMIT;
+    for pull in &control.pulls {
+        let e = &mut s.extra[pull.point as usize];
+        let c = h * pull.damping + h2 * pull.stiffness;
+        e[..3].iter_mut().for_each(|e| *e += c);
+    }
+    // Contacts between bodies: each pair of balls that overlap at the iterate is a penalty
+    // spring of rest length the sum of their radii, pushing only, with its sliding friction;
+    // each pair that overlapped at the step's start a damper along its direction then.
+    s.pair_rows.clear();
+    s.pair_blocks.clear();
+    if model.bodies().len() > 1 {
+        {
+            let [xx, xy, xz] = s.x_soa.parts_mut();
+            for i in 0..s.v.len() {
+                let p = at(i, &s.v);
+                (xx[i], xy[i], xz[i]) = (p.x, p.y, p.z);
+            }
+        }
+        s.contacts.compute(model, &s.x_soa, &s.v_soa);
+        let mu = model.friction;
+        for &Pair {
+            a,
+            b,
+            reach,
+            reduced,
+        } in s.contacts.pairs()
+        {
+            let d = at(a, &s.v) - at(b, &s.v);
+            let l = d.length();
+            if l > 0.0 {
+                let transverse = if clamp {
+                    0.0
+                } else {
+                    h2 * kc * (1.0 - reach / l)
+                };
+                let n = d / l;
+                let mut block = spring_block(n, h2 * kc, transverse);
+                if mu > 0.0 {
+                    let normal = mu * kc * (reach - l);
+                    let c_max = friction::implicit_cap(reduced, model.dt, kc);
+                    let tangent = friction::sliding_tangent(n, s.v[a] - s.v[b], normal, c_max, h);
+                    add_tangent(&mut block, n, tangent);
+                }
+                s.pair_rows.push([a as u32, b as u32]);
+                s.pair_blocks.push(block);
+            }
+        }
+        for &(pair, n) in &s.start_pairs {
+            let mut block = [0.0; 6];
+            add_outer(&mut block, n, h * dc);
+            s.pair_rows.push(pair);
+            s.pair_blocks.push(block);
+        }
+    }
+    // The diagonal blocks: the point's own part plus each spring's block at both ends, in
+    // stencil order, and each contact's; then the coarse levels.
+    s.springs.diagonal(&s.extra, &mut s.diag_inv);
+    Operator::add_and_invert((&s.pair_rows, &s.pair_blocks), &mut s.diag_inv);
+    s.multigrid.assemble(&fine_operator!(s));
+}
+
+/// `m += c·(I − nnᵀ − eeᵀ)` for friction's part of `A` across the unit normal `n`, given as `c`
+/// and `e` (see [`friction::obstacle_tangent`]).
+fn add_tangent(m: &mut Sym, n: Vec3, (c, e): (f64, Option<Vec3>)) {
+    if c == 0.0 {
+        return;
+    }
+    m[..3].iter_mut().for_each(|m| *m += c);
+    add_outer(m, n, -c);
+    if let Some(e) = e {
+        add_outer(m, e, -c);
+    }
+}
+
+/// A spring's block of `A` (without its damper): `axial·uuᵀ + transverse·(I − uuᵀ)`.
+pub(super) fn spring_block(u: Vec3, axial: f64, transverse: f64) -> Sym {
+    let mut m = [transverse, transverse, transverse, 0.0, 0.0, 0.0];
+    add_outer(&mut m, u, axial - transverse);
+    m
+}
+
+/// The field's stiffness at `p` for `A`: minus the symmetric part of its gradient (a field has
+/// no potential, so its gradient need not be symmetric, and `A` must be), made positive
+/// semi-definite by adding its Gershgorin bound on the smallest eigenvalue when that is negative.
+/// A field that pulls towards a point (stiffer there than the masses) needs it, or Newton's
+/// method crawls.
+fn field_stiffness(&[dx, dy, dz]: &[Vec3; 3]) -> Sym {
+    let mut k: Sym = [
+        -dx.x,
+        -dy.y,
+        -dz.z,
+        -0.5 * (dy.x + dx.y),
+        -0.5 * (dz.x + dx.z),
+        -0.5 * (dz.y + dy.z),
+    ];
+    let lowest = (k[0] - k[3].abs() - k[4].abs())
+        .min(k[1] - k[3].abs() - k[5].abs())
+        .min(k[2] - k[4].abs() - k[5].abs());
+    if lowest < 0.0 {
+        k[..3].iter_mut().for_each(|k| *k -= lowest);
+    }
+    k
+}
+
+/// What `A` needs besides the field's stiffness in `extra` for the field's exact gradient
+/// `J` (`gradient[j]` the derivative along axis `j`), `−J − k`, row-major (N/m).
+fn field_correction(gradient: &[Vec3; 3], k: &Sym) -> [f64; 9] {
+    let jacobian = |i: usize, j: usize| gradient[j].to_array()[i];
+    let sym = |i: usize, j: usize| match (i, j) {
+        (0, 0) | (1, 1) | (2, 2) => k[i],
+        (0, 1) | (1, 0) => k[3],
+        (0, 2) | (2, 0) => k[4],
+        _ => k[5],
+    };
+    std::array::from_fn(|e| {
+        let (i, j) = (e / 3, e % 3);
+        -jacobian(i, j) - sym(i, j)
+    })
+}
+
+/// True when the model's field may swirl past [`SWIRL_LIMIT`] at a step of size `h`: the
+/// field's largest swirl ([`ForceField::max_swirl`](crate::ForceField::max_swirl)) times `h²`
+/// over the lightest point mass (an SDIRK2 stage is shorter than `h`). Only then does the solver
+/// hold GMRES's basis and the field's corrections (for `h = dt`), and take turns between the two
+/// kinds of `A`.
+pub(super) fn can_swirl(model: &Model, h: f64) -> bool {
+    let lightest = model
+        .bodies()
+        .iter()
+        .map(|b| b.material.mass)
+        .fold(f64::INFINITY, f64::min);
+    model
+        .field
+        .as_ref()
+        .is_some_and(|f| h * h * f.max_swirl() / lightest > SWIRL_LIMIT)
+}

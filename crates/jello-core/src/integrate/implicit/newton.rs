@@ -1,0 +1,440 @@
+//! Newton's method for one backward-Euler solve: its iterations, the first iterate (the momentum
+//! shift), the line search along each direction, and when a step converges (see the parent
+//! module's documentation for the method as a whole).
+
+use crate::compute::team;
+use crate::forces::ForceScratch;
+use crate::model::Model;
+use crate::state::Control;
+use crate::vec3::Vec3;
+
+use super::cg::{solve, Preconditioner};
+use super::matrix::newton_direction;
+use super::residual::{has_potential, potential_fall, residual};
+use super::{chunk_size, ImplicitScratch, NotConverged, Row, CG_REDUCTION, CG_REDUCTION_EXACT};
+use super::{KEEP_MOVE, MAX_EXPANSIONS, MAX_HALVINGS, SWIRL_STALLS, SWIRL_SWITCHES};
+
+/// Newton's method for the step from `v = v0` (see the `implicit` module's documentation), into `s.v`;
+/// `swirls` when the field may swirl past the limit at the integrator's step
+/// ([`can_swirl`](super::matrix::can_swirl)).
+///
+/// Where a field swirls, it first runs with the swirl in `A` (see
+/// [`SWIRL_LIMIT`](super::SWIRL_LIMIT)), judged by `|g|²_M`. Should that stall (there is no
+/// potential to descend, and `|g|²_M` has local minima where `A` is singular, as on a crushed
+/// lattice), it starts again from `v0` with `A` symmetric and the incremental potential (with the
+/// field's work) as the merit; that converges linearly at best (and the field's work is no
+/// potential either: near the solution it may fall along no direction), so after four times
+/// [`SWIRL_STALLS`] iterations the swirl goes back into `A` from the iterate reached, where
+/// Newton's method with the exact `A` converges quickly. At most [`SWIRL_SWITCHES`] such changes a
+/// step.
+#[allow(clippy::too_many_arguments)]
+pub(super) fn newton(
+    model: &Model,
+    control: &Control,
+    force: &mut ForceScratch,
+    s: &mut ImplicitScratch,
+    x0: &[Vec3],
+    v0: &[Vec3],
+    h: f64,
+    swirls: bool,
+) -> Result<(), NotConverged> {
+    // The forces but the dampers are evaluated at zero velocity.
+    s.v_soa.fill_zero();
+    s.v.copy_from_slice(v0);
+    s.swirl_allowed = swirls;
+    s.stats.solves += 1;
+    let floor = rounding_floor(s, x0, h);
+    let norm2 = residual(model, control, force, s, x0, v0, h, false);
+    // Already solved (a body at rest, or moving as a whole without forces): the momentum shift
+    // would cost a residual for nothing.
+    let (norm, vmax) = max_norms(&s.g, &s.v);
+    let target_at_v0 = target(model, floor, vmax);
+    if norm <= target_at_v0 {
+        return Ok(());
+    }
+    // Kept for the next step only where this one ends in Newton's fast regime.
+    let kept = s.keep_across.take();
+    // A shift below half the tolerance is not worth a residual's evaluation.
+    let least = 0.5 * target_at_v0;
+    let mut norm2 = shift_by_momentum(model, control, force, s, x0, v0, h, norm2, least);
+    let mut iterations = 0;
+    // Whether this iteration may solve with the last one's `A` and multigrid.
+    let mut keep = keeps_across_steps(s, kept, v0, h);
+    #[cfg(test)]
+    {
+        s.kept_across += u32::from(keep);
+    }
+    let mut reduction = CG_REDUCTION;
+    // The last iteration's reduction and its fall of `|g|²_M` (how many times smaller).
+    let mut last = (CG_REDUCTION, f64::INFINITY);
+    let mut shift = 0.0;
+    let (mut stalled, mut symmetric, mut switches, mut best) = (0, 0, 0, norm2);
+    loop {
+        let (norm, vmax) = max_norms(&s.g, &s.v);
+        let target = target(model, floor, vmax);
+        if norm <= target {
+            s.keep_across = keep.then_some(h);
+            return Ok(());
+        }
+        if iterations == model.newton.max_iterations {
+            return Err(not_converged(&s.g, iterations));
+        }
+        iterations += 1;
+        s.stats.newton_iterations += 1;
+        // A solve goes no further than the tolerance needs. Conjugate gradients stop once
+        // their linear model puts every point within half the target, however little their
+        // residual fell: near the solution that is much less than `CG_REDUCTION` asks (the 16³
+        // benchmark at 1/60 s, once its cube slides on the floor: 5.1 → 1.9 iterations a
+        // step, for 0.63 → 0.65 Newton iterations; its first 3 s 9–13 % fewer). Half: stopping
+        // at 0.8 of the target saved 5 % more iterations for 5 % more Newton iterations (and
+        // assemblies); at 0.95 the sliding steps took 0.95 Newton iterations each. GMRES (a
+        // swirling field) is bounded by `enough_reduction` where it solves tighter than
+        // `CG_REDUCTION`. Never looser than `CG_REDUCTION` otherwise: loosening that to 0.1
+        // saved 0.3–3 % of the conjugate-gradient iterations at 16³ and 8³, not measured in
+        // time.
+        s.within = 0.5 * target;
+        let solve_to = if reduction < CG_REDUCTION {
+            reduction.max(enough_reduction(s, target).min(CG_REDUCTION))
+        } else {
+            reduction
+        };
+        let own = (keep && solve(s, solve_to, Preconditioner::Multigrid))
+            || newton_direction(
+                model,
+                control,
+                force.anchors(),
+                s,
+                x0,
+                h,
+                solve_to,
+                &mut shift,
+            );
+        let before = norm2;
+        let swirled = s.swirl;
+        let reached = line_search(model, control, force, s, x0, v0, h, norm2, floor);
+        // In the fast regime, with `A` Newton's own and the end positions barely moved, `A` at
+        // the new iterate differs by about `KEEP_MOVE`: keep it, and save its assembly and the
+        // multigrid's setup (on the 16³ benchmark the conjugate gradients need as many
+        // iterations with it; see `KEEP_MOVE` for a lattice where they need more). Not in
+        // a field that is not uniform: its part of `A` is its gradient, which jumps at the faces
+        // of its cells however little a point moves (`leapfrog.w` at 1/60 s took 1.7× as long
+        // with `A` kept).
+        let moved = |dv: &[Vec3]| h * dv.iter().map(|d| d.length()).fold(0.0, f64::max);
+        keep = own
+            && model.field.as_ref().is_none_or(|f| f.uniform().is_some())
+            && matches!(reached, Some((_, true)))
+            && moved(&s.dv) <= KEEP_MOVE * s.shortest_spring;
+        #[cfg(test)]
+        {
+            keep &= s.may_keep;
+            s.kept += u32::from(keep);
+        }
+        let used = solve_to;
+        match reached.map(|(n2, _)| n2) {
+            Some(reached) => norm2 = reached,
+            // An inexact direction may not lead down at all: solve exactly before giving up.
+            None if reduction > CG_REDUCTION_EXACT => reduction = CG_REDUCTION_EXACT,
+            None if swirls && (swirled || !s.swirl_allowed) && switches < SWIRL_SWITCHES => {
+                stalled = SWIRL_STALLS
+            }
+            None => return Err(not_converged(&s.g, iterations)),
+        }
+        // A tighter solve whose step cut `|g|²_M` no more than the looser one's before it was
+        // not held back by the solve: the direction's error is `A`'s own (a friction tie that
+        // slides, whose force turns with the normal force as no symmetric `A` can; a
+        // Levenberg–Marquardt shift), and Newton's method converges linearly however exactly it
+        // solves. Back to the looser reduction (the 32³ cube dropped on a floor with friction at
+        // 1/60 s: its two hardest steps took 948 and 1 025 conjugate-gradient iterations solving
+        // to 1e-8 throughout, 493 and 288 so). Reverting whenever the fall was not twice as large
+        // also cost `leapfrog.w` 1.6× at 1/60 s.
+        //
+        // A Newton step that cuts the residual less than tenfold does not make the next solve
+        // tighter (it did, a hundredfold each time, until 2026-11-27): such steps are held back
+        // by the residual's curvature more than by the solve, and solving tighter cost more than
+        // it saved on every job measured: 10–20 % fewer conjugate-gradient iterations without it
+        // on the benchmark scene at 16³ (1e-9 and 1e-5) and on the 16³ and 32³ cubes dropped on
+        // a floor, 13 % fewer over the corpus at 1/60 s and 0.01 s (`leapfrog.w` a quarter as
+        // many at 1/60 s), for at most 8 % more Newton iterations, with every run still
+        // finishing.
+        let fall = before / norm2;
+        if reached.is_some() && used < last.0 && fall <= last.1 {
+            reduction = last.0;
+        }
+        last = (used, fall);
+        // Progress with the swirl in `A`: `|g|²_M` halved below its best.
+        // Without the swirl, Newton's method converges linearly at best: back to the swirl after
+        // a few times as long, however it went.
+        if swirls && stalled < SWIRL_STALLS {
+            if !s.swirl_allowed {
+                symmetric += 1;
+                if symmetric == 4 * SWIRL_STALLS {
+                    stalled = SWIRL_STALLS;
+                }
+            } else if norm2 < 0.5 * best {
+                (best, stalled) = (norm2, 0);
+            } else if swirled {
+                stalled += 1;
+            }
+        }
+        if stalled >= SWIRL_STALLS && switches < SWIRL_SWITCHES {
+            // Into the other mode, fresh; from the step's start the first time `A` leaves the
+            // swirl out.
+            if s.swirl_allowed && switches == 0 {
+                s.v.copy_from_slice(v0);
+                norm2 = residual(model, control, force, s, x0, v0, h, false);
+            }
+            s.swirl_allowed = !s.swirl_allowed;
+            keep = false;
+            (stalled, symmetric) = (0, 0);
+            (best, reduction, shift) = (norm2, CG_REDUCTION, 0.0);
+            last = (CG_REDUCTION, f64::INFINITY);
+            switches += 1;
+        }
+    }
+}
+
+/// Whether a step's first Newton iteration may solve with the last step's `A` and multigrid,
+/// `kept` the step size for which that step left them fit to keep (its last iteration in
+/// Newton's fast regime; see [`KEEP_MOVE`]): at the same step size, where no spring's ends move
+/// apart faster than that regime allows, `h·|v₀[a] − v₀[b]| ≤ KEEP_MOVE·(shortest spring)`.
+/// The first iterate's end positions lie `h·v₀` beyond the step's start, so the springs' blocks
+/// have changed by their relative motion alone (a body moving or sliding as a whole keeps
+/// them). A body settled on a floor then takes its steps without assembling `A`. What this
+/// does not see (contacts that began, states or parameters set between steps) costs one
+/// iteration at most: unless the kept `A`'s whole step cuts the residual tenfold, the next
+/// iteration assembles `A` afresh, and convergence is judged on the residual alone.
+fn keeps_across_steps(s: &ImplicitScratch, kept: Option<f64>, v0: &[Vec3], h: f64) -> bool {
+    #[cfg(test)]
+    if !s.may_keep {
+        return false;
+    }
+    if kept != Some(h) {
+        return false;
+    }
+    // Over the team: which thread finds a fast spring does not matter.
+    let limit = KEEP_MOVE * s.shortest_spring / h;
+    let slow = std::sync::atomic::AtomicBool::new(true);
+    let size = chunk_size(s.rows.len());
+    team::for_each(s.rows.len().div_ceil(size), &|c| {
+        let rows = &s.rows[c * size..((c + 1) * size).min(s.rows.len())];
+        let apart = |r: &Row| (v0[r.a as usize] - v0[r.b as usize]).length_squared();
+        if rows.iter().any(|r| apart(r) > limit * limit) {
+            slow.store(false, std::sync::atomic::Ordering::Relaxed);
+        }
+    });
+    slow.into_inner()
+}
+
+/// Newton's first iterate: `v₀` with each body's moving points shifted by minus the
+/// mass-weighted mean of their residual there, when that lowers `|g|²_M` (`norm2` at `v₀`);
+/// returns the iterate's `|g|²_M`. That mean is `−h` times the force on the body over its mass
+/// (the springs and other internal forces cancel in it), so the shift is the body's change of
+/// momentum over the step under the forces at `v₀`: a body in free flight is then solved but
+/// for its deformation. From `v₀`, Newton's method spent whole iterations on that uniform part,
+/// which the preconditioner's fine level scatters over the lattice (16³ benchmark at 1/60 s:
+/// 4.5 Newton and 60 CG iterations a step from `v₀`, 3.5 and 55 from here). A shift no larger
+/// than `least` (m/s) is not tried: a body resting on a floor, whose forces balance, would pay a
+/// residual's evaluation for a shift below the tolerance (half the target at `v₀`, from
+/// `newton`): 6–7 % of such a step at 16³ on one thread.
+#[allow(clippy::too_many_arguments)]
+pub(super) fn shift_by_momentum(
+    model: &Model,
+    control: &Control,
+    force: &mut ForceScratch,
+    s: &mut ImplicitScratch,
+    x0: &[Vec3],
+    v0: &[Vec3],
+    h: f64,
+    norm2: f64,
+    least: f64,
+) -> f64 {
+    let mut largest: f64 = 0.0;
+    for body in model.bodies() {
+        let shift = -mean_residual(s, body.points());
+        largest = largest.max(shift.length());
+        for p in body.points() {
+            s.dv[p] = shift * s.free[p];
+        }
+    }
+    if largest <= least {
+        return norm2;
+    }
+    s.set_trial(1.0);
+    let shifted = residual(model, control, force, s, x0, v0, h, true);
+    if shifted < norm2 {
+        s.take_trial();
+        shifted
+    } else {
+        norm2
+    }
+}
+
+/// The mass-weighted mean residual `Σ m·g / Σ m` of the moving points among `points` (zero
+/// when none moves).
+pub(super) fn mean_residual(s: &ImplicitScratch, points: std::ops::Range<usize>) -> Vec3 {
+    let (mut mg, mut m) = (Vec3::ZERO, 0.0);
+    for p in points {
+        mg += s.g[p] * (s.mass[p] * s.free[p]);
+        m += s.mass[p] * s.free[p];
+    }
+    if m > 0.0 {
+        mg / m
+    } else {
+        Vec3::ZERO
+    }
+}
+
+/// The residual a step of size `h` from `x0` can be solved to in floating point, at least
+/// (m/s): `ε·h·max(K/m)·max|x|`, `K` a point's spring and contact stiffness summed. The end
+/// positions `x0 + h·v` carry a rounding of `ε·|x|` each, every spring's force `k·ε·|x|` of it,
+/// and the residual `h/m` times their sum; so a stiff lattice at a large step cannot reach a
+/// fixed tolerance (kElastic = kCollision = 10⁶ at 1/60 s: Newton's method stalls near 1e-8
+/// m/s, where this floor is 7e-8), and converges at that floor instead. Negligible otherwise
+/// (the classic cube at 1/60 s: 1.5e-11 m/s).
+fn rounding_floor(s: &ImplicitScratch, x0: &[Vec3], h: f64) -> f64 {
+    let reach = x0
+        .iter()
+        .zip(&s.free)
+        .filter(|&(_, &free)| free != 0.0)
+        .map(|(x, _)| x.x.abs().max(x.y.abs()).max(x.z.abs()))
+        .fold(0.0, f64::max);
+    f64::EPSILON * h * s.stiffness_over_mass * reach
+}
+
+/// The report of a step that stopped with residual `g` after `iterations`.
+fn not_converged(g: &[Vec3], iterations: u32) -> NotConverged {
+    let (point, residual) =
+        g.iter()
+            .map(|g| g.length())
+            .enumerate()
+            .fold(
+                (0, 0.0),
+                |best, (p, r)| if r > best.1 { (p, r) } else { best },
+            );
+    NotConverged {
+        residual,
+        point,
+        iterations,
+    }
+}
+
+/// Backtracks along the Newton direction `s.dv` from the iterate until the merit falls enough
+/// (Armijo), and takes that point as the iterate; returns its `|g|²_M` and whether that was the
+/// whole step `Δv` in the fast regime (it cut `|g|_M` tenfold), or `None` when no step along
+/// `Δv` lowers the merit or the residual. The merit is the incremental potential when the
+/// forces have one (see [`has_potential`]), else `|g|²_M`.
+#[allow(clippy::too_many_arguments)]
+fn line_search(
+    model: &Model,
+    control: &Control,
+    force: &mut ForceScratch,
+    s: &mut ImplicitScratch,
+    x0: &[Vec3],
+    v0: &[Vec3],
+    h: f64,
+    norm2: f64,
+    floor: f64,
+) -> Option<(f64, bool)> {
+    // A direction from a swirling `A` need not lower the potential, only `|g|²_M`.
+    let potential = has_potential(model) && !s.swirl;
+    // The potential's slope along Δv is M·g·Δv (negative); for |g|²_M a plain fall is asked.
+    let slope: f64 = if potential {
+        s.g.iter()
+            .zip(&s.dv)
+            .zip(&s.mass)
+            .map(|((g, d), m)| m * g.dot(*d))
+            .sum()
+    } else {
+        0.0
+    };
+    // The merit's fall to the trial, whose `|g|²_M` is `n2`, from `from`.
+    let fall_to = |s: &mut ImplicitScratch, n2: f64, from: f64| {
+        if !n2.is_finite() {
+            f64::NEG_INFINITY
+        } else if potential {
+            potential_fall(model, control, s, x0, v0, h)
+        } else {
+            from - n2
+        }
+    };
+    let mut alpha = 1.0;
+    for _ in 0..=MAX_HALVINGS {
+        s.set_trial(alpha);
+        let n2 = residual(model, control, force, s, x0, v0, h, true);
+        // A full step that cuts `|g|_M` tenfold is taken without the merit's fall (a third of
+        // the line search's cost): Newton's method is then in its fast regime, where the merit
+        // falls as its quadratic model says, and would not be followed further. So is one that
+        // reaches the tolerance, where the solve stopped as soon as it could (see `within`): the
+        // step is solved (on the 16³ benchmark sliding on its floor, the merit had cost 11 % of
+        // the time).
+        let solved = |s: &ImplicitScratch| converged(model, floor, &s.g_trial, &s.trial);
+        if alpha == 1.0 && (n2 < 1e-2 * norm2 || solved(s)) {
+            s.take_trial();
+            return Some((n2, true));
+        }
+        let fall = fall_to(s, n2, norm2);
+        // At a contact's kink the merit may not fall at all: a step that lowers the residual
+        // is taken too.
+        if fall > -1e-4 * alpha * slope.min(0.0) || n2 < norm2 {
+            s.take_trial();
+            let mut reached = n2;
+            // A full step that lowers the potential by more than ¾ of its slope (a quadratic
+            // model predicts ½) is sliding down a direction where `A` overstates the curvature
+            // (a buckling lattice, whose negative stiffness was clamped): go on along it while
+            // the potential keeps falling.
+            if alpha == 1.0 && slope < 0.0 && fall > -0.75 * slope {
+                for _ in 0..MAX_EXPANSIONS {
+                    s.set_trial(1.0);
+                    let n2 = residual(model, control, force, s, x0, v0, h, true);
+                    if fall_to(s, n2, reached) <= 0.0 {
+                        break;
+                    }
+                    s.take_trial();
+                    reached = n2;
+                    s.dv.iter_mut().for_each(|d| *d = *d * 2.0);
+                }
+            }
+            return Some((reached, false));
+        }
+        alpha *= 0.5;
+    }
+    None
+}
+
+/// The reduction of the Newton system's residual `M·g` (over the moving points) after which its
+/// linear model puts every point's `|g|` at or below `target`, with a factor 2 to spare for the
+/// model's error: `|g′| ≤ |M·g′| / m_min`.
+pub(super) fn enough_reduction(s: &ImplicitScratch, target: f64) -> f64 {
+    let (mut norm2, mut lightest) = (0.0, f64::INFINITY);
+    for ((g, &m), &free) in s.g.iter().zip(&s.mass).zip(&s.free) {
+        if free != 0.0 && m > 0.0 {
+            norm2 += (m * m) * g.dot(*g);
+            lightest = lightest.min(m);
+        }
+    }
+    if norm2 > 0.0 && lightest.is_finite() {
+        0.5 * lightest * target / norm2.sqrt()
+    } else {
+        0.0
+    }
+}
+
+/// The largest `|g|` a point may keep, where the fastest point's speed is `vmax`: the model's
+/// tolerance (scaled by speeds above 1 m/s; see [`TOLERANCE`](super::TOLERANCE)), no finer than the
+/// rounding floor `floor` ([`rounding_floor`]).
+fn target(model: &Model, floor: f64, vmax: f64) -> f64 {
+    (model.newton.tolerance * vmax.max(1.0)).max(floor)
+}
+
+/// Whether the residual `g` at the iterate `v` is within its [`target`].
+fn converged(model: &Model, floor: f64, g: &[Vec3], v: &[Vec3]) -> bool {
+    let (norm, vmax) = max_norms(g, v);
+    norm <= target(model, floor, vmax)
+}
+
+/// `max |g|` and `max |v|`.
+pub(super) fn max_norms(g: &[Vec3], v: &[Vec3]) -> (f64, f64) {
+    let gmax = g.iter().map(|g| g.length()).fold(0.0, f64::max);
+    let vmax = v.iter().map(|v| v.length()).fold(0.0, f64::max);
+    (gmax, vmax)
+}

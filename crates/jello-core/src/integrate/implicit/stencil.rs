@@ -1,0 +1,1157 @@
+//! The springs' part of the Newton matrix `A` in stencil order, for a fast `A·x`.
+//!
+//! Every spring of a lattice joins a point `p` to `p + offset(e)` for one of the 16 stencil
+//! entries `e` ([`STENCIL`]), so its block can live at slot `e·n + p` of an array with a slot
+//! for every point and entry (zero where there is no spring: across a hole, past the lattice's
+//! edge). Then point `p`'s row of `A·x` is
+//!
+//! ```text
+//! own[p]·x[p] + Σₑ Bₑ[p]·(x[p] − x[p + oₑ]) + Σₑ Bₑ[p − oₑ]·(x[p] − x[p − oₑ])
+//! ```
+//!
+//! a sum of loops over contiguous arrays (the blocks and `x` stored as structure of arrays) that
+//! vectorise on every SIMD tier, and each point's row is summed in the same order whoever
+//! computes it: the points are split into ranges over threads and the result does not depend
+//! on their number. Each entry's spring forces `Bₑ[q]·(x[q] − x[q + oₑ])` are computed once into
+//! a buffer, then added to the rows of their first ends and taken from those of their second
+//! (`−(B·(a − b))` is `B·(b − a)` to the bit): each block is read once, where reading it from
+//! each end cost the 16³ benchmark at 1/60 s 10–15 % more per step (blocks do not fit in L2),
+//! and the writes stay contiguous, where a loop over springs scatters them.
+//!
+//! The same slots hold each spring's rest length, stiffness, damping and direction at the step's
+//! start, from which the blocks are assembled at every Newton iteration, and the dampers' force
+//! of every residual is the same product over a second layer (`u·(d·(u·Δv))` a spring): loops
+//! over contiguous runs of slots that vectorise, where the loops over springs they replace
+//! gathered and scattered by index.
+//!
+//! The blocks are also kept rounded to single precision, and the products of the solves to the
+//! usual reductions (1e-2) are computed in it (`f32`, without fused multiply-adds, so the same
+//! bits on every SIMD tier and thread count): such a product only steers the conjugate
+//! gradients, whose direction Newton's method corrects at its next iteration, while the
+//! residual that decides convergence (with the dampers' product in it) stays in double
+//! precision. The rounding (a relative 6e-8 of each block and sum, times the condition of `A`
+//! in the direction) is far below those reductions, but not below an exact solve's 1e-8: those
+//! take [`Precision::Double`] (with single-precision exact solves, `leapfrog.w` at 1/60 s took
+//! 58 steps in parts and 1 386 conjugate-gradient iterations a step instead of 15 and 382).
+//! Half the bytes and twice the lanes: the 16³ benchmark's first 3 s at 1/60 s took 18 % less
+//! time on one thread (a Zen 3 EPYC), its iteration counts unchanged; 8³ 25 % less.
+
+use super::sym::{sym_mul, Sym};
+use crate::compute::team;
+use crate::model::body::Body;
+use crate::model::lattice::STENCIL;
+use crate::model::Model;
+use crate::vec3::Vec3;
+
+/// Points per range below which a product is not split over threads. On 2 cores the 16³
+/// benchmark's 4 096 points in two ranges step 5–23 % faster than in one (a Zen 3 EPYC,
+/// 2026-11-27, medians of three sets of 4–16 alternated runs; with 4 096 here, as before, they
+/// took one); 32³ 10–20 % faster.
+pub(super) const MIN_POINTS_PER_RANGE: usize = 2048;
+
+/// One body's place in the model's arrays and its stencil offsets (flat index differences; 0
+/// for an entry that needs an axis the lattice does not have).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+struct Span {
+    first: usize,
+    len: usize,
+    offset: [usize; 16],
+}
+
+impl Span {
+    fn of(body: &Body) -> Span {
+        let [_, ny, nz] = body.lattice().counts;
+        let mut offset = [0; 16];
+        for (o, (d, _)) in offset.iter_mut().zip(STENCIL) {
+            let flat = (d[0] * ny as isize + d[1]) * nz as isize + d[2];
+            *o = flat.max(0) as usize;
+        }
+        Span {
+            first: body.points().start,
+            len: body.len(),
+            offset,
+        }
+    }
+}
+
+/// The springs' blocks of `A` by stencil slot (see the module documentation), with the buffers
+/// of the product.
+#[derive(Clone, Debug, Default)]
+pub(super) struct SpringMatrix {
+    n: usize,
+    spans: Vec<Span>,
+    /// Each spring's slot in the order the springs were listed ([`SpringMatrix::push`]); while
+    /// a list is made, how far it has come and whether it differs from the last.
+    listed: Vec<u32>,
+    cursor: usize,
+    changed: bool,
+    /// Each listed spring's place in slot order, and the slots in that order: the solver keeps
+    /// its springs in slot order, and the blocks it reads back by spring
+    /// ([`SpringMatrix::assemble`]) come from each array in order.
+    rank: Vec<u32>,
+    slot: Vec<u32>,
+    /// The blocks' six components (`[xx, yy, zz, xy, xz, yz]`), each `16·n` long, and the same
+    /// rounded to single precision (see the module documentation).
+    blocks: [Vec<f64>; 6],
+    blocks_single: [Vec<f32>; 6],
+    /// The springs' dampers by the same slots: the direction `u` (three components) at the
+    /// step's start and the damping `d` of the block `d·uuᵀ`, kept apart so that the dampers'
+    /// force is computed as the force routine computes it, `u·(d·(u·Δv))`.
+    dampers: [Vec<f64>; 4],
+    /// The springs' rest lengths and stiffnesses by the same slots (0 where there is none).
+    rest: Vec<f64>,
+    stiffness: Vec<f64>,
+    /// `x` as structure of arrays, and in single precision for the products with the blocks.
+    x: [Vec<f64>; 3],
+    x_single: [Vec<f32>; 3],
+    /// The ranges of rows a product is split into (one per thread of the team).
+    ranges: Vec<RowRange>,
+}
+
+/// The precision of a product with the springs' blocks (see the module documentation).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) enum Precision {
+    /// Blocks, `x` and sums in `f32`: the products of solves to the usual reductions.
+    Single,
+    /// In `f64`: the products of exact solves.
+    Double,
+}
+
+/// One range of rows of a product: where it starts, its rows of the product (structure of
+/// arrays) and a buffer for the springs' forces of one stencil entry, for a product in double
+/// precision (the dampers', an exact solve's) and for one in single precision.
+#[derive(Clone, Debug, Default)]
+struct RowRange {
+    start: usize,
+    y: [Vec<f64>; 3],
+    forces: [Vec<f64>; 3],
+    y_single: [Vec<f32>; 3],
+    forces_single: [Vec<f32>; 3],
+}
+
+impl SpringMatrix {
+    /// Sized for `model`, every block zero.
+    pub fn new(model: &Model) -> Self {
+        let n = model.point_count();
+        SpringMatrix {
+            n,
+            spans: SpringMatrix::spans_of(model),
+            listed: Vec::with_capacity(model.spring_count()),
+            cursor: 0,
+            changed: false,
+            rank: Vec::with_capacity(model.spring_count()),
+            slot: Vec::with_capacity(model.spring_count()),
+            blocks: std::array::from_fn(|_| vec![0.0; 16 * n]),
+            blocks_single: std::array::from_fn(|_| vec![0.0; 16 * n]),
+            dampers: std::array::from_fn(|_| vec![0.0; 16 * n]),
+            rest: vec![0.0; 16 * n],
+            stiffness: vec![0.0; 16 * n],
+            x: std::array::from_fn(|_| vec![0.0; n]),
+            x_single: std::array::from_fn(|_| vec![0.0; n]),
+            ranges: Vec::new(),
+        }
+    }
+
+    fn spans_of(model: &Model) -> Vec<Span> {
+        model.bodies().iter().map(Span::of).collect()
+    }
+
+    /// True when sized for `model`'s bodies.
+    pub fn fits(&self, model: &Model) -> bool {
+        self.spans.len() == model.bodies().len()
+            && self
+                .spans
+                .iter()
+                .zip(model.bodies())
+                .all(|(s, b)| *s == Span::of(b))
+    }
+
+    /// Starts the list of springs again (see [`SpringMatrix::push`] and
+    /// [`SpringMatrix::finish`]).
+    pub fn begin(&mut self) {
+        self.cursor = 0;
+        self.changed = false;
+    }
+
+    /// The next spring of the list: from flat point `a` along stencil entry `entry`.
+    pub fn push(&mut self, a: usize, entry: usize) {
+        let slot = (entry * self.n + a) as u32;
+        match self.listed.get_mut(self.cursor) {
+            Some(s) if *s == slot => {}
+            Some(s) => (*s, self.changed) = (slot, true),
+            None => (_, self.changed) = (self.listed.push(slot), true),
+        }
+        self.cursor += 1;
+    }
+
+    /// Ends the list. When it differs from the last one, every block is zeroed (so that no slot
+    /// keeps the block of a spring no longer there) and the slot order is found again.
+    pub fn finish(&mut self) {
+        if self.cursor != self.listed.len() {
+            self.listed.truncate(self.cursor);
+            self.changed = true;
+        }
+        if !self.changed {
+            return;
+        }
+        self.blocks.iter_mut().for_each(|b| b.fill(0.0));
+        self.blocks_single.iter_mut().for_each(|b| b.fill(0.0));
+        self.dampers.iter_mut().for_each(|b| b.fill(0.0));
+        self.rest.fill(0.0);
+        self.stiffness.fill(0.0);
+        // The slots are distinct: mark each with its spring, then read them in order.
+        let mut spring_at = vec![u32::MAX; 16 * self.n];
+        for (j, &slot) in self.listed.iter().enumerate() {
+            spring_at[slot as usize] = j as u32;
+        }
+        self.rank.resize(self.listed.len(), 0);
+        self.slot.clear();
+        for (slot, &j) in spring_at.iter().enumerate().filter(|(_, &j)| j != u32::MAX) {
+            self.rank[j as usize] = self.slot.len() as u32;
+            self.slot.push(slot as u32);
+        }
+    }
+
+    /// The place in slot order of the `j`-th listed spring: the solver keeps its springs in
+    /// that order, and [`SpringMatrix::set_spring`] takes it.
+    pub fn rank(&self, j: usize) -> usize {
+        self.rank[j] as usize
+    }
+
+    /// Sets the block of spring `s` (its place in slot order).
+    #[cfg(test)]
+    fn set(&mut self, s: usize, block: &Sym) {
+        let slot = self.slot[s] as usize;
+        for ((c, single), &v) in self
+            .blocks
+            .iter_mut()
+            .zip(&mut self.blocks_single)
+            .zip(block)
+        {
+            (c[slot], single[slot]) = (v, v as f32);
+        }
+    }
+
+    /// Sets the damper of spring `s` (its place in slot order): direction `u`, damping `d`.
+    #[cfg(test)]
+    fn set_damper(&mut self, s: usize, u: Vec3, d: f64) {
+        let slot = self.slot[s] as usize;
+        let [ux, uy, uz, dd] = &mut self.dampers;
+        (ux[slot], uy[slot], uz[slot], dd[slot]) = (u.x, u.y, u.z, d);
+    }
+
+    /// Sets spring `s` (its place in slot order): rest length, stiffness and damping.
+    pub fn set_spring(&mut self, s: usize, rest: f64, stiffness: f64, damping: f64) {
+        let slot = self.slot[s] as usize;
+        (self.rest[slot], self.stiffness[slot]) = (rest, stiffness);
+        self.dampers[3][slot] = damping;
+    }
+
+    /// The springs' directions at the step's start `x0` into the dampers (zero for a spring
+    /// of zero length), and into `directions` by spring (in slot order).
+    pub fn start_dampers(&mut self, x0: &[Vec3], directions: &mut [Vec3]) {
+        self.load_x(x0);
+        let (xs, n) = (&self.x, self.n);
+        let [ux, uy, uz, _] = &mut self.dampers;
+        for_each_run(&self.spans, |e, q, len, o| {
+            let at = e * n + q;
+            let u = [
+                &mut ux[at..at + len],
+                &mut uy[at..at + len],
+                &mut uz[at..at + len],
+            ];
+            spring_directions(u, part(xs, q, len), part(xs, q + o, len));
+        });
+        let [ux, uy, uz, _] = &self.dampers;
+        for (u, &slot) in directions.iter_mut().zip(&self.slot) {
+            let slot = slot as usize;
+            *u = Vec3::new(ux[slot], uy[slot], uz[slot]);
+        }
+    }
+
+    /// The springs' blocks of `A` at the end positions `x0 + h·v` (see
+    /// [`spring_blocks`]; `floor` bounds `1 − rest/l` from below), and into `blocks` by spring
+    /// (in slot order).
+    pub fn assemble(&mut self, x0: &[Vec3], v: &[Vec3], h: f64, floor: f64, blocks: &mut [Sym]) {
+        self.load_end_positions(x0, v, h);
+        let (xs, n) = (&self.x, self.n);
+        let (dampers, rest, stiffness) = (&self.dampers, &self.rest, &self.stiffness);
+        let [b0, b1, b2, b3, b4, b5] = &mut self.blocks;
+        let [s0, s1, s2, s3, s4, s5] = &mut self.blocks_single;
+        for_each_run(&self.spans, |e, q, len, o| {
+            let at = e * n + q;
+            let r = at..at + len;
+            let b = [
+                &mut b0[r.clone()],
+                &mut b1[r.clone()],
+                &mut b2[r.clone()],
+                &mut b3[r.clone()],
+                &mut b4[r.clone()],
+                &mut b5[r.clone()],
+            ];
+            // The run in chunks over the team (each slot's block depends on its slot alone).
+            let size = team::chunk_size(len, MIN_POINTS_PER_RANGE);
+            team::for_each_chunk(b, size, &|chunk, b| {
+                let (at, q, len) = (at + chunk * size, q + chunk * size, b[0].len());
+                let springs = [&rest[at..at + len], &stiffness[at..at + len]];
+                let (x, xn) = (part(xs, q, len), part(xs, q + o, len));
+                spring_blocks(b, x, xn, part(dampers, at, len), springs, [h, floor]);
+            });
+            // Rounded, in the same chunks.
+            let double: [&[f64]; 6] = [
+                &b0[r.clone()],
+                &b1[r.clone()],
+                &b2[r.clone()],
+                &b3[r.clone()],
+                &b4[r.clone()],
+                &b5[r.clone()],
+            ];
+            let single = [
+                &mut s0[r.clone()],
+                &mut s1[r.clone()],
+                &mut s2[r.clone()],
+                &mut s3[r.clone()],
+                &mut s4[r.clone()],
+                &mut s5[r],
+            ];
+            team::for_each_chunk(single, size, &|chunk, single| {
+                for (single, double) in single.into_iter().zip(double) {
+                    for (s, &b) in single.iter_mut().zip(&double[chunk * size..]) {
+                        *s = b as f32;
+                    }
+                }
+            });
+        });
+        let (all, slots) = (&self.blocks, &self.slot);
+        let size = team::chunk_size(blocks.len(), MIN_POINTS_PER_RANGE);
+        team::for_each_chunk([blocks], size, &|chunk, [blocks]| {
+            for (block, &slot) in blocks.iter_mut().zip(&slots[chunk * size..]) {
+                *block = std::array::from_fn(|c| all[c][slot as usize]);
+            }
+        });
+    }
+
+    /// `x` into the product's input.
+    fn load_x(&mut self, x: &[Vec3]) {
+        load(&mut self.x, x);
+    }
+
+    /// `x0 + h·v` into the product's input.
+    fn load_end_positions(&mut self, x0: &[Vec3], v: &[Vec3], h: f64) {
+        let [p0, p1, p2] = &mut self.x;
+        let size = team::chunk_size(x0.len(), MIN_POINTS_PER_RANGE);
+        team::for_each_chunk([p0, p1, p2], size, &|chunk, [p0, p1, p2]| {
+            let at = chunk * size;
+            for (i, (&x, &v)) in x0[at..].iter().zip(&v[at..]).take(p0.len()).enumerate() {
+                let p = x + v * h;
+                (p0[i], p1[i], p2[i]) = (p.x, p.y, p.z);
+            }
+        });
+    }
+
+    /// `y = (own·x + springs·x)`, then scaled by `free` per point; the springs' part in
+    /// `precision` (see the module documentation).
+    pub fn apply(
+        &mut self,
+        own: &[Sym],
+        free: &[f64],
+        x: &[Vec3],
+        y: &mut [Vec3],
+        precision: Precision,
+    ) {
+        self.size_ranges();
+        let (spans, n) = (&self.spans[..], self.n);
+        let own = |p: usize| sym_mul(&own[p], x[p]);
+        if precision == Precision::Single {
+            load(&mut self.x_single, x);
+            let forces = entry_forces(spring_forces_single, &self.blocks_single);
+            ranges_rows(&mut self.ranges, spans, n, &own, &self.x_single, &forces);
+        } else {
+            load(&mut self.x, x);
+            let forces = entry_forces(spring_forces, &self.blocks);
+            ranges_rows(&mut self.ranges, spans, n, &own, &self.x, &forces);
+        }
+        let ranges = &self.ranges;
+        team::for_each_chunk([y], self.range_size(), &|r, [y]| {
+            let range = &ranges[r];
+            let free = &free[range.start..];
+            let row = |i: usize| match precision {
+                Precision::Single => {
+                    let [y0, y1, y2] = &range.y_single;
+                    Vec3::new(f64::from(y0[i]), f64::from(y1[i]), f64::from(y2[i]))
+                }
+                Precision::Double => {
+                    let [y0, y1, y2] = &range.y;
+                    Vec3::new(y0[i], y1[i], y2[i])
+                }
+            };
+            for (i, y) in y.iter_mut().enumerate() {
+                *y = row(i) * free[i];
+            }
+        });
+    }
+
+    /// `y = −(own·v + dampers·v)`: the force of the dampers (and of `own`) at velocities `v`,
+    /// in double precision.
+    pub fn damper_force(&mut self, own: &[Sym], v: &[Vec3], y: &mut [Vec3]) {
+        self.size_ranges();
+        self.load_x(v);
+        let (spans, dampers, n) = (&self.spans[..], &self.dampers, self.n);
+        let own = |p: usize| sym_mul(&own[p], v[p]);
+        let forces = entry_forces(damper_forces, dampers);
+        ranges_rows(&mut self.ranges, spans, n, &own, &self.x, &forces);
+        let ranges = &self.ranges;
+        team::for_each_chunk([y], self.range_size(), &|r, [y]| {
+            let [y0, y1, y2] = &ranges[r].y;
+            for (i, y) in y.iter_mut().enumerate() {
+                *y = Vec3::new(-y0[i], -y1[i], -y2[i]);
+            }
+        });
+    }
+
+    /// The diagonal blocks of `A`'s springs' part plus `own` into `diag`: each point's `own`,
+    /// then the block of each stencil entry's spring from it, then of each entry's spring to
+    /// it, in the entries' order. Each point's sum is taken in that order whoever computes it
+    /// (the points in chunks over the team); every block is read from its slot in order, where
+    /// a gather by each point's springs read it twice, far apart (5 % of the 16³ benchmark's
+    /// samples on 2 threads).
+    pub fn diagonal(&self, own: &[Sym], diag: &mut [Sym]) {
+        // Points per pass over the entries: their sums, component by component, stay in the L1
+        // cache, and each pass adds two contiguous runs (vectorised).
+        const BLOCK: usize = 256;
+        let (spans, blocks, n) = (&self.spans[..], &self.blocks, self.n);
+        let size = team::chunk_size(n, MIN_POINTS_PER_RANGE);
+        team::for_each_chunk([diag], size, &|chunk, [diag]| {
+            let start = chunk * size;
+            let mut sums = [[0.0; BLOCK]; 6];
+            for (b, diag) in diag.chunks_mut(BLOCK).enumerate() {
+                let (p0, p1) = (start + b * BLOCK, start + b * BLOCK + diag.len());
+                for (i, own) in own[p0..p1].iter().enumerate() {
+                    for (sum, &o) in sums.iter_mut().zip(own) {
+                        sum[i] = o;
+                    }
+                }
+                // The blocks at slots `base + p − back` for the points `p` of `from .. to`.
+                let mut add = |(from, to): (usize, usize), base: usize, back: usize| {
+                    if from < to {
+                        for (sum, block) in sums.iter_mut().zip(blocks) {
+                            let block = &block[base + from - back..base + to - back];
+                            for (s, &b) in sum[from - p0..to - p0].iter_mut().zip(block) {
+                                *s += b;
+                            }
+                        }
+                    }
+                };
+                for span in spans {
+                    let (first, end) = (span.first, span.first + span.len);
+                    let entries = span.offset.iter().enumerate();
+                    let entries = entries.filter(|&(_, &o)| o != 0 && o < span.len);
+                    // From each point: slot `e·n + p`, where the partner `p + o` is in the body.
+                    for (e, &o) in entries.clone() {
+                        add((p0.max(first), p1.min(end - o)), e * n, 0);
+                    }
+                    // To each point: slot `e·n + p − o`, for the points `p ≥ first + o`.
+                    for (e, &o) in entries {
+                        add((p0.max(first + o), p1.min(end)), e * n, o);
+                    }
+                }
+                for (i, d) in diag.iter_mut().enumerate() {
+                    *d = std::array::from_fn(|c| sums[c][i]);
+                }
+            }
+        });
+    }
+
+    /// Rows per range of the last product (the last range may have fewer).
+    fn range_size(&self) -> usize {
+        self.ranges.first().map_or(1, |r| r.y[0].len().max(1))
+    }
+
+    /// The ranges of rows a product is split into, one per thread of the team (sized anew,
+    /// allocating, only when their number changes).
+    fn size_ranges(&mut self) {
+        let n = self.n;
+        let count = team::threads().min(n / MIN_POINTS_PER_RANGE).max(1);
+        let size = n.div_ceil(count).max(1);
+        if self.ranges.len() == count && self.range_size() == size.min(n) {
+            return;
+        }
+        // Each range's spring forces: its rows and the springs reaching back into them.
+        let reach = self.spans.iter().flat_map(|s| s.offset).max().unwrap_or(0);
+        let room = (size + reach).min(n);
+        self.ranges = (0..count)
+            .map(|r| {
+                let start = (r * size).min(n);
+                let rows = (n - start).min(size);
+                RowRange {
+                    start,
+                    y: std::array::from_fn(|_| vec![0.0; rows]),
+                    forces: std::array::from_fn(|_| vec![0.0; room]),
+                    y_single: std::array::from_fn(|_| vec![0.0; rows]),
+                    forces_single: std::array::from_fn(|_| vec![0.0; room]),
+                }
+            })
+            .collect();
+    }
+}
+
+/// Each range's [`rows`] over the team, into its buffers of `T`'s precision.
+fn ranges_rows<T: Lane>(
+    ranges: &mut [RowRange],
+    spans: &[Span],
+    n: usize,
+    own: &(impl Fn(usize) -> Vec3 + Sync),
+    x: &[Vec<T>; 3],
+    entry_forces: &(impl Fn(usize, [&mut [T]; 3], [&[T]; 3], [&[T]; 3]) + Sync),
+) {
+    team::for_each_mut(ranges, &|_, range| {
+        let start = range.start;
+        let ([y0, y1, y2], forces) = T::buffers(range);
+        let out = [&mut y0[..], &mut y1[..], &mut y2[..]];
+        rows(spans, n, own, x, start, out, forces, entry_forces);
+    });
+}
+
+/// `x` into the structure of arrays `soa` (rounded to its precision), over the team.
+fn load<T: Lane>(soa: &mut [Vec<T>; 3], x: &[Vec3]) {
+    let [x0, x1, x2] = soa;
+    let size = team::chunk_size(x.len(), MIN_POINTS_PER_RANGE);
+    team::for_each_chunk([x0, x1, x2], size, &|chunk, [x0, x1, x2]| {
+        for (i, v) in x[chunk * size..].iter().take(x0.len()).enumerate() {
+            (x0[i], x1[i], x2[i]) = (T::of(v.x), T::of(v.y), T::of(v.z));
+        }
+    });
+}
+
+/// Calls `f(e, q, len, o)` for each run of slots of stencil entry `e` (offset `o`) that may hold
+/// a spring: its first ends `q .. q + len` of one body, whose second ends `q + o ..` are in the
+/// body too.
+fn for_each_run(spans: &[Span], mut f: impl FnMut(usize, usize, usize, usize)) {
+    for span in spans {
+        for (e, &o) in span.offset.iter().enumerate() {
+            if o != 0 && o < span.len {
+                f(e, span.first, span.len - o, o);
+            }
+        }
+    }
+}
+
+/// The `entry_forces` of [`rows`] for a kernel `kernel(f, x, xn, parts)` over the slot arrays
+/// `arrays` (the blocks, in either precision, or the dampers).
+#[allow(clippy::type_complexity)]
+fn entry_forces<'a, T, const C: usize>(
+    kernel: fn([&mut [T]; 3], [&[T]; 3], [&[T]; 3], [&[T]; C]),
+    arrays: &'a [Vec<T>; C],
+) -> impl Fn(usize, [&mut [T]; 3], [&[T]; 3], [&[T]; 3]) + Sync + 'a
+where
+    T: Sync,
+{
+    move |at, f, x, xn| {
+        let len = f[0].len();
+        kernel(f, x, xn, part(arrays, at, len));
+    }
+}
+
+/// `arrays[c][at .. at + len]` for each `c`.
+fn part<T, const C: usize>(arrays: &[Vec<T>; C], at: usize, len: usize) -> [&[T]; C] {
+    std::array::from_fn(|c| &arrays[c][at..at + len])
+}
+
+/// The numbers of a product's rows: `f64` or `f32` (see [`Precision`]).
+trait Lane: Copy + Send + Sync {
+    /// `v` rounded to this precision.
+    fn of(v: f64) -> Self;
+    /// `y += f` element by element.
+    fn add(y: [&mut [Self]; 3], f: [&[Self]; 3]);
+    /// `y −= f` element by element.
+    fn subtract(y: [&mut [Self]; 3], f: [&[Self]; 3]);
+    /// A range's rows and forces buffer in this precision.
+    fn buffers(range: &mut RowRange) -> (&mut [Vec<Self>; 3], &mut [Vec<Self>; 3]);
+}
+
+impl Lane for f64 {
+    fn of(v: f64) -> Self {
+        v
+    }
+    fn add(y: [&mut [f64]; 3], f: [&[f64]; 3]) {
+        add_forces(y, f);
+    }
+    fn subtract(y: [&mut [f64]; 3], f: [&[f64]; 3]) {
+        subtract_forces(y, f);
+    }
+    fn buffers(range: &mut RowRange) -> (&mut [Vec<f64>; 3], &mut [Vec<f64>; 3]) {
+        (&mut range.y, &mut range.forces)
+    }
+}
+
+impl Lane for f32 {
+    fn of(v: f64) -> Self {
+        v as f32
+    }
+    fn add(y: [&mut [f32]; 3], f: [&[f32]; 3]) {
+        add_forces_single(y, f);
+    }
+    fn subtract(y: [&mut [f32]; 3], f: [&[f32]; 3]) {
+        subtract_forces_single(y, f);
+    }
+    fn buffers(range: &mut RowRange) -> (&mut [Vec<f32>; 3], &mut [Vec<f32>; 3]) {
+        (&mut range.y_single, &mut range.forces_single)
+    }
+}
+
+/// Rows `start .. start + out.len()` of `own(p) + springs·x` into `out` (see the module
+/// documentation for the order of the sum), with `forces` for each entry's spring forces:
+/// `entry_forces(at, f, x, xn)` puts the forces `B·(x − xn)` of the springs at slots
+/// `at .. at + f.len()` into `f`.
+///
+/// Each spring's force `B·(x[q] − x[q + o])` is computed once, into `forces`, and added to its
+/// first end's row and taken from its second end's (in that order for each entry, as the
+/// module documentation sums): `−(B·(a − b))` is `B·(b − a)` to the bit, so this is the sum
+/// of the documentation, and each block is read once rather than once from each end.
+#[allow(clippy::too_many_arguments)]
+fn rows<T: Lane>(
+    spans: &[Span],
+    n: usize,
+    own: impl Fn(usize) -> Vec3,
+    x: &[Vec<T>; 3],
+    start: usize,
+    out: [&mut [T]; 3],
+    forces: &mut [Vec<T>; 3],
+    entry_forces: impl Fn(usize, [&mut [T]; 3], [&[T]; 3], [&[T]; 3]),
+) {
+    let end = start + out[0].len();
+    let [o0, o1, o2] = out;
+    for p in start..end {
+        let v = own(p);
+        (o0[p - start], o1[p - start], o2[p - start]) = (T::of(v.x), T::of(v.y), T::of(v.z));
+    }
+    let xs = |at: usize, len: usize| -> [&[T]; 3] { std::array::from_fn(|c| &x[c][at..at + len]) };
+    let [f0, f1, f2] = forces;
+    for span in spans {
+        // This range's rows within the body.
+        let (lo, hi) = (start.max(span.first), end.min(span.first + span.len));
+        if lo >= hi {
+            continue;
+        }
+        for (e, &o) in span.offset.iter().enumerate() {
+            if o == 0 || o >= span.len {
+                continue;
+            }
+            // The springs from q to q + o with either end a row here: q from the body's first
+            // point (or o before the first row) to below the first row past the range or past
+            // the body's end minus o.
+            let (q0, q1) = (
+                lo.saturating_sub(o).max(span.first),
+                hi.min(span.first + span.len - o),
+            );
+            if q0 >= q1 {
+                continue;
+            }
+            let len = q1 - q0;
+            let f = [&mut f0[..len], &mut f1[..len], &mut f2[..len]];
+            let (x, xn, at) = (xs(q0, len), xs(q0 + o, len), e * n + q0);
+            entry_forces(at, f, x, xn);
+            // Their first ends among the rows…
+            let a = q0.max(lo);
+            if a < q1 {
+                let y = [
+                    &mut o0[a - start..q1 - start],
+                    &mut o1[a - start..q1 - start],
+                    &mut o2[a - start..q1 - start],
+                ];
+                let f = [&f0[a - q0..len], &f1[a - q0..len], &f2[a - q0..len]];
+                T::add(y, f);
+            }
+            // …and their second ends (q + o below the range's end).
+            let b = q1.min(hi.saturating_sub(o));
+            if q0 < b {
+                let y = [
+                    &mut o0[q0 + o - start..b + o - start],
+                    &mut o1[q0 + o - start..b + o - start],
+                    &mut o2[q0 + o - start..b + o - start],
+                ];
+                let f = [&f0[..b - q0], &f1[..b - q0], &f2[..b - q0]];
+                T::subtract(y, f);
+            }
+        }
+    }
+}
+
+/// `f = B·(x − xn)` element by element, `B` a symmetric block per element (inlined into each
+/// tier's copy of the callers below).
+#[inline(always)]
+fn block_forces<T>(f: [&mut [T]; 3], x: [&[T]; 3], xn: [&[T]; 3], b: [&[T]; 6])
+where
+    T: Copy + std::ops::Add<Output = T> + std::ops::Sub<Output = T> + std::ops::Mul<Output = T>,
+{
+    let [f0, f1, f2] = f;
+    let n = f0.len();
+    let (f1, f2) = (&mut f1[..n], &mut f2[..n]);
+    let (x0, x1, x2) = (&x[0][..n], &x[1][..n], &x[2][..n]);
+    let (n0, n1, n2) = (&xn[0][..n], &xn[1][..n], &xn[2][..n]);
+    let (bxx, byy, bzz) = (&b[0][..n], &b[1][..n], &b[2][..n]);
+    let (bxy, bxz, byz) = (&b[3][..n], &b[4][..n], &b[5][..n]);
+    for i in 0..n {
+        let (dx, dy, dz) = (x0[i] - n0[i], x1[i] - n1[i], x2[i] - n2[i]);
+        f0[i] = bxx[i] * dx + bxy[i] * dy + bxz[i] * dz;
+        f1[i] = bxy[i] * dx + byy[i] * dy + byz[i] * dz;
+        f2[i] = bxz[i] * dx + byz[i] * dy + bzz[i] * dz;
+    }
+}
+
+crate::compute::simd::multiversion! {
+    /// [`block_forces`] in double precision.
+    fn spring_forces(f: [&mut [f64]; 3], x: [&[f64]; 3], xn: [&[f64]; 3], b: [&[f64]; 6]) {
+        block_forces(f, x, xn, b)
+    }
+}
+
+crate::compute::simd::multiversion! {
+    /// [`block_forces`] in single precision.
+    fn spring_forces_single(
+        f: [&mut [f32]; 3],
+        x: [&[f32]; 3],
+        xn: [&[f32]; 3],
+        b: [&[f32]; 6],
+    ) {
+        block_forces(f, x, xn, b)
+    }
+}
+
+crate::compute::simd::multiversion! {
+    /// `f = u·(d·(u·(v − vn)))` element by element: a damper's force, `u` its direction and
+    /// `d` its damping (`ud = [ux, uy, uz, d]`).
+    fn damper_forces(f: [&mut [f64]; 3], v: [&[f64]; 3], vn: [&[f64]; 3], ud: [&[f64]; 4]) {
+        let [f0, f1, f2] = f;
+        let n = f0.len();
+        let (f1, f2) = (&mut f1[..n], &mut f2[..n]);
+        let (v0, v1, v2) = (&v[0][..n], &v[1][..n], &v[2][..n]);
+        let (n0, n1, n2) = (&vn[0][..n], &vn[1][..n], &vn[2][..n]);
+        let (ux, uy, uz, d) = (&ud[0][..n], &ud[1][..n], &ud[2][..n], &ud[3][..n]);
+        for i in 0..n {
+            let (dx, dy, dz) = (v0[i] - n0[i], v1[i] - n1[i], v2[i] - n2[i]);
+            let w = d[i] * (ux[i] * dx + uy[i] * dy + uz[i] * dz);
+            (f0[i], f1[i], f2[i]) = (ux[i] * w, uy[i] * w, uz[i] * w);
+        }
+    }
+}
+
+crate::compute::simd::multiversion! {
+    /// `u = (x − xn)/|x − xn|` element by element (zero where `x = xn`).
+    fn spring_directions(u: [&mut [f64]; 3], x: [&[f64]; 3], xn: [&[f64]; 3]) {
+        let [u0, u1, u2] = u;
+        let n = u0.len();
+        let (u1, u2) = (&mut u1[..n], &mut u2[..n]);
+        let (x0, x1, x2) = (&x[0][..n], &x[1][..n], &x[2][..n]);
+        let (n0, n1, n2) = (&xn[0][..n], &xn[1][..n], &xn[2][..n]);
+        for i in 0..n {
+            let (dx, dy, dz) = (x0[i] - n0[i], x1[i] - n1[i], x2[i] - n2[i]);
+            let l = (dx * dx + dy * dy + dz * dz).sqrt();
+            (u0[i], u1[i], u2[i]) = if l > 0.0 {
+                (dx / l, dy / l, dz / l)
+            } else {
+                (0.0, 0.0, 0.0)
+            };
+        }
+    }
+}
+
+crate::compute::simd::multiversion! {
+    /// Each spring's block of `A` (`[xx, yy, zz, xy, xz, yz]`), its ends at `x` and `xn`:
+    /// `axial·ûûᵀ + transverse·(I − ûûᵀ)`, `axial = h²·k`,
+    /// `transverse = axial·max(1 − rest/l, floor)` (zero for a spring of zero length), plus its
+    /// damper `h·d·u₀u₀ᵀ` (`damper = [u₀x, u₀y, u₀z, d]`, `springs = [rest, k]`,
+    /// `hf = [h, floor]`). Zero where there is no spring (`k` and `d` zero).
+    fn spring_blocks(
+        b: [&mut [f64]; 6],
+        x: [&[f64]; 3],
+        xn: [&[f64]; 3],
+        damper: [&[f64]; 4],
+        springs: [&[f64]; 2],
+        hf: [f64; 2],
+    ) {
+        let [b0, b1, b2, b3, b4, b5] = b;
+        let n = b0.len();
+        let (b1, b2, b3) = (&mut b1[..n], &mut b2[..n], &mut b3[..n]);
+        let (b4, b5) = (&mut b4[..n], &mut b5[..n]);
+        let (x0, x1, x2) = (&x[0][..n], &x[1][..n], &x[2][..n]);
+        let (n0, n1, n2) = (&xn[0][..n], &xn[1][..n], &xn[2][..n]);
+        let (u0, u1, u2, d) = (&damper[0][..n], &damper[1][..n], &damper[2][..n], &damper[3][..n]);
+        let (rest, k) = (&springs[0][..n], &springs[1][..n]);
+        let [h, floor] = hf;
+        let h2 = h * h;
+        for i in 0..n {
+            let (dx, dy, dz) = (x0[i] - n0[i], x1[i] - n1[i], x2[i] - n2[i]);
+            let l = (dx * dx + dy * dy + dz * dz).sqrt();
+            let axial = h2 * k[i];
+            let transverse = axial * (1.0 - rest[i] / l).max(floor);
+            let (ux, uy, uz) = (dx / l, dy / l, dz / l);
+            let c = axial - transverse;
+            let mut m = if l > 0.0 {
+                [
+                    transverse + c * ux * ux,
+                    transverse + c * uy * uy,
+                    transverse + c * uz * uz,
+                    0.0 + c * ux * uy,
+                    0.0 + c * ux * uz,
+                    0.0 + c * uy * uz,
+                ]
+            } else {
+                [0.0; 6]
+            };
+            let cd = h * d[i];
+            m[0] += cd * u0[i] * u0[i];
+            m[1] += cd * u1[i] * u1[i];
+            m[2] += cd * u2[i] * u2[i];
+            m[3] += cd * u0[i] * u1[i];
+            m[4] += cd * u0[i] * u2[i];
+            m[5] += cd * u1[i] * u2[i];
+            (b0[i], b1[i], b2[i]) = (m[0], m[1], m[2]);
+            (b3[i], b4[i], b5[i]) = (m[3], m[4], m[5]);
+        }
+    }
+}
+
+/// `y += f` element by element (inlined into each tier's copy of the callers below).
+#[inline(always)]
+fn add_each<T: Copy + std::ops::AddAssign>(y: [&mut [T]; 3], f: [&[T]; 3]) {
+    for (y, f) in y.into_iter().zip(f) {
+        for (y, &f) in y.iter_mut().zip(f) {
+            *y += f;
+        }
+    }
+}
+
+/// `y −= f` element by element (inlined as [`add_each`] is).
+#[inline(always)]
+fn subtract_each<T: Copy + std::ops::SubAssign>(y: [&mut [T]; 3], f: [&[T]; 3]) {
+    for (y, f) in y.into_iter().zip(f) {
+        for (y, &f) in y.iter_mut().zip(f) {
+            *y -= f;
+        }
+    }
+}
+
+crate::compute::simd::multiversion! {
+    /// `y += f` element by element.
+    fn add_forces(y: [&mut [f64]; 3], f: [&[f64]; 3]) {
+        add_each(y, f)
+    }
+}
+
+crate::compute::simd::multiversion! {
+    /// `y −= f` element by element.
+    fn subtract_forces(y: [&mut [f64]; 3], f: [&[f64]; 3]) {
+        subtract_each(y, f)
+    }
+}
+
+crate::compute::simd::multiversion! {
+    /// `y += f` element by element, in single precision.
+    fn add_forces_single(y: [&mut [f32]; 3], f: [&[f32]; 3]) {
+        add_each(y, f)
+    }
+}
+
+crate::compute::simd::multiversion! {
+    /// `y −= f` element by element, in single precision.
+    fn subtract_forces_single(y: [&mut [f32]; 3], f: [&[f32]; 3]) {
+        subtract_each(y, f)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::test_models::{box_at, two_bodies, values, with_holes};
+    use super::*;
+    use crate::model::ModelBuilder;
+
+    /// A matrix with `model`'s springs listed, and their ends (flat indices) in listed order.
+    fn listed(model: &Model) -> (SpringMatrix, Vec<[usize; 2]>) {
+        let mut matrix = SpringMatrix::new(model);
+        let mut springs = Vec::new();
+        matrix.begin();
+        for body in model.bodies() {
+            let first = body.points().start;
+            body.for_each_spring_entry(|s, entry| {
+                matrix.push(first + s.a, entry);
+                springs.push([first + s.a, first + s.b]);
+            });
+        }
+        matrix.finish();
+        (matrix, springs)
+    }
+
+    #[test]
+    fn the_stencil_product_is_the_product_over_springs() {
+        let model = two_bodies();
+        let n = model.point_count();
+        let mut next = values(11);
+        let mut sym = || -> Sym { std::array::from_fn(|_| next()) };
+        let (mut matrix, springs) = listed(&model);
+        let blocks: Vec<Sym> = springs.iter().map(|_| sym()).collect();
+        for (i, b) in blocks.iter().enumerate() {
+            matrix.set(matrix.rank(i), b);
+        }
+        let own: Vec<Sym> = (0..n).map(|_| sym()).collect();
+        let free: Vec<f64> = (0..n).map(|i| if i % 7 == 3 { 0.0 } else { 1.0 }).collect();
+        let mut next = values(13);
+        let x: Vec<Vec3> = (0..n).map(|_| Vec3::new(next(), next(), next())).collect();
+
+        let product = |round: fn(f64) -> f64| -> Vec<Vec3> {
+            let mut y: Vec<Vec3> = own.iter().zip(&x).map(|(m, &x)| sym_mul(m, x)).collect();
+            for (&[a, b], m) in springs.iter().zip(&blocks) {
+                let f = sym_mul(&m.map(round), x[a] - x[b]);
+                y[a] += f;
+                y[b] -= f;
+            }
+            y.iter().zip(&free).map(|(&y, &f)| y * f).collect()
+        };
+        let (exact, rounded) = (product(|v| v), product(|v| f64::from(v as f32)));
+        let mut y = vec![Vec3::ZERO; n];
+        matrix.apply(&own, &free, &x, &mut y, Precision::Double);
+        for p in 0..n {
+            let want = exact[p];
+            assert!(
+                (y[p] - want).max_abs() < 1e-12,
+                "point {p}: {:?} ≠ {want:?}",
+                y[p]
+            );
+        }
+        // In single precision: the blocks rounded, and the sums with a relative error of about
+        // 1e-7 (the values are of order 1), so not the exact product.
+        matrix.apply(&own, &free, &x, &mut y, Precision::Single);
+        for p in 0..n {
+            let want = rounded[p];
+            assert!(
+                (y[p] - want).max_abs() < 1e-5,
+                "point {p}: {:?} ≠ {want:?}",
+                y[p]
+            );
+        }
+        assert!((0..n).any(|p| (y[p] - exact[p]).max_abs() > 1e-12));
+
+        // The dampers' force, from the same springs.
+        let mut next = values(19);
+        let dampers: Vec<(Vec3, f64)> = springs
+            .iter()
+            .map(|_| (Vec3::new(next(), next(), next()), next()))
+            .collect();
+        for (i, &(u, d)) in dampers.iter().enumerate() {
+            matrix.set_damper(matrix.rank(i), u, d);
+        }
+        let mut want: Vec<Vec3> = own.iter().zip(&x).map(|(m, &x)| sym_mul(m, x)).collect();
+        for (&[a, b], &(u, d)) in springs.iter().zip(&dampers) {
+            let f = u * (d * u.dot(x[a] - x[b]));
+            want[a] += f;
+            want[b] -= f;
+        }
+        matrix.damper_force(&own, &x, &mut y);
+        for p in 0..n {
+            assert!((y[p] + want[p]).max_abs() < 1e-12, "point {p}: {:?}", y[p]);
+        }
+
+        // A spring list that changes leaves no stale block behind.
+        matrix.begin();
+        matrix.push(0, 2);
+        matrix.finish();
+        matrix.set(0, &[1.0, 1.0, 1.0, 0.0, 0.0, 0.0]);
+        let zero = vec![[0.0; 6]; n];
+        matrix.apply(&zero, &free, &x, &mut y, Precision::Double);
+        let mut want = vec![Vec3::ZERO; n];
+        let lattice = model.body(0).lattice();
+        let b = lattice.index(0, 0, 1);
+        want[0] = x[0] - x[b];
+        want[b] = x[b] - x[0];
+        for p in 0..n {
+            assert!((y[p] - want[p] * free[p]).max_abs() < 1e-15, "point {p}");
+        }
+    }
+
+    /// The diagonal in stencil order is `own` plus each spring's block at both its ends, on
+    /// lattices with holes, several bodies and more points than a pass takes, with the same bits
+    /// on any number of threads (chunks of 2 048 points over a team).
+    #[test]
+    fn the_diagonal_by_slot_is_the_sum_over_springs() {
+        use super::super::sym::add_sym;
+        let holes = with_holes([16, 15, 14], 29, -0.7);
+        let cube = box_at([14, 13, 12], Vec3::new(20.0, 0.0, 0.0));
+        let model = ModelBuilder::new()
+            .bodies(vec![holes, cube, two_bodies().body(0).clone()])
+            .build()
+            .unwrap();
+        let n = model.point_count();
+        assert!(
+            n > 2 * MIN_POINTS_PER_RANGE,
+            "{n} points: more than one chunk"
+        );
+        let (mut matrix, springs) = listed(&model);
+        let mut next = values(29);
+        let mut sym = || -> Sym { std::array::from_fn(|_| next()) };
+        let blocks: Vec<Sym> = springs.iter().map(|_| sym()).collect();
+        for (i, b) in blocks.iter().enumerate() {
+            matrix.set(matrix.rank(i), b);
+        }
+        let own: Vec<Sym> = (0..n).map(|_| sym()).collect();
+        let mut want = own.clone();
+        for (&[a, b], m) in springs.iter().zip(&blocks) {
+            add_sym(&mut want[a], m);
+            add_sym(&mut want[b], m);
+        }
+        let run = |threads: usize| {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap();
+            let mut diag = vec![[0.0; 6]; n];
+            pool.install(|| team::run(|| matrix.diagonal(&own, &mut diag)));
+            diag
+        };
+        let one = run(1);
+        for (p, (d, w)) in one.iter().zip(&want).enumerate() {
+            let error = d
+                .iter()
+                .zip(w)
+                .map(|(d, w)| (d - w).abs())
+                .fold(0.0, f64::max);
+            assert!(error < 1e-12, "point {p}: {d:?} ≠ {w:?}");
+        }
+        let bits = |d: &[Sym]| d.iter().map(|m| m.map(f64::to_bits)).collect::<Vec<_>>();
+        for threads in [2, 3] {
+            assert_eq!(bits(&run(threads)), bits(&one), "{threads} threads");
+        }
+    }
+
+    /// The blocks assembled by slot are each spring's block as [`super::super::spring_block`]
+    /// forms it with its damper at the start, to the bit (a spring of zero length too), and the
+    /// start directions are each spring's.
+    #[test]
+    fn blocks_by_slot_are_the_blocks_of_each_spring() {
+        use super::super::matrix::spring_block;
+        use super::super::sym::add_outer;
+        let model = two_bodies();
+        let n = model.point_count();
+        let (mut matrix, springs) = listed(&model);
+        let mut next = values(23);
+        let values: Vec<[f64; 3]> = springs
+            .iter()
+            .map(|_| [1.0 + next(), 100.0 * (2.0 + next()), 1.0 + next()])
+            .collect();
+        for (i, &[rest, k, d]) in values.iter().enumerate() {
+            matrix.set_spring(matrix.rank(i), rest, k, d);
+        }
+        let mut random = || Vec3::new(next(), next(), next());
+        let mut x0: Vec<Vec3> = (0..n).map(|_| random()).collect();
+        let v: Vec<Vec3> = (0..n).map(|_| random()).collect();
+        let h = 0.1;
+        // The first spring has zero length at the start and at the end.
+        let [a, b] = springs[0];
+        x0[b] = x0[a];
+        let mut v = v;
+        v[b] = v[a];
+        let mut directions = vec![Vec3::ZERO; springs.len()];
+        matrix.start_dampers(&x0, &mut directions);
+        for floor in [f64::MIN, 0.0] {
+            let mut blocks = vec![[0.0; 6]; springs.len()];
+            matrix.assemble(&x0, &v, h, floor, &mut blocks);
+            for (i, (&[a, b], &[rest, k, d])) in springs.iter().zip(&values).enumerate() {
+                let s = matrix.rank(i);
+                let d0 = x0[a] - x0[b];
+                let l0 = d0.length();
+                let u0 = if l0 > 0.0 { d0 / l0 } else { Vec3::ZERO };
+                assert_eq!(directions[s], u0, "spring {i}");
+                let e = (x0[a] + v[a] * h) - (x0[b] + v[b] * h);
+                let l = e.length();
+                let mut want = [0.0; 6];
+                if l > 0.0 {
+                    let transverse = h * h * k * (1.0 - rest / l).max(floor);
+                    want = spring_block(e / l, h * h * k, transverse);
+                }
+                add_outer(&mut want, u0, h * d);
+                let bits = |m: &Sym| m.map(f64::to_bits);
+                assert_eq!(bits(&blocks[s]), bits(&want), "spring {i}, floor {floor}");
+                let slot = matrix.slot[s] as usize;
+                let by_slot: Sym = std::array::from_fn(|c| matrix.blocks[c][slot]);
+                assert_eq!(bits(&by_slot), bits(&want), "spring {i}'s slot");
+                let single: [f32; 6] = std::array::from_fn(|c| matrix.blocks_single[c][slot]);
+                assert_eq!(single, want.map(|w| w as f32), "spring {i}'s rounded block");
+            }
+        }
+    }
+
+    /// Rows computed in ranges (as threads compute them) have the bits of rows computed at
+    /// once, wherever the ranges start: inside a body, across a body's end, within one stencil
+    /// offset of the next range.
+    #[test]
+    fn rows_in_ranges_have_the_bits_of_rows_at_once() {
+        let model = two_bodies();
+        let n = model.point_count();
+        let (mut matrix, _) = listed(&model);
+        let mut next = values(17);
+        for s in 0..matrix.slot.len() {
+            matrix.set(s, &std::array::from_fn(|_| next()));
+            matrix.set_damper(s, Vec3::new(next(), next(), next()), next());
+        }
+        let own: Vec<Sym> = (0..n).map(|_| std::array::from_fn(|_| next())).collect();
+        let x: Vec<Vec3> = (0..n).map(|_| Vec3::new(next(), next(), next())).collect();
+        let (mut x64, mut x32) = (Default::default(), Default::default());
+        matrix.load_x(&x);
+        std::mem::swap(&mut x64, &mut matrix.x);
+        load::<f32>(&mut matrix.x_single, &x);
+        std::mem::swap(&mut x32, &mut matrix.x_single);
+        let second = model.body(1).points().start;
+        let cuts = [
+            vec![1],
+            vec![7, 8, 40],
+            vec![second - 1, second + 3],
+            vec![n / 2],
+        ];
+        let own = |p: usize| sym_mul(&own[p], x[p]);
+        // Rows `range` of the blocks' product in single and in double precision and of the
+        // dampers', as bits.
+        let rows_of = |range: std::ops::Range<usize>| -> Vec<u64> {
+            let start = range.start;
+            let mut single: [Vec<f32>; 3] = std::array::from_fn(|_| vec![0.0; range.len()]);
+            let mut double: [Vec<f64>; 6] = std::array::from_fn(|_| vec![0.0; range.len()]);
+            let mut forces32 = std::array::from_fn(|_| vec![0.0; n]);
+            let mut forces64 = std::array::from_fn(|_| vec![0.0; n]);
+            let spans = &matrix.spans;
+            let [a, b, c] = &mut single;
+            let blocks = entry_forces(spring_forces_single, &matrix.blocks_single);
+            rows(spans, n, own, &x32, start, [a, b, c], &mut forces32, blocks);
+            let [a, b, c, d, e, g] = &mut double;
+            let blocks = entry_forces(spring_forces, &matrix.blocks);
+            rows(spans, n, own, &x64, start, [a, b, c], &mut forces64, blocks);
+            let dampers = entry_forces(damper_forces, &matrix.dampers);
+            rows(
+                spans,
+                n,
+                own,
+                &x64,
+                start,
+                [d, e, g],
+                &mut forces64,
+                dampers,
+            );
+            let single = single.iter().flatten().map(|v| u64::from(v.to_bits()));
+            let double = double.iter().flatten().map(|v| v.to_bits());
+            single.chain(double).collect()
+        };
+        let whole = rows_of(0..n);
+        for cuts in &cuts {
+            let mut bounds = vec![0];
+            bounds.extend(cuts);
+            bounds.push(n);
+            let mut parts: Vec<Vec<u64>> = bounds.windows(2).map(|w| rows_of(w[0]..w[1])).collect();
+            // Each part is its rows' three axes of each product: regroup as the whole is.
+            let mut joined = Vec::new();
+            for block in 0..9 {
+                for (w, part) in bounds.windows(2).zip(&mut parts) {
+                    let len = w[1] - w[0];
+                    joined.extend_from_slice(&part[block * len..(block + 1) * len]);
+                }
+            }
+            assert_eq!(joined, whole, "cut at {cuts:?}");
+        }
+    }
+}

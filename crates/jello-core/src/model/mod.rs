@@ -1,0 +1,499 @@
+//! The model: everything that does not change while stepping (MuJoCo's mjModel). [`Model`]
+//! holds the bodies (each a lattice of mass points, possibly with holes, its springs, material,
+//! placement and skin), the walls and the inclined plane, the obstacles, the force field,
+//! gravity, pinned points and the options (integrator, dt, how closely implicit steps are
+//! solved); [`ModelBuilder`] makes one and checks it.
+//!
+//! Nothing here depends on the rest of the crate: forces and contacts read the model,
+//! integrators advance a [`State`](crate::State) under it, file formats build one.
+//!
+//! - [`lattice`]: lattice points and the spring stencil;
+//! - [`body`]: a body (its cells, springs, material, placement); [`springs`]: per-spring values;
+//! - [`voxel`]: a closed mesh's cells; [`skin`]: the mesh carried by a body's cells;
+//! - [`obstacle`]: the box, planes, spheres and solid boxes, with their contact geometry;
+//! - [`field`]: the force field sampled on a grid; [`field_preset`]: the fields `--field` names;
+//! - [`motion`]: pinned points moved along paths;
+//! - [`integrator`]: the integrators' names; [`solver`]: how closely implicit steps are solved;
+//! - [`defaults`]: the classic world's values; [`error`]: [`ModelError`] and shared checks.
+
+pub mod body;
+pub mod defaults;
+pub mod error;
+pub mod field;
+pub mod field_preset;
+pub mod integrator;
+pub mod lattice;
+pub mod motion;
+pub mod obstacle;
+pub mod skin;
+pub mod solver;
+pub mod springs;
+pub mod voxel;
+
+pub use error::ModelError;
+
+use crate::model::body::{Body, Material};
+use crate::model::error::{non_negative, positive};
+use crate::model::field::ForceField;
+use crate::model::integrator::Integrator;
+use crate::model::lattice::{Lattice, SpringKind};
+use crate::model::motion::{Motion, PinMotion};
+pub use crate::model::obstacle::{Aabb, Obstacle, Plane};
+use crate::model::springs::Springs;
+use crate::vec3::Vec3;
+
+/// Everything about a simulation that stays fixed while it steps (MuJoCo's mjModel).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Model {
+    /// The soft bodies, their points one after the other in the state's arrays (see
+    /// [`Model::bodies`]).
+    bodies: Vec<Body>,
+    /// Stiffness of the collision penalty springs (N/m).
+    pub k_collision: f64,
+    /// Damping of the collision penalty springs (N·s/m).
+    pub d_collision: f64,
+    /// Coulomb friction coefficient of obstacles and of contacts between bodies (at least 0;
+    /// 0 in world files). The walls and the inclined plane of SPEC.md have none. See
+    /// [`crate::contact::friction`].
+    pub friction: f64,
+    /// The bounding box; points outside it are pushed back by penalty springs.
+    pub bounds: Aabb,
+    /// The inclined plane, when present.
+    pub plane: Option<Plane>,
+    /// Further static obstacles (planes, spheres, solid boxes), with the same penalty springs;
+    /// [`ModelBuilder::obstacle`] checks their values.
+    pub obstacles: Vec<Obstacle>,
+    /// Pinned points (flat indices into the model's points, sorted, no repeats, as [`ModelBuilder::pins`] leaves
+    /// them): their acceleration is always zero, so a pinned point at rest is held in place (one
+    /// moving keeps its velocity). The springs to them still act on their neighbours.
+    pub pins: Vec<u32>,
+    /// Pinned points moved along paths (each point also in `pins`; see [`crate::model::motion`]).
+    pub pin_motions: Vec<PinMotion>,
+    /// The external force field, when present.
+    pub field: Option<ForceField>,
+    /// Uniform acceleration of every active point (m/s²), on top of the field (which is a
+    /// force, the same on a light point as on a heavy one); zero in classic worlds.
+    pub gravity: Vec3,
+    /// Time step (s).
+    pub dt: f64,
+    /// The time-stepping scheme.
+    pub integrator: Integrator,
+    /// Simulation steps per displayed frame (≥ 1).
+    pub steps_per_frame: u32,
+    /// A point further than this outside `bounds` (m) means the run has blown up.
+    pub escape_margin: f64,
+    /// How closely the implicit integrator solves each step (see [`crate::integrate::implicit`]).
+    pub newton: crate::model::solver::Newton,
+}
+
+impl Model {
+    /// The soft bodies. Body `b`'s points are the flat indices [`Body::points`] of every
+    /// per-point array (state, control forces, pins); a model read from a world file has one.
+    pub fn bodies(&self) -> &[Body] {
+        &self.bodies
+    }
+
+    /// Body `b`.
+    pub fn body(&self, b: usize) -> &Body {
+        &self.bodies[b]
+    }
+
+    /// Number of mass points, over all bodies (inactive lattice points of bodies with holes
+    /// included: they are placeholders that never move).
+    pub fn point_count(&self) -> usize {
+        self.bodies.iter().map(Body::len).sum()
+    }
+
+    /// The contacts of a point at `p` with the walls, the inclined plane and the obstacles, in
+    /// that order (each [`Contact`](crate::Contact) with its depth and normal).
+    pub fn contacts(&self, p: Vec3) -> impl Iterator<Item = crate::model::obstacle::Contact> + '_ {
+        self.bounds
+            .wall_contacts(p)
+            .chain(self.plane.and_then(|pl| pl.contact(p)))
+            .chain(self.obstacles.iter().filter_map(move |o| o.contact(p)))
+    }
+
+    /// The body that point `p` (flat index) belongs to, and its lattice coordinates there.
+    pub fn locate(&self, p: usize) -> (usize, [usize; 3]) {
+        let b = self
+            .bodies
+            .partition_point(|body| body.points().end <= p)
+            .min(self.bodies.len() - 1);
+        let body = &self.bodies[b];
+        (b, body.lattice().coords(p - body.first))
+    }
+
+    /// The springs of every body as flat arrays (flat point indices of the model), derived on
+    /// demand (allocates; the force kernel walks the stencil instead).
+    pub fn springs(&self) -> Springs {
+        let mut springs = Springs::default();
+        for body in &self.bodies {
+            body.for_each_spring(|s| springs.push(s, body.first));
+        }
+        springs
+    }
+
+    /// Number of springs, over all bodies.
+    pub fn spring_count(&self) -> usize {
+        self.bodies.iter().map(Body::spring_count).sum()
+    }
+
+    /// A builder holding every value of this model, to change a few and build anew.
+    pub fn to_builder(&self) -> ModelBuilder {
+        ModelBuilder {
+            bodies: self.bodies.clone(),
+            k_collision: self.k_collision,
+            d_collision: self.d_collision,
+            friction: self.friction,
+            bounds: self.bounds,
+            plane: self.plane,
+            obstacles: self.obstacles.clone(),
+            pins: self.pins.clone(),
+            pin_motions: self.pin_motions.clone(),
+            field: self.field.clone(),
+            gravity: self.gravity,
+            dt: self.dt,
+            integrator: self.integrator,
+            steps_per_frame: self.steps_per_frame,
+            escape_margin: self.escape_margin,
+            newton: self.newton,
+        }
+    }
+}
+
+/// Builds a [`Model`]; every value starts at the classic world's default ([`defaults`]).
+#[derive(Clone, Debug)]
+pub struct ModelBuilder {
+    bodies: Vec<Body>,
+    k_collision: f64,
+    d_collision: f64,
+    friction: f64,
+    bounds: Aabb,
+    plane: Option<Plane>,
+    obstacles: Vec<Obstacle>,
+    pins: Vec<u32>,
+    pin_motions: Vec<PinMotion>,
+    field: Option<ForceField>,
+    gravity: Vec3,
+    dt: f64,
+    integrator: Integrator,
+    steps_per_frame: u32,
+    escape_margin: f64,
+    newton: crate::model::solver::Newton,
+}
+
+impl Default for ModelBuilder {
+    fn default() -> Self {
+        ModelBuilder {
+            bodies: vec![Body::lattice_box(Lattice::classic(), Material::classic())],
+            k_collision: defaults::K_COLLISION,
+            d_collision: defaults::D_COLLISION,
+            friction: 0.0,
+            bounds: Aabb::classic(),
+            plane: None,
+            obstacles: Vec::new(),
+            pins: Vec::new(),
+            pin_motions: Vec::new(),
+            field: None,
+            gravity: Vec3::ZERO,
+            dt: defaults::DT,
+            integrator: Integrator::Rk4,
+            steps_per_frame: defaults::STEPS_PER_FRAME,
+            escape_margin: defaults::ESCAPE_MARGIN,
+            newton: crate::model::solver::Newton::default(),
+        }
+    }
+}
+
+impl ModelBuilder {
+    /// A builder holding the classic defaults.
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// How closely the implicit integrator solves each step (default [`Newton::default`]);
+    /// checked by [`build`](Self::build).
+    ///
+    /// [`Newton::default`]: crate::model::solver::Newton
+    pub fn newton(mut self, newton: crate::model::solver::Newton) -> Self {
+        self.newton = newton;
+        self
+    }
+
+    /// The bodies (default: one, the classic 8×8×8 cube of side 1 m of classic jello). The
+    /// setters below that name no body ([`lattice`](Self::lattice), [`mass`](Self::mass),
+    /// [`elastic`](Self::elastic), [`spring_kind`](Self::spring_kind)) change the first.
+    pub fn bodies(mut self, bodies: Vec<Body>) -> Self {
+        self.bodies = bodies;
+        self
+    }
+
+    /// Adds a body after the others.
+    pub fn add_body(mut self, body: Body) -> Self {
+        self.bodies.push(body);
+        self
+    }
+
+    fn first_body(&mut self) -> &mut Body {
+        if self.bodies.is_empty() {
+            let classic = Body::lattice_box(Lattice::classic(), Material::classic());
+            self.bodies.push(classic);
+        }
+        &mut self.bodies[0]
+    }
+
+    /// Makes the first body a full box lattice of this shape, keeping its material and placement
+    /// (default: the classic 8×8×8 cube of side 1 m).
+    pub fn lattice(mut self, lattice: Lattice) -> Self {
+        let body = self.first_body();
+        let boxed = Body::lattice_box(lattice, body.material).placed(body.origin, body.rotation);
+        *body = boxed;
+        self
+    }
+
+    /// Mass of each point of the first body in kg (default 1/512).
+    pub fn mass(mut self, mass: f64) -> Self {
+        self.first_body().material.mass = mass;
+        self
+    }
+
+    /// One stiffness (N/m) and damping (N·s/m) for every spring kind of the first body (default
+    /// 200 and 0.25).
+    pub fn elastic(mut self, k: f64, d: f64) -> Self {
+        let m = &mut self.first_body().material;
+        m.stiffness = [k; 3];
+        m.damping = [d; 3];
+        self
+    }
+
+    /// Stiffness and damping of one spring kind of the first body.
+    pub fn spring_kind(mut self, kind: SpringKind, k: f64, d: f64) -> Self {
+        let m = &mut self.first_body().material;
+        m.stiffness[kind as usize] = k;
+        m.damping[kind as usize] = d;
+        self
+    }
+
+    /// Collision penalty stiffness (N/m) and damping (N·s/m) (default 400 and 0.25).
+    pub fn collision(mut self, k: f64, d: f64) -> Self {
+        self.k_collision = k;
+        self.d_collision = d;
+        self
+    }
+
+    /// Coulomb friction coefficient of obstacles and body contacts (default 0): see
+    /// [`Model::friction`].
+    pub fn friction(mut self, mu: f64) -> Self {
+        self.friction = mu;
+        self
+    }
+
+    /// Bounding box (default `[−2, 2]³`).
+    pub fn bounds(mut self, bounds: Aabb) -> Self {
+        self.bounds = bounds;
+        self
+    }
+
+    /// Inclined plane (default none).
+    pub fn plane(mut self, plane: Option<Plane>) -> Self {
+        self.plane = plane;
+        self
+    }
+
+    /// Adds a static obstacle (default none).
+    pub fn obstacle(mut self, obstacle: Obstacle) -> Self {
+        self.obstacles.push(obstacle);
+        self
+    }
+
+    /// Replaces the static obstacles (default none).
+    pub fn obstacles(mut self, obstacles: Vec<Obstacle>) -> Self {
+        self.obstacles = obstacles;
+        self
+    }
+
+    /// Pins `points` and moves them along `motion` (see [`crate::model::motion`]).
+    pub fn pin_motion(mut self, points: Vec<u32>, motion: Motion) -> Self {
+        self.pins.extend(&points);
+        self.pin_motions.push(PinMotion { points, motion });
+        self
+    }
+
+    /// Pins these points (flat lattice indices; default none): see [`Model::pins`].
+    pub fn pins(mut self, points: impl IntoIterator<Item = u32>) -> Self {
+        self.pins.extend(points);
+        self
+    }
+
+    /// External force field (default none).
+    pub fn field(mut self, field: Option<ForceField>) -> Self {
+        self.field = field;
+        self
+    }
+
+    /// Uniform acceleration (m/s², default zero): see [`Model::gravity`].
+    pub fn gravity(mut self, g: Vec3) -> Self {
+        self.gravity = g;
+        self
+    }
+
+    /// Time step in seconds (default 0.0005).
+    pub fn dt(mut self, dt: f64) -> Self {
+        self.dt = dt;
+        self
+    }
+
+    /// Integrator (default RK4).
+    pub fn integrator(mut self, integrator: Integrator) -> Self {
+        self.integrator = integrator;
+        self
+    }
+
+    /// Simulation steps per displayed frame (default 1).
+    pub fn steps_per_frame(mut self, n: u32) -> Self {
+        self.steps_per_frame = n;
+        self
+    }
+
+    /// Distance outside the box (m) that counts as a blow-up (default 10).
+    pub fn escape_margin(mut self, margin: f64) -> Self {
+        self.escape_margin = margin;
+        self
+    }
+
+    /// Checks every value and builds the model with its springs.
+    pub fn build(mut self) -> Result<Model, ModelError> {
+        if self.bodies.is_empty() {
+            return Err(ModelError::new("a model needs at least one body"));
+        }
+        let several = self.bodies.len() > 1;
+        let mut points = 0usize;
+        for (b, body) in self.bodies.iter_mut().enumerate() {
+            let name = |e: ModelError| {
+                if several {
+                    ModelError::new(format!("body {}: {e}", b + 1))
+                } else {
+                    e
+                }
+            };
+            check_lattice(body.lattice()).map_err(name)?;
+            body.material.check().map_err(name)?;
+            if !(body.origin.is_finite() && body.rotation.iter().all(|r| r.is_finite())) {
+                return Err(name(ModelError::new("placement must be finite")));
+            }
+            body.first = points;
+            points = points
+                .checked_add(body.len())
+                .filter(|&n| n <= u32::MAX as usize / 2)
+                .ok_or_else(|| ModelError::new("the bodies have too many points in all"))?;
+        }
+        positive("dt", self.dt)?;
+        if !self.gravity.is_finite() {
+            return Err(ModelError::new("gravity must be finite"));
+        }
+        positive("collision stiffness", self.k_collision)?;
+        non_negative("collision damping", self.d_collision)?;
+        non_negative("friction", self.friction)?;
+        positive("escape margin", self.escape_margin)?;
+        if self.steps_per_frame == 0 {
+            return Err(ModelError::new("steps per frame must be at least 1"));
+        }
+        self.bounds.check("bounding box")?;
+        if let Some(&p) = self.pins.iter().find(|&&p| p as usize >= points) {
+            return Err(ModelError::new(format!(
+                "pinned point {p} does not exist (the model has {points} points)"
+            )));
+        }
+        let mut pins = self.pins;
+        pins.sort_unstable();
+        pins.dedup();
+        for (i, m) in self.pin_motions.iter().enumerate() {
+            m.motion
+                .check()
+                .map_err(|e| ModelError::new(format!("pin motion {}: {e}", i + 1)))?;
+            if let Some(&p) = m.points.iter().find(|p| pins.binary_search(p).is_err()) {
+                return Err(ModelError::new(format!(
+                    "pin motion {}: point {p} is not pinned",
+                    i + 1
+                )));
+            }
+        }
+        for (i, obstacle) in self.obstacles.iter().enumerate() {
+            obstacle
+                .check()
+                .map_err(|e| ModelError::new(format!("obstacle {}: {e}", i + 1)))?;
+        }
+        if let Some(field) = &self.field {
+            if field.bounds() != self.bounds {
+                return Err(ModelError::new(
+                    "the force field must cover the bounding box exactly",
+                ));
+            }
+        }
+        positive("Newton tolerance", self.newton.tolerance)?;
+        if self.newton.tolerance > crate::model::solver::MAX_TOLERANCE {
+            return Err(ModelError::new(format!(
+                "Newton tolerance must be at most {} m/s (got {})",
+                crate::model::solver::MAX_TOLERANCE,
+                self.newton.tolerance
+            )));
+        }
+        if self.newton.max_iterations == 0 {
+            return Err(ModelError::new("Newton iterations must be at least 1"));
+        }
+        if self.newton.cutbacks > crate::model::solver::MAX_CUTBACKS {
+            return Err(ModelError::new(format!(
+                "a step may be halved at most {} times, not {}",
+                crate::model::solver::MAX_CUTBACKS,
+                self.newton.cutbacks
+            )));
+        }
+        Ok(Model {
+            bodies: self.bodies,
+            k_collision: self.k_collision,
+            d_collision: self.d_collision,
+            friction: self.friction,
+            bounds: self.bounds,
+            plane: self.plane,
+            obstacles: self.obstacles,
+            pins,
+            pin_motions: self.pin_motions,
+            field: self.field,
+            gravity: self.gravity,
+            dt: self.dt,
+            integrator: self.integrator,
+            steps_per_frame: self.steps_per_frame,
+            escape_margin: self.escape_margin,
+            newton: self.newton,
+        })
+    }
+}
+
+/// The most points one lattice may have: 2²⁷ (512³, the finest `jello create --mesh --cells`
+/// makes), about 10 GB of state and scratch with RK4. More is refused with an error rather than
+/// left to fail allocating, which would abort the process (a Python interpreter with it).
+pub const MAX_LATTICE_POINTS: usize = 1 << 27;
+
+/// A lattice with at least one point per axis, two in all, at most [`MAX_LATTICE_POINTS`], and
+/// finite positive sides.
+fn check_lattice(lattice: &Lattice) -> Result<(), ModelError> {
+    let [nx, ny, nz] = lattice.counts;
+    let total = nx.checked_mul(ny).and_then(|v| v.checked_mul(nz));
+    if nx == 0 || ny == 0 || nz == 0 || total.is_some_and(|n| n < 2) {
+        return Err(ModelError::new(format!(
+            "lattice {nx}×{ny}×{nz} needs at least one point per axis and two in all"
+        )));
+    }
+    if total.is_none_or(|n| n > MAX_LATTICE_POINTS) {
+        return Err(ModelError::new(format!(
+            "lattice {nx}×{ny}×{nz} is too large: at most {MAX_LATTICE_POINTS} points"
+        )));
+    }
+    let s = lattice.size;
+    if !(s.is_finite() && s.x > 0.0 && s.y > 0.0 && s.z > 0.0) {
+        return Err(ModelError::new(
+            "lattice side lengths must be finite and positive",
+        ));
+    }
+    Ok(())
+}

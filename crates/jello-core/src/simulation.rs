@@ -1,0 +1,82 @@
+//! [`Simulation`]: a model with its state, control and scratch, the handle the front ends drive.
+
+use crate::compute::team;
+use crate::forces;
+use crate::formats::world::World;
+use crate::integrate::cutback::CutbackStats;
+use crate::integrate::implicit::SolverStats;
+use crate::integrate::{step, BlowUp, Scratch};
+use crate::model::{Model, ModelError};
+use crate::state::{Control, State};
+
+/// A model with its state, control and scratch: the convenient handle that the front ends (the
+/// `jello` command line and the browser's `jello-wasm`) drive.
+#[derive(Clone, Debug)]
+pub struct Simulation {
+    /// What does not change while stepping.
+    pub model: Model,
+    /// What stepping advances.
+    pub state: State,
+    /// Forces from outside.
+    pub control: Control,
+    scratch: Scratch,
+}
+
+impl Simulation {
+    /// A simulation of `model` starting from `state`.
+    pub fn new(model: Model, state: State) -> Self {
+        let scratch = Scratch::new(&model);
+        Simulation {
+            model,
+            state,
+            control: Control::none(),
+            scratch,
+        }
+    }
+
+    /// The simulation a world file describes.
+    pub fn from_world(world: &World) -> Result<Self, ModelError> {
+        let (model, state) = world.to_simulation()?;
+        Ok(Simulation::new(model, state))
+    }
+
+    /// One step; on a blow-up the state stays at the last good step.
+    pub fn step(&mut self) -> Result<(), BlowUp> {
+        step(
+            &self.model,
+            &mut self.state,
+            &self.control,
+            &mut self.scratch,
+        )
+    }
+
+    /// How often implicit steps were taken in parts (see [`cutback`](crate::integrate::cutback)) since this simulation
+    /// was made.
+    pub fn cutbacks(&self) -> CutbackStats {
+        self.scratch.cutbacks()
+    }
+
+    /// The implicit solver's work since this simulation was made (see [`SolverStats`]).
+    pub fn solver_stats(&self) -> SolverStats {
+        self.scratch.solver_stats()
+    }
+
+    /// `n` steps, stopping at the first blow-up.
+    ///
+    /// On lattices large enough for threads the steps share one team of threads (see
+    /// [`team`]): its threads wait for the next step's work spinning, and each keeps the same
+    /// part of the lattice from step to step. The results are the same as `n` calls of
+    /// [`Simulation::step`].
+    pub fn advance(&mut self, n: u64) -> Result<(), BlowUp> {
+        let steps = |sim: &mut Simulation| (0..n).try_for_each(|_| sim.step());
+        if n > 1 && self.model.point_count() >= forces::PARALLEL_MIN_POINTS {
+            return team::run(|| steps(self));
+        }
+        steps(self)
+    }
+
+    /// The current state as a world file, when the model fits the classic format.
+    pub fn to_world(&self) -> Result<World, ModelError> {
+        World::from_simulation(&self.model, &self.state)
+    }
+}
