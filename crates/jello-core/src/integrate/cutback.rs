@@ -29,9 +29,10 @@
 
 use crate::contact::friction::Anchors;
 use crate::integrate::blow_up::{block_is_sound, unsound};
+use crate::integrate::blow_up::{BlowUp, BlowUpCause};
 use crate::integrate::implicit;
+use crate::integrate::scratch::{accept, Scratch};
 use crate::integrate::stability;
-use crate::integrate::{accept, BlowUp, BlowUpCause, Scratch};
 use crate::model::Model;
 use crate::state::{Control, State};
 use crate::vec3::Vec3;

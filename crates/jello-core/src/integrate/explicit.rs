@@ -2,7 +2,7 @@
 //! stage is one [`force_pass`], whose blocks the integrator updates while they are in cache.
 
 use super::blow_up::block_is_sound;
-use super::Scratch;
+use super::scratch::Scratch;
 use crate::compute::soa::Soa;
 use crate::forces::force_pass;
 use crate::model::integrator::Integrator;

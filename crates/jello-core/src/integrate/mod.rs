@@ -5,8 +5,9 @@
 //! model's escape margin. So after a [`BlowUp`] the state still holds the last good step, and
 //! nothing non-finite ever reaches a caller, a renderer or a saved file.
 //!
-//! - this file: [`step`], the buffers it works in ([`Scratch`]) and what every step does at its
-//!   end;
+//! - this file: [`step`];
+//! - `scratch.rs`: the buffers every integrator works in ([`Scratch`]), and what every step does
+//!   with its result;
 //! - [`explicit`]: Euler, RK2, RK4 and symplectic Euler, each stage one force pass;
 //! - [`implicit`]: backward Euler and SDIRK2, solved by Newton's method;
 //! - [`cutback`]: implicit steps that fail taken again in halves;
@@ -17,75 +18,17 @@ pub mod blow_up;
 pub mod cutback;
 pub mod explicit;
 pub mod implicit;
+mod scratch;
 pub mod stability;
 
 pub use blow_up::{BlowUp, BlowUpCause};
+pub use scratch::Scratch;
 
-use crate::compute::soa::Soa;
-use crate::forces::{ForceScratch, PARALLEL_MIN_POINTS};
+use crate::forces::PARALLEL_MIN_POINTS;
 use crate::integrate::blow_up::unsound;
-use crate::integrate::cutback::Cutback;
-use crate::integrate::implicit::ImplicitScratch;
+use crate::integrate::scratch::accept;
 use crate::model::Model;
 use crate::state::{Control, State};
-use crate::vec3::Vec3;
-
-/// Buffers the integrators work in, sized once for a model: stepping never allocates. The
-/// integrators work in structures of arrays (see [`crate::compute::soa`]) and write the step's result as
-/// arrays of vectors, which are swapped into the state.
-#[derive(Clone, Debug, Default)]
-pub struct Scratch {
-    pub(crate) force: ForceScratch,
-    pos: Soa,
-    vel: Soa,
-    /// Positions of the intermediate stages: RK2's midpoint; RK4's stages 2 and 4 in the first,
-    /// stage 3 in the second.
-    stage_pos: [Soa; 2],
-    /// Velocities of RK4's stages 2, 3 and 4 (RK2's midpoint in the first): all three are the
-    /// position slopes the end of the step sums, so none is overwritten.
-    stage_vel: [Soa; 3],
-    /// RK4's sum of the velocity slopes `k1 + 2k2 + 2k3` (accelerations).
-    sum_vel: Soa,
-    /// The step's result, swapped into the state when it is sound.
-    pub(crate) next_pos: Vec<Vec3>,
-    pub(crate) next_vel: Vec<Vec3>,
-    /// The implicit solver's buffers (sized on its first step).
-    pub(crate) implicit: ImplicitScratch,
-    /// How implicit steps are being cut back, and the state to go back to.
-    pub(crate) cutback: Cutback,
-}
-
-impl Scratch {
-    /// How often implicit steps were taken in parts (see [`crate::integrate::cutback`]) since these
-    /// buffers were made.
-    pub fn cutbacks(&self) -> crate::CutbackStats {
-        self.cutback.stats()
-    }
-
-    /// The implicit solver's work (solves, Newton and conjugate-gradient iterations,
-    /// assemblies of its matrix) since these buffers were made; zero under explicit integrators.
-    pub fn solver_stats(&self) -> crate::SolverStats {
-        self.implicit.stats()
-    }
-
-    /// Buffers for a model's point count.
-    pub fn new(model: &Model) -> Self {
-        // Buffers read in the same loops get different colors (cache sets, see Soa).
-        let z = |color| Soa::with_color(model.point_count(), color);
-        Scratch {
-            force: ForceScratch::new(model),
-            pos: z(0),
-            vel: z(1),
-            stage_pos: [z(2), z(0)],
-            stage_vel: [z(3), z(1), z(3)],
-            sum_vel: z(2),
-            next_pos: vec![Vec3::ZERO; model.point_count()],
-            next_vel: vec![Vec3::ZERO; model.point_count()],
-            implicit: ImplicitScratch::default(),
-            cutback: Cutback::default(),
-        }
-    }
-}
 
 /// Advances `state` by one step of `model.integrator` with `model.dt`.
 ///
@@ -131,18 +74,4 @@ pub fn step(
     state.time = t1;
     state.steps += 1;
     Ok(())
-}
-
-/// The sound result of a step from `t0` to `t1`, in the scratch's buffers, becomes the state's
-/// positions and velocities (its time and step count are the caller's): swapped in (the old
-/// ones are overwritten by the next step), then the moving pins put where their paths say, and
-/// the obstacles' friction anchors dragged or let go.
-pub(crate) fn accept(model: &Model, state: &mut State, s: &mut Scratch, t0: f64, t1: f64) {
-    std::mem::swap(&mut state.pos, &mut s.next_pos);
-    std::mem::swap(&mut state.vel, &mut s.next_vel);
-    // From the positions at the step's start, now in the scratch's buffer.
-    for m in &model.pin_motions {
-        m.apply(t0, t1, &s.next_pos, &mut state.pos, &mut state.vel);
-    }
-    s.force.update_anchors(model, &state.pos);
 }

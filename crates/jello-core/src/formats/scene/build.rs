@@ -1,0 +1,429 @@
+//! A scene file made into a model and its initial state ([`SceneFile::to_scene`]): bodies built,
+//! placed, given their materials, regions, pins and velocities; the whole checked (bodies inside
+//! the box, apart, outside the obstacles), with errors at the body's line.
+
+use super::tables::{v3, BodySpec, ObstacleSpec};
+use super::{Scene, SceneError, SceneFile, MAX_CELLS};
+use crate::formats::mesh::TriMesh;
+use crate::model::body::{rotation_xyz, Body, Material, IDENTITY};
+use crate::model::field::ForceField;
+use crate::model::integrator::Integrator;
+use crate::model::lattice::Lattice;
+use crate::model::obstacle::Sphere;
+use crate::model::springs::SpringScale;
+use crate::model::{Aabb, Model, ModelBuilder, ModelError, Obstacle, Plane};
+use crate::state::State;
+use crate::vec3::Vec3;
+
+impl SceneFile {
+    /// The model and initial state this scene describes.
+    pub fn to_scene(&self, name: &str) -> Result<Scene, SceneError> {
+        let error = |message: String| SceneError {
+            source_name: name.to_string(),
+            line: 0,
+            column: 0,
+            message,
+        };
+        let integrator: Integrator = self
+            .simulation
+            .integrator
+            .parse()
+            .map_err(|e: crate::model::integrator::UnknownIntegrator| error(e.to_string()))?;
+        let bounds = match self.bounds {
+            Some(b) => Aabb::new(v3(b.min), v3(b.max)).map_err(|e| error(format!("box: {e}")))?,
+            None => Aabb::classic(),
+        };
+        let field = match &self.field {
+            Some(f) => Some(
+                ForceField::new(
+                    f.resolution,
+                    bounds,
+                    f.forces.iter().map(|&p| v3(p)).collect(),
+                )
+                .map_err(|e| error(format!("field: {e}")))?,
+            ),
+            None => None,
+        };
+        let mut obstacles = Vec::new();
+        for (i, o) in self.obstacles.iter().enumerate() {
+            let what = |e: ModelError| error(format!("obstacle {}: {e}", i + 1));
+            obstacles.push(match *o {
+                ObstacleSpec::Plane { coeffs } => {
+                    Obstacle::Plane(Plane::new(coeffs).map_err(what)?)
+                }
+                ObstacleSpec::Sphere { centre, radius } => {
+                    Obstacle::Sphere(Sphere::new(v3(centre), radius).map_err(what)?)
+                }
+                ObstacleSpec::Box { min, max } => {
+                    Obstacle::Box(Aabb::new(v3(min), v3(max)).map_err(what)?)
+                }
+            });
+        }
+        let mut bodies = Vec::new();
+        let names = self.body_names();
+        let at_body = |b: usize, message: String| SceneError {
+            source_name: name.to_string(),
+            line: self.origin.0.get(b).copied().unwrap_or(0),
+            column: 0,
+            message: format!("body {}: {message}", b + 1),
+        };
+        for (b, spec) in self.bodies.iter().enumerate() {
+            let body = spec.to_body(name).map_err(|e| at_body(b, e))?;
+            bodies.push(body);
+        }
+        let c = &self.collision;
+        if !(c.stiffness.is_finite() && c.stiffness > 0.0) {
+            return Err(error(format!(
+                "[collision] stiffness must be a finite number above 0 (got {})",
+                c.stiffness
+            )));
+        }
+        for (what, v) in [("damping", c.damping), ("friction", c.friction)] {
+            if !(v.is_finite() && v >= 0.0) {
+                return Err(error(format!(
+                    "[collision] {what} must be a finite number ≥ 0 (got {v})"
+                )));
+            }
+        }
+        if self.simulation.cutbacks > crate::model::solver::MAX_CUTBACKS {
+            return Err(error(format!(
+                "[simulation] cutbacks must be at most {} (got {})",
+                crate::model::solver::MAX_CUTBACKS,
+                self.simulation.cutbacks
+            )));
+        }
+        let tolerance = self.simulation.tolerance;
+        if !(tolerance.is_finite()
+            && tolerance > 0.0
+            && tolerance <= crate::model::solver::MAX_TOLERANCE)
+        {
+            return Err(error(format!(
+                "[simulation] tolerance must be a number above 0 and at most {} m/s (got {tolerance})",
+                crate::model::solver::MAX_TOLERANCE,
+            )));
+        }
+        let mut model = ModelBuilder::new()
+            .bodies(bodies)
+            .integrator(integrator)
+            .dt(self.simulation.dt)
+            .steps_per_frame(self.simulation.steps_per_frame)
+            .gravity(v3(self.simulation.gravity))
+            .collision(self.collision.stiffness, self.collision.damping)
+            .friction(self.collision.friction)
+            .bounds(bounds)
+            .obstacles(obstacles)
+            .field(field)
+            .newton(crate::model::solver::Newton {
+                cutbacks: self.simulation.cutbacks,
+                tolerance,
+                ..Default::default()
+            })
+            .build()
+            .map_err(|e| error(e.to_string()))?;
+        let mut state = State::at_rest(&model);
+        if !self.simulation.time.is_finite() {
+            return Err(error("[simulation] time must be finite".into()));
+        }
+        state.time = self.simulation.time;
+        let mut pins = Vec::new();
+        let mut motions = Vec::new();
+        for (b, spec) in self.bodies.iter().enumerate() {
+            let body = model.body(b);
+            let range = body.points();
+            spec.initial_state(&model, b, &mut state)
+                .map_err(|e| at_body(b, e))?;
+            // Pins are found in the placed rest shape (so a saved state finds the same points).
+            let rest = body.rest_positions();
+            for (n, pin) in spec.pins.iter().enumerate() {
+                let at = v3(pin.at);
+                let active = range.clone().filter(|&p| body.is_active(p - range.start));
+                let distance = |p: &usize| (rest[*p - range.start] - at).length();
+                let held: Vec<u32> = if pin.radius > 0.0 {
+                    active
+                        .filter(|p| distance(p) <= pin.radius)
+                        .map(|p| p as u32)
+                        .collect()
+                } else {
+                    // Radius 0: the nearest point (the first of equals).
+                    active
+                        .min_by(|a, b| distance(a).total_cmp(&distance(b)))
+                        .map(|p| p as u32)
+                        .into_iter()
+                        .collect()
+                };
+                if !(pin.radius >= 0.0 && pin.radius.is_finite()) {
+                    return Err(at_body(
+                        b,
+                        format!(
+                            "pin {} needs a finite radius ≥ 0 (0: the nearest point)",
+                            n + 1
+                        ),
+                    ));
+                }
+                if held.is_empty() {
+                    return Err(at_body(
+                        b,
+                        format!(
+                            "pin {} holds no point (none within {} m of {:?})",
+                            n + 1,
+                            pin.radius,
+                            pin.at
+                        ),
+                    ));
+                }
+                let motion = pin
+                    .motion()
+                    .map_err(|e| at_body(b, format!("pin {}: {e}", n + 1)))?;
+                if let Some(motion) = motion {
+                    motion
+                        .check()
+                        .map_err(|e| at_body(b, format!("pin {}: {e}", n + 1)))?;
+                    // A scene starts its moving pins at their path's velocity (a saved state
+                    // keeps its own).
+                    if spec.state.is_none() {
+                        let v = motion.velocity(state.time);
+                        held.iter().for_each(|&p| state.vel[p as usize] = v);
+                    }
+                    motions.push((held.clone(), motion));
+                }
+                pins.extend(held);
+            }
+        }
+        if !pins.is_empty() {
+            let mut builder = model.to_builder().pins(pins);
+            for (points, motion) in motions {
+                builder = builder.pin_motion(points, motion);
+            }
+            model = builder.build().map_err(|e| error(e.to_string()))?;
+        }
+        // A saved state (a run's end) may rest against anything; a scene's start must be clear.
+        if self.bodies.iter().all(|b| b.state.is_none()) {
+            check_start(&model, &state).map_err(error)?;
+        }
+        Ok(Scene {
+            model,
+            state,
+            names,
+        })
+    }
+}
+
+/// 1-based line and column of byte `offset` in `text`.
+/// Bodies must start inside the box, apart from each other, and outside the obstacles.
+fn check_start(model: &Model, state: &State) -> Result<(), String> {
+    let bounds = model.bounds;
+    for (b, body) in model.bodies().iter().enumerate() {
+        let r = body.points();
+        for p in r.clone().filter(|&p| body.is_active(p - r.start)) {
+            let q = state.pos[p];
+            if bounds.excursion(q) > 0.0 {
+                return Err(format!(
+                    "body {} starts outside the box (a point at {:?} is outside {:?} to {:?})",
+                    b + 1,
+                    q.to_array(),
+                    bounds.min.to_array(),
+                    bounds.max.to_array()
+                ));
+            }
+            if let Some(o) = model.obstacles.iter().position(|o| o.contact(q).is_some()) {
+                return Err(format!(
+                    "body {} starts inside obstacle {} (a point at {:?})",
+                    b + 1,
+                    o + 1,
+                    q.to_array()
+                ));
+            }
+        }
+    }
+    let (overlap, _) = crate::contact::overlap(model, &state.pos);
+    if overlap > 0.0 {
+        return Err(format!(
+            "bodies start interpenetrating (by {overlap:.3e} m, counting each point as a ball of half its lattice spacing); move them apart"
+        ));
+    }
+    Ok(())
+}
+
+impl BodySpec {
+    /// Checks the combination of keys (one shape; at most one way to give the mass, the
+    /// stiffness and the damping). Reading a scene file checks this; so should a front end that
+    /// builds bodies.
+    pub fn check(&self) -> Result<(), String> {
+        match (&self.cube, &self.mesh) {
+            (Some(_), Some(_)) => return Err("give either cube or mesh, not both".into()),
+            (None, None) => return Err("expected a shape: cube = { … } or mesh = { … }".into()),
+            _ => {}
+        }
+        let masses = [self.mass, self.total_mass, self.density]
+            .iter()
+            .filter(|m| m.is_some())
+            .count();
+        if masses > 1 {
+            return Err("give at most one of mass, total_mass and density".into());
+        }
+        if self.stiffness.is_some() && self.modulus.is_some() {
+            return Err("give either stiffness or modulus, not both".into());
+        }
+        if self.damping.is_some() && self.viscosity.is_some() {
+            return Err("give either damping or viscosity, not both".into());
+        }
+        Ok(())
+    }
+
+    /// The body, placed, with its material.
+    fn to_body(&self, file: &str) -> Result<Body, String> {
+        let material = Material::classic();
+        let mut body = match (&self.cube, &self.mesh) {
+            (Some(c), None) => Body::lattice_box(Lattice::new(c.points, v3(c.size)), material),
+            (None, Some(m)) => {
+                let vertices: Vec<Vec3> = m.vertices.iter().map(|&p| v3(p)).collect();
+                let mesh = TriMesh::from_parts(&vertices, &m.triangles, &format!("{file}: mesh"))
+                    .map_err(|e| e.to_string())?;
+                Body::from_mesh(
+                    &mesh.vertices,
+                    &mesh.triangles,
+                    m.cells,
+                    MAX_CELLS,
+                    material,
+                )
+                .map_err(|e| e.to_string())?
+            }
+            _ => return Err("expected exactly one shape".into()),
+        };
+        // Placement: turn about the middle of the rest bounding box, then move it to `centre`.
+        let size = body.lattice().size;
+        let half = size * 0.5;
+        let rotation = self.rotation.map_or(IDENTITY, rotation_xyz);
+        let turned_half = Vec3::new(
+            rotation[0].dot(half),
+            rotation[1].dot(half),
+            rotation[2].dot(half),
+        );
+        let centre = match self.centre {
+            Some(c) => v3(c),
+            None => body.origin + half,
+        };
+        let origin = if self.rotation.is_none() && self.centre.is_none() {
+            body.origin
+        } else {
+            centre - turned_half
+        };
+        body = body.placed(origin, rotation);
+        // Material.
+        let h = body.lattice().spacing();
+        let cell_volume = h.x * h.y * h.z;
+        let volume = body.cell_count() as f64 * cell_volume;
+        let n = body.active_count() as f64;
+        let mut m = body.material;
+        if let Some(mass) = self.mass {
+            m.mass = mass;
+        } else if let Some(total) = self.total_mass {
+            m.mass = total / n;
+        } else if let Some(density) = self.density {
+            m.mass = density * volume / n;
+        }
+        if let Some(k) = self.stiffness {
+            m.stiffness = k;
+        }
+        if let Some(d) = self.damping {
+            m.damping = d;
+        }
+        if let Some(e) = self.modulus {
+            m.stiffness = [e * body.min_spacing(); 3];
+        }
+        if let Some(eta) = self.viscosity {
+            m.damping = [eta * body.min_spacing(); 3];
+        }
+        m.check().map_err(|e| e.to_string())?;
+        body.material = m;
+        self.apply_regions(&mut body)?;
+        Ok(body)
+    }
+
+    /// Scales the springs of each region in turn.
+    fn apply_regions(&self, body: &mut Body) -> Result<(), String> {
+        if self.region.is_empty() {
+            return Ok(());
+        }
+        let rest: Vec<[f64; 3]> = body.rest_positions().iter().map(|p| p.to_array()).collect();
+        // Boundaries are included up to rounding: a point computed as `size · i / (n − 1)` may
+        // miss a boundary written in decimal by an ulp or so.
+        let slack = 1e-9 * body.lattice().size.max_abs();
+        for (r, region) in self.region.iter().enumerate() {
+            let what = |e: String| format!("region {}: {e}", r + 1);
+            let (lo, hi) = (region.min, region.max);
+            if !(v3(lo).is_finite() && v3(hi).is_finite()) || (0..3).any(|a| lo[a] > hi[a]) {
+                return Err(what(format!(
+                    "needs finite corners with min ≤ max (got {:?} to {:?})",
+                    region.min, region.max
+                )));
+            }
+            let scale = region.scale();
+            scale.check().map_err(|e| what(e.to_string()))?;
+            let inside: Vec<bool> = rest
+                .iter()
+                .map(|p| (0..3).all(|a| p[a] >= lo[a] - slack && p[a] <= hi[a] + slack))
+                .collect();
+            let mut caught = 0;
+            body.scale_springs(|s| {
+                if inside[s.a] && inside[s.b] {
+                    caught += 1;
+                    scale
+                } else {
+                    SpringScale::ONE
+                }
+            })
+            .map_err(|e| what(e.to_string()))?;
+            if caught == 0 {
+                let (mut min, mut max) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
+                for p in rest.iter().enumerate().filter(|(q, _)| body.is_active(*q)) {
+                    for a in 0..3 {
+                        (min[a], max[a]) = (min[a].min(p.1[a]), max[a].max(p.1[a]));
+                    }
+                }
+                return Err(what(format!(
+                    "no spring has both ends in {:?} to {:?} (the body rests within {min:?} to \
+                     {max:?} as placed)",
+                    region.min, region.max
+                )));
+            }
+        }
+        Ok(())
+    }
+
+    /// Writes body `b`'s initial positions and velocities into the state.
+    fn initial_state(&self, model: &Model, b: usize, state: &mut State) -> Result<(), String> {
+        let body = model.body(b);
+        let range = body.points();
+        if let Some(s) = &self.state {
+            let n = range.len();
+            if s.positions.len() != n || s.velocities.len() != n {
+                return Err(format!(
+                    "state needs {n} positions and {n} velocities (one per lattice point), found {} and {}",
+                    s.positions.len(),
+                    s.velocities.len()
+                ));
+            }
+            for (q, (p, v)) in range.zip(s.positions.iter().zip(&s.velocities)) {
+                let (p, v) = (v3(*p), v3(*v));
+                if !(p.is_finite() && v.is_finite()) {
+                    return Err("state values must be finite".into());
+                }
+                (state.pos[q], state.vel[q]) = (p, v);
+            }
+            return Ok(());
+        }
+        let first = range.start;
+        let active = |q: &usize| body.is_active(q - first);
+        let com = crate::diagnostics::body_centre_of_mass(model, b, &state.pos);
+        let v0 = self.velocity.map_or(Vec3::ZERO, v3);
+        let w = self.spin.map_or(Vec3::ZERO, v3);
+        if !(v0.is_finite() && w.is_finite()) {
+            return Err("velocity and spin must be finite".into());
+        }
+        for q in range.filter(active) {
+            state.vel[q] = v0 + w.cross(state.pos[q] - com);
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,365 @@
+//! [`ImplicitScratch`]: the implicit solver's buffers, sized on its first step for a model, and
+//! what it loads into them at each step (the springs in slot order, the masses, the dampers at
+//! the step's start).
+
+use super::cg::sum_chunks;
+use super::contacts::StartPair;
+use super::gmres::Gmres;
+use super::matrix::can_swirl;
+use super::multigrid::Multigrid;
+use super::residual::fall_chunks;
+use super::stencil::SpringMatrix;
+use super::sym::{add_outer, Sym};
+use super::SolverStats;
+use crate::compute::soa::Soa;
+use crate::contact::Contacts;
+use crate::model::body::Body;
+use crate::model::Model;
+use crate::vec3::Vec3;
+
+/// One spring as the solver needs it: its ends (flat indices of the model), rest length,
+/// stiffness and damping.
+#[derive(Clone, Copy, Debug, Default)]
+pub(super) struct Row {
+    pub(super) a: u32,
+    pub(super) b: u32,
+    pub(super) rest: f64,
+    pub(super) k: f64,
+    pub(super) d: f64,
+}
+
+/// The buffers of the implicit solver, sized on its first step for a model.
+#[derive(Clone, Debug, Default)]
+pub struct ImplicitScratch {
+    /// The work done so far (kept when the buffers are sized anew).
+    pub(super) stats: SolverStats,
+    pub(super) rows: Vec<Row>,
+    /// The springs as the bodies list them, before they are put in slot order.
+    pub(super) listed_rows: Vec<Row>,
+    /// The bodies whose springs are listed (none before the first step).
+    pub(super) loaded: Option<Vec<Body>>,
+    /// The springs' ends, and each spring's block of `A` at the iterate (see
+    /// [`Operator`](multigrid::Operator)): `axial·ûûᵀ + transverse·(I − ûûᵀ)` of its stiffness plus
+    /// `damping·û₀û₀ᵀ` of its damper along its direction at the step's start.
+    pub(super) spring_pairs: Vec<[u32; 2]>,
+    pub(super) spring_blocks: Vec<Sym>,
+    /// The same blocks by stencil slot, for `A·x`.
+    pub(super) springs: SpringMatrix,
+    /// Each spring's direction at the step's start (zero for a spring of zero length).
+    pub(super) start_dir: Vec<Vec3>,
+    /// The field's force on each point at the iterate's and the trial's end positions (for the
+    /// line search; see `residual::field_work`).
+    pub(super) field: Vec<Vec3>,
+    pub(super) field_trial: Vec<Vec3>,
+    /// Per point: mass (kg), and 1 for a point that moves, 0 for one pinned or unused.
+    pub(super) mass: Vec<f64>,
+    pub(super) free: Vec<f64>,
+    /// The masses and moving points of the last step (an `A` kept from it has its masses).
+    pub(super) last_mass: Vec<f64>,
+    pub(super) last_free: Vec<f64>,
+    /// Per point: the stiffness of its springs, summed (N/m); and the largest of that plus the
+    /// contacts' over the mass among the moving points (1/s², see `newton::rounding_floor`).
+    pub(super) point_stiffness: Vec<f64>,
+    pub(super) stiffness_over_mass: f64,
+    /// The shortest rest length of a spring of the model (m; zero when it has none): the scale
+    /// of a move that changes `A` (see [`KEEP_MOVE`]).
+    pub(super) shortest_spring: f64,
+    /// The step size whose last Newton iteration left `A` fit to keep for the next step's first
+    /// (see `newton::keeps_across_steps`); `None` once the model's springs, masses or held points
+    /// change, and after a step that did not converge.
+    pub(super) keep_across: Option<f64>,
+    /// Newton iterations that kept the last one's `A`, and whether they may (tests only).
+    #[cfg(test)]
+    pub(super) kept: u32,
+    #[cfg(test)]
+    pub(super) may_keep: bool,
+    /// Steps whose first Newton iteration kept the last step's `A` (tests only).
+    #[cfg(test)]
+    pub(super) kept_across: u32,
+    /// Per point: the damping matrix `dCollision·Σ n nᵀ` of the walls, plane and obstacles it is
+    /// in at the step's start.
+    pub(super) start_damping: Vec<Sym>,
+    /// The dampers between bodies: the pairs of points that overlap at the step's start.
+    pub(super) start_pairs: Vec<StartPair>,
+    /// Per point: the walls', plane's, obstacles' and pulls' part of `A`, then the inverse of the
+    /// diagonal block.
+    pub(super) extra: Vec<Sym>,
+    pub(super) diag_inv: Vec<Sym>,
+    /// The iterate and its trial along the Newton direction.
+    pub(super) v: Vec<Vec3>,
+    pub(super) trial: Vec<Vec3>,
+    /// Residuals of the iterate and the trial.
+    pub(super) g: Vec<Vec3>,
+    pub(super) g_trial: Vec<Vec3>,
+    /// Conjugate gradients: the solution, residual, preconditioned residual, direction and
+    /// `A` times the direction.
+    pub(super) dv: Vec<Vec3>,
+    pub(super) r: Vec<Vec3>,
+    pub(super) z: Vec<Vec3>,
+    pub(super) p: Vec<Vec3>,
+    pub(super) ap: Vec<Vec3>,
+    /// SDIRK2: the start of its second stage (positions, velocities).
+    pub(super) base_x: Vec<Vec3>,
+    pub(super) base_v: Vec<Vec3>,
+    /// The force routine's inputs and output.
+    pub(super) x_soa: Soa,
+    pub(super) v_soa: Soa,
+    pub(super) acc: Soa,
+    /// Contacts between bodies at the iterate, for `A`: the pairs of points in contact and
+    /// their blocks (a penalty spring's, as a spring's block is), found through a contact pass of
+    /// their own.
+    pub(super) contacts: Contacts,
+    pub(super) pair_rows: Vec<[u32; 2]>,
+    pub(super) pair_blocks: Vec<Sym>,
+    /// The coarse levels of `A` for the conjugate gradients' preconditioner, and whether the
+    /// last solve stopped because their cycle was not positive definite.
+    pub(super) multigrid: Multigrid,
+    pub(super) multigrid_failed: bool,
+    /// Where a solve may stop however little its residual fell: once its residual `r = −M·g′`
+    /// (the linear model's) is within `m·within` at every point (m/s; half the Newton
+    /// iteration's target, 0 for none).
+    pub(super) within: f64,
+    /// A field that may swirl past the limit ([`can_swirl`]): per point, the part of `A` that
+    /// its exact gradient adds to the symmetric, positive semi-definite stiffness in `extra` (a
+    /// general 3×3, row-major); used when `swirl` is set.
+    pub(super) field_correction: Vec<[f64; 9]>,
+    /// True when the field's swirl at the iterate passes [`SWIRL_LIMIT`] and `swirl_allowed`
+    /// (see [`newton`](fn@newton)): `A` is not symmetric then, and GMRES (with its basis here)
+    /// solves in place of conjugate gradients.
+    pub(super) swirl: bool,
+    pub(super) swirl_allowed: bool,
+    pub(super) gmres: Gmres,
+    /// [`potential_fall`](fn@residual::potential_fall)'s sums over each chunk of
+    /// `residual::FALL_CHUNK` points and springs.
+    pub(super) falls: Vec<[f64; 3]>,
+    /// The conjugate gradients' sums over each chunk of [`sum_chunk`](cg::sum_chunk) points: of a
+    /// product ([`dot`](cg::dot)), and of `r·r` with whether `r` is within its bound there
+    /// ([`advance`](cg::advance)).
+    pub(super) dots: Vec<f64>,
+    pub(super) advanced: Vec<(f64, bool)>,
+}
+
+impl ImplicitScratch {
+    /// The trial point `v + α·Δv`.
+    pub(super) fn set_trial(&mut self, alpha: f64) {
+        for ((t, &v), &dv) in self.trial.iter_mut().zip(&self.v).zip(&self.dv) {
+            *t = v + dv * alpha;
+        }
+    }
+
+    /// The trial point (with its residual and field) becomes the iterate.
+    pub(super) fn take_trial(&mut self) {
+        std::mem::swap(&mut self.v, &mut self.trial);
+        std::mem::swap(&mut self.g, &mut self.g_trial);
+        std::mem::swap(&mut self.field, &mut self.field_trial);
+    }
+
+    /// The work done so far.
+    pub(crate) fn stats(&self) -> SolverStats {
+        self.stats
+    }
+
+    pub(super) fn fits(&self, model: &Model) -> bool {
+        let n = model.point_count();
+        self.mass.len() == n
+            && self.contacts.fits(model)
+            && self.springs.fits(model)
+            && (!can_swirl(model, model.dt)
+                || (self.gmres.fits(n) && self.field_correction.len() == n))
+    }
+
+    pub(super) fn new(model: &Model) -> Self {
+        let n = model.point_count();
+        // A step cut back is shorter than `dt`, so swirls less.
+        let swirls = can_swirl(model, model.dt);
+        let several = model.bodies().len() > 1;
+        let zeros = vec![Vec3::ZERO; n];
+        ImplicitScratch {
+            stats: SolverStats::default(),
+            rows: Vec::with_capacity(model.spring_count()),
+            listed_rows: Vec::with_capacity(model.spring_count()),
+            loaded: None,
+            spring_pairs: Vec::with_capacity(model.spring_count()),
+            spring_blocks: Vec::with_capacity(model.spring_count()),
+            springs: SpringMatrix::new(model),
+            start_dir: Vec::with_capacity(model.spring_count()),
+            field: zeros.clone(),
+            field_trial: zeros.clone(),
+            mass: vec![0.0; n],
+            last_mass: vec![0.0; n],
+            last_free: vec![0.0; n],
+            within: 0.0,
+            free: vec![0.0; n],
+            point_stiffness: vec![0.0; n],
+            stiffness_over_mass: 0.0,
+            shortest_spring: 0.0,
+            #[cfg(test)]
+            kept: 0,
+            #[cfg(test)]
+            may_keep: true,
+            #[cfg(test)]
+            kept_across: 0,
+            keep_across: None,
+            start_damping: vec![[0.0; 6]; n],
+            start_pairs: Vec::with_capacity(if several { 8 * n } else { 0 }),
+            extra: vec![[0.0; 6]; n],
+            diag_inv: vec![[0.0; 6]; n],
+            v: zeros.clone(),
+            trial: zeros.clone(),
+            g: zeros.clone(),
+            g_trial: zeros.clone(),
+            dv: zeros.clone(),
+            r: zeros.clone(),
+            z: zeros.clone(),
+            p: zeros.clone(),
+            ap: zeros.clone(),
+            base_x: zeros.clone(),
+            base_v: zeros,
+            x_soa: Soa::zeros(n),
+            v_soa: Soa::zeros(n),
+            acc: Soa::zeros(n),
+            contacts: Contacts::new(model),
+            // Room for 8 contacts a point (two lattices of the same spacing touch at most 8
+            // points of the other) at the iterate, and as many dampers from the step's start,
+            // so stepping does not allocate.
+            pair_rows: Vec::with_capacity(if several { 16 * n } else { 0 }),
+            pair_blocks: Vec::with_capacity(if several { 16 * n } else { 0 }),
+            multigrid: Multigrid::default(),
+            multigrid_failed: false,
+            field_correction: vec![[0.0; 9]; if swirls { n } else { 0 }],
+            swirl: false,
+            swirl_allowed: false,
+            gmres: if swirls {
+                Gmres::new(n)
+            } else {
+                Gmres::default()
+            },
+            // Sized with the springs, by `list_springs`.
+            falls: Vec::new(),
+            dots: vec![0.0; sum_chunks(n)],
+            advanced: vec![(0.0, false); sum_chunks(n)],
+        }
+    }
+
+    /// The model's springs, masses and free points, read every step (a model may change between
+    /// steps without changing its size). The springs are listed again only when a body's
+    /// springs may have changed (see [`Body::has_springs_of`]): listing them is a tenth of a
+    /// step of the 16³ benchmark at 1/60 s and 1e-3 m/s.
+    pub(super) fn load(&mut self, model: &Model) {
+        let same = self.loaded.as_ref().is_some_and(|loaded| {
+            loaded.len() == model.bodies().len()
+                && loaded
+                    .iter()
+                    .zip(model.bodies())
+                    .all(|(a, b)| a.has_springs_of(b))
+        });
+        if !same {
+            self.list_springs(model);
+            self.loaded = Some(model.bodies().to_vec());
+        }
+        std::mem::swap(&mut self.mass, &mut self.last_mass);
+        std::mem::swap(&mut self.free, &mut self.last_free);
+        for body in model.bodies() {
+            let first = body.points().start;
+            for q in 0..body.len() {
+                self.mass[first + q] = body.material.mass;
+                self.free[first + q] = if body.is_active(q) { 1.0 } else { 0.0 };
+            }
+        }
+        for &p in &model.pins {
+            self.free[p as usize] = 0.0;
+        }
+        if self.mass != self.last_mass || self.free != self.last_free {
+            self.keep_across = None;
+        }
+        // Penalty springs: three walls, the plane and each obstacle at once, at most.
+        let contacts = (4 + model.obstacles.len()) as f64 * model.k_collision;
+        self.stiffness_over_mass = self
+            .point_stiffness
+            .iter()
+            .zip(&self.mass)
+            .zip(&self.free)
+            .filter(|&(_, &free)| free != 0.0)
+            .map(|((&k, &m), _)| (k + contacts) / m)
+            .fold(0.0, f64::max);
+    }
+
+    /// The model's springs as the bodies list them, into the springs' slot order (see
+    /// `SpringMatrix`), with what follows from them: their pairs, each point's stiffness, the
+    /// multigrid's levels.
+    pub(super) fn list_springs(&mut self, model: &Model) {
+        self.keep_across = None;
+        self.listed_rows.clear();
+        self.springs.begin();
+        for body in model.bodies() {
+            let first = body.points().start;
+            body.for_each_spring_entry(|s, entry| {
+                self.springs.push(first + s.a, entry);
+                self.listed_rows.push(Row {
+                    a: (first + s.a) as u32,
+                    b: (first + s.b) as u32,
+                    rest: s.rest,
+                    k: s.stiffness,
+                    d: s.damping,
+                })
+            });
+        }
+        self.springs.finish();
+        self.rows.resize(self.listed_rows.len(), Row::default());
+        for (j, row) in self.listed_rows.iter().enumerate() {
+            self.rows[self.springs.rank(j)] = *row;
+        }
+        for (s, r) in self.rows.iter().enumerate() {
+            self.springs.set_spring(s, r.rest, r.k, r.d);
+        }
+        self.spring_pairs.clear();
+        self.spring_pairs
+            .extend(self.rows.iter().map(|r| [r.a, r.b]));
+        self.spring_blocks.resize(self.rows.len(), [0.0; 6]);
+        self.start_dir.resize(self.rows.len(), Vec3::ZERO);
+        self.falls
+            .resize(fall_chunks(self.mass.len(), self.rows.len()), [0.0; 3]);
+        self.shortest_spring = self
+            .rows
+            .iter()
+            .map(|r| r.rest)
+            .filter(|&rest| rest > 0.0)
+            .fold(f64::INFINITY, f64::min);
+        if self.shortest_spring == f64::INFINITY {
+            self.shortest_spring = 0.0;
+        }
+        self.point_stiffness.fill(0.0);
+        for r in &self.rows {
+            self.point_stiffness[r.a as usize] += r.k;
+            self.point_stiffness[r.b as usize] += r.k;
+        }
+        self.multigrid
+            .build(model, &self.spring_pairs, self.pair_rows.capacity());
+    }
+
+    /// The dampers at `x0` (the step's start): the springs' directions (also into the stencil
+    /// matrix, whose product gives the dampers' force in each residual), the contacts each
+    /// point is in, and the pairs of points of different bodies that overlap.
+    pub(super) fn start_dampers(&mut self, model: &Model, x0: &[Vec3]) {
+        if model.bodies().len() > 1 {
+            let [xx, xy, xz] = self.x_soa.parts_mut();
+            for (i, p) in x0.iter().enumerate() {
+                (xx[i], xy[i], xz[i]) = (p.x, p.y, p.z);
+            }
+            let (contacts, pairs) = (&mut self.contacts, &mut self.start_pairs);
+            super::contacts::start_pairs(model, contacts, &self.x_soa, &self.v_soa, pairs);
+        } else {
+            self.start_pairs.clear();
+        }
+        self.springs.start_dampers(x0, &mut self.start_dir);
+        for ((d, &p), &free) in self.start_damping.iter_mut().zip(x0).zip(&self.free) {
+            *d = [0.0; 6];
+            if free == 0.0 {
+                continue;
+            }
+            for c in model.contacts(p) {
+                add_outer(d, c.normal, model.d_collision);
+            }
+        }
+    }
+}

@@ -1,0 +1,309 @@
+//! The loops of the stencil-ordered products, compiled for each instruction-set tier: a range's
+//! rows summed entry by entry ([`rows`]), in `f64` or `f32` ([`Lane`]), and the per-slot
+//! kernels (spring and damper forces, directions, blocks).
+
+use super::{RowRange, Span};
+use crate::vec3::Vec3;
+
+/// The numbers of a product's rows: `f64` or `f32` (see [`Precision`]).
+pub(super) trait Lane: Copy + Send + Sync {
+    /// `v` rounded to this precision.
+    fn of(v: f64) -> Self;
+    /// `y += f` element by element.
+    fn add(y: [&mut [Self]; 3], f: [&[Self]; 3]);
+    /// `y −= f` element by element.
+    fn subtract(y: [&mut [Self]; 3], f: [&[Self]; 3]);
+    /// A range's rows and forces buffer in this precision.
+    fn buffers(range: &mut RowRange) -> (&mut [Vec<Self>; 3], &mut [Vec<Self>; 3]);
+}
+
+impl Lane for f64 {
+    fn of(v: f64) -> Self {
+        v
+    }
+    fn add(y: [&mut [f64]; 3], f: [&[f64]; 3]) {
+        add_forces(y, f);
+    }
+    fn subtract(y: [&mut [f64]; 3], f: [&[f64]; 3]) {
+        subtract_forces(y, f);
+    }
+    fn buffers(range: &mut RowRange) -> (&mut [Vec<f64>; 3], &mut [Vec<f64>; 3]) {
+        (&mut range.y, &mut range.forces)
+    }
+}
+
+impl Lane for f32 {
+    fn of(v: f64) -> Self {
+        v as f32
+    }
+    fn add(y: [&mut [f32]; 3], f: [&[f32]; 3]) {
+        add_forces_single(y, f);
+    }
+    fn subtract(y: [&mut [f32]; 3], f: [&[f32]; 3]) {
+        subtract_forces_single(y, f);
+    }
+    fn buffers(range: &mut RowRange) -> (&mut [Vec<f32>; 3], &mut [Vec<f32>; 3]) {
+        (&mut range.y_single, &mut range.forces_single)
+    }
+}
+
+/// Rows `start .. start + out.len()` of `own(p) + springs·x` into `out` (see the module
+/// documentation for the order of the sum), with `forces` for each entry's spring forces:
+/// `entry_forces(at, f, x, xn)` puts the forces `B·(x − xn)` of the springs at slots
+/// `at .. at + f.len()` into `f`.
+///
+/// Each spring's force `B·(x[q] − x[q + o])` is computed once, into `forces`, and added to its
+/// first end's row and taken from its second end's (in that order for each entry, as the
+/// module documentation sums): `−(B·(a − b))` is `B·(b − a)` to the bit, so this is the sum
+/// of the documentation, and each block is read once rather than once from each end.
+#[allow(clippy::too_many_arguments)]
+pub(super) fn rows<T: Lane>(
+    spans: &[Span],
+    n: usize,
+    own: impl Fn(usize) -> Vec3,
+    x: &[Vec<T>; 3],
+    start: usize,
+    out: [&mut [T]; 3],
+    forces: &mut [Vec<T>; 3],
+    entry_forces: impl Fn(usize, [&mut [T]; 3], [&[T]; 3], [&[T]; 3]),
+) {
+    let end = start + out[0].len();
+    let [o0, o1, o2] = out;
+    for p in start..end {
+        let v = own(p);
+        (o0[p - start], o1[p - start], o2[p - start]) = (T::of(v.x), T::of(v.y), T::of(v.z));
+    }
+    let xs = |at: usize, len: usize| -> [&[T]; 3] { std::array::from_fn(|c| &x[c][at..at + len]) };
+    let [f0, f1, f2] = forces;
+    for span in spans {
+        // This range's rows within the body.
+        let (lo, hi) = (start.max(span.first), end.min(span.first + span.len));
+        if lo >= hi {
+            continue;
+        }
+        for (e, &o) in span.offset.iter().enumerate() {
+            if o == 0 || o >= span.len {
+                continue;
+            }
+            // The springs from q to q + o with either end a row here: q from the body's first
+            // point (or o before the first row) to below the first row past the range or past
+            // the body's end minus o.
+            let (q0, q1) = (
+                lo.saturating_sub(o).max(span.first),
+                hi.min(span.first + span.len - o),
+            );
+            if q0 >= q1 {
+                continue;
+            }
+            let len = q1 - q0;
+            let f = [&mut f0[..len], &mut f1[..len], &mut f2[..len]];
+            let (x, xn, at) = (xs(q0, len), xs(q0 + o, len), e * n + q0);
+            entry_forces(at, f, x, xn);
+            // Their first ends among the rows…
+            let a = q0.max(lo);
+            if a < q1 {
+                let y = [
+                    &mut o0[a - start..q1 - start],
+                    &mut o1[a - start..q1 - start],
+                    &mut o2[a - start..q1 - start],
+                ];
+                let f = [&f0[a - q0..len], &f1[a - q0..len], &f2[a - q0..len]];
+                T::add(y, f);
+            }
+            // …and their second ends (q + o below the range's end).
+            let b = q1.min(hi.saturating_sub(o));
+            if q0 < b {
+                let y = [
+                    &mut o0[q0 + o - start..b + o - start],
+                    &mut o1[q0 + o - start..b + o - start],
+                    &mut o2[q0 + o - start..b + o - start],
+                ];
+                let f = [&f0[..b - q0], &f1[..b - q0], &f2[..b - q0]];
+                T::subtract(y, f);
+            }
+        }
+    }
+}
+
+/// `f = B·(x − xn)` element by element, `B` a symmetric block per element (inlined into each
+/// tier's copy of the callers below).
+#[inline(always)]
+fn block_forces<T>(f: [&mut [T]; 3], x: [&[T]; 3], xn: [&[T]; 3], b: [&[T]; 6])
+where
+    T: Copy + std::ops::Add<Output = T> + std::ops::Sub<Output = T> + std::ops::Mul<Output = T>,
+{
+    let [f0, f1, f2] = f;
+    let n = f0.len();
+    let (f1, f2) = (&mut f1[..n], &mut f2[..n]);
+    let (x0, x1, x2) = (&x[0][..n], &x[1][..n], &x[2][..n]);
+    let (n0, n1, n2) = (&xn[0][..n], &xn[1][..n], &xn[2][..n]);
+    let (bxx, byy, bzz) = (&b[0][..n], &b[1][..n], &b[2][..n]);
+    let (bxy, bxz, byz) = (&b[3][..n], &b[4][..n], &b[5][..n]);
+    for i in 0..n {
+        let (dx, dy, dz) = (x0[i] - n0[i], x1[i] - n1[i], x2[i] - n2[i]);
+        f0[i] = bxx[i] * dx + bxy[i] * dy + bxz[i] * dz;
+        f1[i] = bxy[i] * dx + byy[i] * dy + byz[i] * dz;
+        f2[i] = bxz[i] * dx + byz[i] * dy + bzz[i] * dz;
+    }
+}
+
+crate::compute::simd::multiversion! {
+    /// [`block_forces`] in double precision.
+    pub(super) fn spring_forces(f: [&mut [f64]; 3], x: [&[f64]; 3], xn: [&[f64]; 3], b: [&[f64]; 6]) {
+        block_forces(f, x, xn, b)
+    }
+}
+
+crate::compute::simd::multiversion! {
+    /// [`block_forces`] in single precision.
+    pub(super) fn spring_forces_single(
+        f: [&mut [f32]; 3],
+        x: [&[f32]; 3],
+        xn: [&[f32]; 3],
+        b: [&[f32]; 6],
+    ) {
+        block_forces(f, x, xn, b)
+    }
+}
+
+crate::compute::simd::multiversion! {
+    /// `f = u·(d·(u·(v − vn)))` element by element: a damper's force, `u` its direction and
+    /// `d` its damping (`ud = [ux, uy, uz, d]`).
+    pub(super) fn damper_forces(f: [&mut [f64]; 3], v: [&[f64]; 3], vn: [&[f64]; 3], ud: [&[f64]; 4]) {
+        let [f0, f1, f2] = f;
+        let n = f0.len();
+        let (f1, f2) = (&mut f1[..n], &mut f2[..n]);
+        let (v0, v1, v2) = (&v[0][..n], &v[1][..n], &v[2][..n]);
+        let (n0, n1, n2) = (&vn[0][..n], &vn[1][..n], &vn[2][..n]);
+        let (ux, uy, uz, d) = (&ud[0][..n], &ud[1][..n], &ud[2][..n], &ud[3][..n]);
+        for i in 0..n {
+            let (dx, dy, dz) = (v0[i] - n0[i], v1[i] - n1[i], v2[i] - n2[i]);
+            let w = d[i] * (ux[i] * dx + uy[i] * dy + uz[i] * dz);
+            (f0[i], f1[i], f2[i]) = (ux[i] * w, uy[i] * w, uz[i] * w);
+        }
+    }
+}
+
+crate::compute::simd::multiversion! {
+    /// `u = (x − xn)/|x − xn|` element by element (zero where `x = xn`).
+    pub(super) fn spring_directions(u: [&mut [f64]; 3], x: [&[f64]; 3], xn: [&[f64]; 3]) {
+        let [u0, u1, u2] = u;
+        let n = u0.len();
+        let (u1, u2) = (&mut u1[..n], &mut u2[..n]);
+        let (x0, x1, x2) = (&x[0][..n], &x[1][..n], &x[2][..n]);
+        let (n0, n1, n2) = (&xn[0][..n], &xn[1][..n], &xn[2][..n]);
+        for i in 0..n {
+            let (dx, dy, dz) = (x0[i] - n0[i], x1[i] - n1[i], x2[i] - n2[i]);
+            let l = (dx * dx + dy * dy + dz * dz).sqrt();
+            (u0[i], u1[i], u2[i]) = if l > 0.0 {
+                (dx / l, dy / l, dz / l)
+            } else {
+                (0.0, 0.0, 0.0)
+            };
+        }
+    }
+}
+
+crate::compute::simd::multiversion! {
+    /// Each spring's block of `A` (`[xx, yy, zz, xy, xz, yz]`), its ends at `x` and `xn`:
+    /// `axial·ûûᵀ + transverse·(I − ûûᵀ)`, `axial = h²·k`,
+    /// `transverse = axial·max(1 − rest/l, floor)` (zero for a spring of zero length), plus its
+    /// damper `h·d·u₀u₀ᵀ` (`damper = [u₀x, u₀y, u₀z, d]`, `springs = [rest, k]`,
+    /// `hf = [h, floor]`). Zero where there is no spring (`k` and `d` zero).
+    pub(super) fn spring_blocks(
+        b: [&mut [f64]; 6],
+        x: [&[f64]; 3],
+        xn: [&[f64]; 3],
+        damper: [&[f64]; 4],
+        springs: [&[f64]; 2],
+        hf: [f64; 2],
+    ) {
+        let [b0, b1, b2, b3, b4, b5] = b;
+        let n = b0.len();
+        let (b1, b2, b3) = (&mut b1[..n], &mut b2[..n], &mut b3[..n]);
+        let (b4, b5) = (&mut b4[..n], &mut b5[..n]);
+        let (x0, x1, x2) = (&x[0][..n], &x[1][..n], &x[2][..n]);
+        let (n0, n1, n2) = (&xn[0][..n], &xn[1][..n], &xn[2][..n]);
+        let (u0, u1, u2, d) = (&damper[0][..n], &damper[1][..n], &damper[2][..n], &damper[3][..n]);
+        let (rest, k) = (&springs[0][..n], &springs[1][..n]);
+        let [h, floor] = hf;
+        let h2 = h * h;
+        for i in 0..n {
+            let (dx, dy, dz) = (x0[i] - n0[i], x1[i] - n1[i], x2[i] - n2[i]);
+            let l = (dx * dx + dy * dy + dz * dz).sqrt();
+            let axial = h2 * k[i];
+            let transverse = axial * (1.0 - rest[i] / l).max(floor);
+            let (ux, uy, uz) = (dx / l, dy / l, dz / l);
+            let c = axial - transverse;
+            let mut m = if l > 0.0 {
+                [
+                    transverse + c * ux * ux,
+                    transverse + c * uy * uy,
+                    transverse + c * uz * uz,
+                    0.0 + c * ux * uy,
+                    0.0 + c * ux * uz,
+                    0.0 + c * uy * uz,
+                ]
+            } else {
+                [0.0; 6]
+            };
+            let cd = h * d[i];
+            m[0] += cd * u0[i] * u0[i];
+            m[1] += cd * u1[i] * u1[i];
+            m[2] += cd * u2[i] * u2[i];
+            m[3] += cd * u0[i] * u1[i];
+            m[4] += cd * u0[i] * u2[i];
+            m[5] += cd * u1[i] * u2[i];
+            (b0[i], b1[i], b2[i]) = (m[0], m[1], m[2]);
+            (b3[i], b4[i], b5[i]) = (m[3], m[4], m[5]);
+        }
+    }
+}
+
+/// `y += f` element by element (inlined into each tier's copy of the callers below).
+#[inline(always)]
+fn add_each<T: Copy + std::ops::AddAssign>(y: [&mut [T]; 3], f: [&[T]; 3]) {
+    for (y, f) in y.into_iter().zip(f) {
+        for (y, &f) in y.iter_mut().zip(f) {
+            *y += f;
+        }
+    }
+}
+
+/// `y −= f` element by element (inlined as [`add_each`] is).
+#[inline(always)]
+fn subtract_each<T: Copy + std::ops::SubAssign>(y: [&mut [T]; 3], f: [&[T]; 3]) {
+    for (y, f) in y.into_iter().zip(f) {
+        for (y, &f) in y.iter_mut().zip(f) {
+            *y -= f;
+        }
+    }
+}
+
+crate::compute::simd::multiversion! {
+    /// `y += f` element by element.
+    fn add_forces(y: [&mut [f64]; 3], f: [&[f64]; 3]) {
+        add_each(y, f)
+    }
+}
+
+crate::compute::simd::multiversion! {
+    /// `y −= f` element by element.
+    fn subtract_forces(y: [&mut [f64]; 3], f: [&[f64]; 3]) {
+        subtract_each(y, f)
+    }
+}
+
+crate::compute::simd::multiversion! {
+    /// `y += f` element by element, in single precision.
+    fn add_forces_single(y: [&mut [f32]; 3], f: [&[f32]; 3]) {
+        add_each(y, f)
+    }
+}
+
+crate::compute::simd::multiversion! {
+    /// `y −= f` element by element, in single precision.
+    fn subtract_forces_single(y: [&mut [f32]; 3], f: [&[f32]; 3]) {
+        subtract_each(y, f)
+    }
+}

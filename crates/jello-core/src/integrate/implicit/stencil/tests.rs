@@ -1,0 +1,295 @@
+//! Tests of the stencil-ordered matrix: its products, diagonal and blocks against the same
+//! quantities summed spring by spring, and its ranges against rows computed at once.
+
+use super::super::test_models::{box_at, two_bodies, values, with_holes};
+use super::*;
+use crate::model::ModelBuilder;
+
+/// A matrix with `model`'s springs listed, and their ends (flat indices) in listed order.
+fn listed(model: &Model) -> (SpringMatrix, Vec<[usize; 2]>) {
+    let mut matrix = SpringMatrix::new(model);
+    let mut springs = Vec::new();
+    matrix.begin();
+    for body in model.bodies() {
+        let first = body.points().start;
+        body.for_each_spring_entry(|s, entry| {
+            matrix.push(first + s.a, entry);
+            springs.push([first + s.a, first + s.b]);
+        });
+    }
+    matrix.finish();
+    (matrix, springs)
+}
+
+#[test]
+fn the_stencil_product_is_the_product_over_springs() {
+    let model = two_bodies();
+    let n = model.point_count();
+    let mut next = values(11);
+    let mut sym = || -> Sym { std::array::from_fn(|_| next()) };
+    let (mut matrix, springs) = listed(&model);
+    let blocks: Vec<Sym> = springs.iter().map(|_| sym()).collect();
+    for (i, b) in blocks.iter().enumerate() {
+        matrix.set(matrix.rank(i), b);
+    }
+    let own: Vec<Sym> = (0..n).map(|_| sym()).collect();
+    let free: Vec<f64> = (0..n).map(|i| if i % 7 == 3 { 0.0 } else { 1.0 }).collect();
+    let mut next = values(13);
+    let x: Vec<Vec3> = (0..n).map(|_| Vec3::new(next(), next(), next())).collect();
+
+    let product = |round: fn(f64) -> f64| -> Vec<Vec3> {
+        let mut y: Vec<Vec3> = own.iter().zip(&x).map(|(m, &x)| sym_mul(m, x)).collect();
+        for (&[a, b], m) in springs.iter().zip(&blocks) {
+            let f = sym_mul(&m.map(round), x[a] - x[b]);
+            y[a] += f;
+            y[b] -= f;
+        }
+        y.iter().zip(&free).map(|(&y, &f)| y * f).collect()
+    };
+    let (exact, rounded) = (product(|v| v), product(|v| f64::from(v as f32)));
+    let mut y = vec![Vec3::ZERO; n];
+    matrix.apply(&own, &free, &x, &mut y, Precision::Double);
+    for p in 0..n {
+        let want = exact[p];
+        assert!(
+            (y[p] - want).max_abs() < 1e-12,
+            "point {p}: {:?} ≠ {want:?}",
+            y[p]
+        );
+    }
+    // In single precision: the blocks rounded, and the sums with a relative error of about
+    // 1e-7 (the values are of order 1), so not the exact product.
+    matrix.apply(&own, &free, &x, &mut y, Precision::Single);
+    for p in 0..n {
+        let want = rounded[p];
+        assert!(
+            (y[p] - want).max_abs() < 1e-5,
+            "point {p}: {:?} ≠ {want:?}",
+            y[p]
+        );
+    }
+    assert!((0..n).any(|p| (y[p] - exact[p]).max_abs() > 1e-12));
+
+    // The dampers' force, from the same springs.
+    let mut next = values(19);
+    let dampers: Vec<(Vec3, f64)> = springs
+        .iter()
+        .map(|_| (Vec3::new(next(), next(), next()), next()))
+        .collect();
+    for (i, &(u, d)) in dampers.iter().enumerate() {
+        matrix.set_damper(matrix.rank(i), u, d);
+    }
+    let mut want: Vec<Vec3> = own.iter().zip(&x).map(|(m, &x)| sym_mul(m, x)).collect();
+    for (&[a, b], &(u, d)) in springs.iter().zip(&dampers) {
+        let f = u * (d * u.dot(x[a] - x[b]));
+        want[a] += f;
+        want[b] -= f;
+    }
+    matrix.damper_force(&own, &x, &mut y);
+    for p in 0..n {
+        assert!((y[p] + want[p]).max_abs() < 1e-12, "point {p}: {:?}", y[p]);
+    }
+
+    // A spring list that changes leaves no stale block behind.
+    matrix.begin();
+    matrix.push(0, 2);
+    matrix.finish();
+    matrix.set(0, &[1.0, 1.0, 1.0, 0.0, 0.0, 0.0]);
+    let zero = vec![[0.0; 6]; n];
+    matrix.apply(&zero, &free, &x, &mut y, Precision::Double);
+    let mut want = vec![Vec3::ZERO; n];
+    let lattice = model.body(0).lattice();
+    let b = lattice.index(0, 0, 1);
+    want[0] = x[0] - x[b];
+    want[b] = x[b] - x[0];
+    for p in 0..n {
+        assert!((y[p] - want[p] * free[p]).max_abs() < 1e-15, "point {p}");
+    }
+}
+
+/// The diagonal in stencil order is `own` plus each spring's block at both its ends, on
+/// lattices with holes, several bodies and more points than a pass takes, with the same bits
+/// on any number of threads (chunks of 2 048 points over a team).
+#[test]
+fn the_diagonal_by_slot_is_the_sum_over_springs() {
+    use super::super::sym::add_sym;
+    let holes = with_holes([16, 15, 14], 29, -0.7);
+    let cube = box_at([14, 13, 12], Vec3::new(20.0, 0.0, 0.0));
+    let model = ModelBuilder::new()
+        .bodies(vec![holes, cube, two_bodies().body(0).clone()])
+        .build()
+        .unwrap();
+    let n = model.point_count();
+    assert!(
+        n > 2 * MIN_POINTS_PER_RANGE,
+        "{n} points: more than one chunk"
+    );
+    let (mut matrix, springs) = listed(&model);
+    let mut next = values(29);
+    let mut sym = || -> Sym { std::array::from_fn(|_| next()) };
+    let blocks: Vec<Sym> = springs.iter().map(|_| sym()).collect();
+    for (i, b) in blocks.iter().enumerate() {
+        matrix.set(matrix.rank(i), b);
+    }
+    let own: Vec<Sym> = (0..n).map(|_| sym()).collect();
+    let mut want = own.clone();
+    for (&[a, b], m) in springs.iter().zip(&blocks) {
+        add_sym(&mut want[a], m);
+        add_sym(&mut want[b], m);
+    }
+    let run = |threads: usize| {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        let mut diag = vec![[0.0; 6]; n];
+        pool.install(|| team::run(|| matrix.diagonal(&own, &mut diag)));
+        diag
+    };
+    let one = run(1);
+    for (p, (d, w)) in one.iter().zip(&want).enumerate() {
+        let error = d
+            .iter()
+            .zip(w)
+            .map(|(d, w)| (d - w).abs())
+            .fold(0.0, f64::max);
+        assert!(error < 1e-12, "point {p}: {d:?} ≠ {w:?}");
+    }
+    let bits = |d: &[Sym]| d.iter().map(|m| m.map(f64::to_bits)).collect::<Vec<_>>();
+    for threads in [2, 3] {
+        assert_eq!(bits(&run(threads)), bits(&one), "{threads} threads");
+    }
+}
+
+/// The blocks assembled by slot are each spring's block as [`super::super::spring_block`]
+/// forms it with its damper at the start, to the bit (a spring of zero length too), and the
+/// start directions are each spring's.
+#[test]
+fn blocks_by_slot_are_the_blocks_of_each_spring() {
+    use super::super::matrix::spring_block;
+    use super::super::sym::add_outer;
+    let model = two_bodies();
+    let n = model.point_count();
+    let (mut matrix, springs) = listed(&model);
+    let mut next = values(23);
+    let values: Vec<[f64; 3]> = springs
+        .iter()
+        .map(|_| [1.0 + next(), 100.0 * (2.0 + next()), 1.0 + next()])
+        .collect();
+    for (i, &[rest, k, d]) in values.iter().enumerate() {
+        matrix.set_spring(matrix.rank(i), rest, k, d);
+    }
+    let mut random = || Vec3::new(next(), next(), next());
+    let mut x0: Vec<Vec3> = (0..n).map(|_| random()).collect();
+    let v: Vec<Vec3> = (0..n).map(|_| random()).collect();
+    let h = 0.1;
+    // The first spring has zero length at the start and at the end.
+    let [a, b] = springs[0];
+    x0[b] = x0[a];
+    let mut v = v;
+    v[b] = v[a];
+    let mut directions = vec![Vec3::ZERO; springs.len()];
+    matrix.start_dampers(&x0, &mut directions);
+    for floor in [f64::MIN, 0.0] {
+        let mut blocks = vec![[0.0; 6]; springs.len()];
+        matrix.assemble(&x0, &v, h, floor, &mut blocks);
+        for (i, (&[a, b], &[rest, k, d])) in springs.iter().zip(&values).enumerate() {
+            let s = matrix.rank(i);
+            let d0 = x0[a] - x0[b];
+            let l0 = d0.length();
+            let u0 = if l0 > 0.0 { d0 / l0 } else { Vec3::ZERO };
+            assert_eq!(directions[s], u0, "spring {i}");
+            let e = (x0[a] + v[a] * h) - (x0[b] + v[b] * h);
+            let l = e.length();
+            let mut want = [0.0; 6];
+            if l > 0.0 {
+                let transverse = h * h * k * (1.0 - rest / l).max(floor);
+                want = spring_block(e / l, h * h * k, transverse);
+            }
+            add_outer(&mut want, u0, h * d);
+            let bits = |m: &Sym| m.map(f64::to_bits);
+            assert_eq!(bits(&blocks[s]), bits(&want), "spring {i}, floor {floor}");
+            let slot = matrix.slot[s] as usize;
+            let by_slot: Sym = std::array::from_fn(|c| matrix.blocks[c][slot]);
+            assert_eq!(bits(&by_slot), bits(&want), "spring {i}'s slot");
+            let single: [f32; 6] = std::array::from_fn(|c| matrix.blocks_single[c][slot]);
+            assert_eq!(single, want.map(|w| w as f32), "spring {i}'s rounded block");
+        }
+    }
+}
+
+/// Rows computed in ranges (as threads compute them) have the bits of rows computed at
+/// once, wherever the ranges start: inside a body, across a body's end, within one stencil
+/// offset of the next range.
+#[test]
+fn rows_in_ranges_have_the_bits_of_rows_at_once() {
+    let model = two_bodies();
+    let n = model.point_count();
+    let (mut matrix, _) = listed(&model);
+    let mut next = values(17);
+    for s in 0..matrix.slot.len() {
+        matrix.set(s, &std::array::from_fn(|_| next()));
+        matrix.set_damper(s, Vec3::new(next(), next(), next()), next());
+    }
+    let own: Vec<Sym> = (0..n).map(|_| std::array::from_fn(|_| next())).collect();
+    let x: Vec<Vec3> = (0..n).map(|_| Vec3::new(next(), next(), next())).collect();
+    let (mut x64, mut x32) = (Default::default(), Default::default());
+    matrix.load_x(&x);
+    std::mem::swap(&mut x64, &mut matrix.x);
+    load::<f32>(&mut matrix.x_single, &x);
+    std::mem::swap(&mut x32, &mut matrix.x_single);
+    let second = model.body(1).points().start;
+    let cuts = [
+        vec![1],
+        vec![7, 8, 40],
+        vec![second - 1, second + 3],
+        vec![n / 2],
+    ];
+    let own = |p: usize| sym_mul(&own[p], x[p]);
+    // Rows `range` of the blocks' product in single and in double precision and of the
+    // dampers', as bits.
+    let rows_of = |range: std::ops::Range<usize>| -> Vec<u64> {
+        let start = range.start;
+        let mut single: [Vec<f32>; 3] = std::array::from_fn(|_| vec![0.0; range.len()]);
+        let mut double: [Vec<f64>; 6] = std::array::from_fn(|_| vec![0.0; range.len()]);
+        let mut forces32 = std::array::from_fn(|_| vec![0.0; n]);
+        let mut forces64 = std::array::from_fn(|_| vec![0.0; n]);
+        let spans = &matrix.spans;
+        let [a, b, c] = &mut single;
+        let blocks = entry_forces(spring_forces_single, &matrix.blocks_single);
+        rows(spans, n, own, &x32, start, [a, b, c], &mut forces32, blocks);
+        let [a, b, c, d, e, g] = &mut double;
+        let blocks = entry_forces(spring_forces, &matrix.blocks);
+        rows(spans, n, own, &x64, start, [a, b, c], &mut forces64, blocks);
+        let dampers = entry_forces(damper_forces, &matrix.dampers);
+        rows(
+            spans,
+            n,
+            own,
+            &x64,
+            start,
+            [d, e, g],
+            &mut forces64,
+            dampers,
+        );
+        let single = single.iter().flatten().map(|v| u64::from(v.to_bits()));
+        let double = double.iter().flatten().map(|v| v.to_bits());
+        single.chain(double).collect()
+    };
+    let whole = rows_of(0..n);
+    for cuts in &cuts {
+        let mut bounds = vec![0];
+        bounds.extend(cuts);
+        bounds.push(n);
+        let mut parts: Vec<Vec<u64>> = bounds.windows(2).map(|w| rows_of(w[0]..w[1])).collect();
+        // Each part is its rows' three axes of each product: regroup as the whole is.
+        let mut joined = Vec::new();
+        for block in 0..9 {
+            for (w, part) in bounds.windows(2).zip(&mut parts) {
+                let len = w[1] - w[0];
+                joined.extend_from_slice(&part[block * len..(block + 1) * len]);
+            }
+        }
+        assert_eq!(joined, whole, "cut at {cuts:?}");
+    }
+}

@@ -1,0 +1,471 @@
+//! Unit tests of the solver's parts: each against its definition, a closed form or the same
+//! computation on another number of threads.
+
+use super::cg::{advance, apply_to, dot, sum_chunk, sum_chunks};
+use super::matrix::{assemble, Curvature};
+use super::newton::{enough_reduction, max_norms, shift_by_momentum};
+use super::residual::residual;
+use super::test_models::values;
+use super::*;
+use crate::model::body::{Body, Material};
+use crate::model::field::ForceField;
+use crate::model::lattice::Lattice;
+use crate::model::solver::TOLERANCE;
+use crate::model::{Aabb, ModelBuilder};
+
+/// A solve stopped at `enough_reduction` leaves every moving point's residual within the
+/// tolerance however the linear model's residual falls, even all on the lightest point;
+/// held points and the scale of `g` do not change that.
+#[test]
+fn enough_reduction_bounds_every_points_residual() {
+    let model = test_models::two_bodies();
+    let mut s = ImplicitScratch::new(&model);
+    let mut next = values(11);
+    for (p, ((g, m), free)) in s.g.iter_mut().zip(&mut s.mass).zip(&mut s.free).enumerate() {
+        *g = Vec3::new(next(), next(), next()) * 1e3;
+        *m = 0.01 + (1.0 + next());
+        *free = if p % 7 == 3 { 0.0 } else { 1.0 };
+    }
+    // A held point's large residual and small mass count for nothing.
+    s.g[3] = Vec3::new(1e9, 0.0, 0.0);
+    s.mass[3] = 1e-6;
+    let target = 1e-9;
+    let reduction = enough_reduction(&s, target);
+    let moving = || (0..s.g.len()).filter(|&p| s.free[p] != 0.0);
+    let norm = moving()
+        .map(|p| (s.mass[p] * s.g[p]).dot(s.mass[p] * s.g[p]))
+        .sum::<f64>()
+        .sqrt();
+    let lightest = moving().map(|p| s.mass[p]).fold(f64::INFINITY, f64::min);
+    // The worst case: the whole remaining residual `reduction·|M·g|` at the lightest point.
+    let worst = reduction * norm / lightest;
+    assert!(
+        worst <= 0.5 * target * (1.0 + 1e-12),
+        "{worst:e} > {target:e} / 2"
+    );
+    assert!(
+        worst >= 0.5 * target * (1.0 - 1e-12),
+        "{worst:e}: needlessly tight"
+    );
+    assert_eq!(
+        enough_reduction(&ImplicitScratch::new(&model), target),
+        0.0,
+        "g = 0"
+    );
+}
+
+/// A solve may stop once its residual is within `m·within` at every point, each point
+/// judged by its own mass: not while one point is over, not without a bound. (A step of
+/// length 0 leaves `r` as set here.)
+#[test]
+fn each_point_within_judges_every_point_by_its_mass() {
+    let model = test_models::two_bodies();
+    let mut s = ImplicitScratch::new(&model);
+    let mut next = values(5);
+    s.within = 1e-9;
+    for (r, m) in s.r.iter_mut().zip(&mut s.mass) {
+        *m = 0.01 + (1.0 + next());
+        // Each point's residual at 0.99 of its own bound, in a random direction.
+        let d = Vec3::new(next(), next(), next());
+        *r = d * (0.99 * *m * s.within / d.length());
+    }
+    let each_point_within = |s: &mut ImplicitScratch| advance(s, 0.0).1;
+    assert!(each_point_within(&mut s));
+    // One point over its bound, though within the heaviest point's.
+    let last = s.r.len() - 1;
+    let heaviest = s.mass.iter().fold(0.0, |a: f64, &m| a.max(m));
+    s.mass[last] = 0.5 * heaviest;
+    s.r[last] = Vec3::new(0.0, 0.0, 1.01 * s.mass[last] * s.within);
+    assert!(!each_point_within(&mut s));
+    s.r[last] = Vec3::ZERO;
+    assert!(each_point_within(&mut s));
+    s.within = 0.0;
+    assert!(
+        !each_point_within(&mut s),
+        "no bound: only the reduction stops a solve"
+    );
+}
+
+/// The conjugate gradients' sums are taken over chunks fixed by the number of points alone,
+/// each chunk's in order, then the chunks' in order: the same bits on any number of threads,
+/// from one thread's loops and from a team's (more threads than this machine's cores
+/// included).
+#[test]
+fn the_solves_sums_are_the_same_on_any_number_of_threads() {
+    let n = 5 * MIN_CHUNK + 17;
+    assert!(sum_chunks(n) > 1);
+    let mut next = values(9);
+    let mut vector = || -> Vec<Vec3> {
+        (0..n)
+            .map(|_| Vec3::new(next(), next(), next()) * (1.0 + 1e3 * next().abs()))
+            .collect()
+    };
+    let (a, b, p, ap, r) = (vector(), vector(), vector(), vector(), vector());
+    let mass: Vec<f64> = (0..n).map(|i| 1.0 + i as f64 * 1e-3).collect();
+    let size = sum_chunk(n);
+    let chunked = |f: &dyn Fn(usize) -> f64| -> f64 {
+        (0..n)
+            .step_by(size)
+            .map(|start| (start..(start + size).min(n)).map(f).sum::<f64>())
+            .sum()
+    };
+    let run = |threads: usize| {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        pool.install(|| {
+            team::run(|| {
+                let mut s = ImplicitScratch::new(&test_models::two_bodies());
+                s.dots = vec![0.0; sum_chunks(n)];
+                s.advanced = vec![(0.0, false); sum_chunks(n)];
+                s.dv = vec![Vec3::ZERO; n];
+                (s.p, s.ap, s.r, s.mass) = (p.clone(), ap.clone(), r.clone(), mass.clone());
+                s.within = 1e3;
+                let ab = dot(&a, &b, &mut s.dots);
+                let (rr, _) = advance(&mut s, 0.37);
+                (ab.to_bits(), rr.to_bits(), s.r.clone(), s.dv.clone())
+            })
+        })
+    };
+    let one = run(1);
+    assert_eq!(one.0, chunked(&|i| a[i].dot(b[i])).to_bits());
+    let stepped = |i: usize| r[i] - ap[i] * 0.37;
+    assert_eq!(one.1, chunked(&|i| stepped(i).length_squared()).to_bits());
+    assert!((0..n).all(|i| one.2[i] == stepped(i) && one.3[i] == p[i] * 0.37));
+    for threads in [2, 3, 8] {
+        assert_eq!(run(threads), one, "{threads} threads");
+    }
+}
+
+/// GMRES's basis and the field's corrections are held only for a field whose swirl can pass
+/// the limit at the model's step: not for a gentle field that is not uniform, nor for the
+/// same field at a step too short for it.
+#[test]
+fn only_a_field_that_can_swirl_past_the_limit_gets_gmres() {
+    let box_ = Aabb::new(Vec3::new(-2.0, -2.0, -2.0), Vec3::new(2.0, 2.0, 2.0)).unwrap();
+    // c·(−y, x, 0) swirls by c (N/m); the classic mass is 1/512 kg.
+    let turning = |c: f64| ForceField::from_fn(5, box_, move |p| Vec3::new(-p.y, p.x, 0.0) * c);
+    let model = |c: f64, dt: f64| {
+        let body = Body::lattice_box(
+            Lattice::new([3, 3, 3], Vec3::new(0.5, 0.5, 0.5)),
+            Material::classic(),
+        );
+        let model = ModelBuilder::new().bodies(vec![body]);
+        model
+            .field(Some(turning(c).unwrap()))
+            .dt(dt)
+            .build()
+            .unwrap()
+    };
+    let h = 1.0 / 60.0;
+    let at_limit = SWIRL_LIMIT / 512.0 / (h * h);
+    for (c, dt, held) in [
+        (2.0 * at_limit, h, true),
+        (0.5 * at_limit, h, false),
+        (2.0 * at_limit, 0.5 * h, false),
+    ] {
+        let model = model(c, dt);
+        let s = ImplicitScratch::new(&model);
+        let n = model.point_count();
+        assert_eq!(can_swirl(&model, model.dt), held, "field {c} N/m, dt {dt}");
+        assert_eq!(s.gmres.fits(n), held, "field {c} N/m, dt {dt}");
+        assert_eq!(s.field_correction.len(), if held { n } else { 0 });
+    }
+}
+
+/// An undeformed body flying in a uniform field needs no Newton iteration: the first
+/// iterate, shifted by the body's change of momentum, is the step's solution to rounding.
+/// Held at a point, the body would be bent by the shift, which is then not taken; nor is a
+/// shift no larger than the least one asked for (not even tried: a residual saved).
+#[test]
+fn a_body_in_free_flight_is_solved_by_its_change_of_momentum() {
+    let box_ = Aabb::new(Vec3::new(-9.0, -9.0, -9.0), Vec3::new(9.0, 9.0, 9.0)).unwrap();
+    let pull = Vec3::new(0.3, -0.2, -9.81 / 512.0);
+    let field = ForceField::from_fn(2, box_, |_| pull).unwrap();
+    let body = || {
+        Body::lattice_box(
+            Lattice::new([4, 3, 5], Vec3::new(0.6, 0.4, 0.8)),
+            Material::classic(),
+        )
+    };
+    let h = 1.0 / 60.0;
+    for pins in [vec![], vec![7]] {
+        let model = ModelBuilder::new()
+            .bodies(vec![body()])
+            .bounds(box_)
+            .field(Some(field.clone()))
+            .dt(h)
+            .pins(pins.clone())
+            .build()
+            .unwrap();
+        let x0 = crate::State::at_rest(&model).pos;
+        let v0 = vec![Vec3::new(1.0, -0.5, 2.0); x0.len()];
+        let (control, mut force) = (Control::none(), ForceScratch::new(&model));
+        let mut s = ImplicitScratch::new(&model);
+        s.load(&model);
+        s.start_dampers(&model, &x0);
+        s.v_soa.fill_zero();
+        s.v.copy_from_slice(&v0);
+        let norm2 = residual(&model, &control, &mut force, &mut s, &x0, &v0, h, false);
+        // The shift is `h·pull/m` (the springs are at rest): asked for a larger one, none.
+        let shift = (pull * (h * 512.0)).length();
+        let g = s.g.clone();
+        let mut shift_by = |least: f64, s: &mut ImplicitScratch| {
+            shift_by_momentum(&model, &control, &mut force, s, &x0, &v0, h, norm2, least)
+        };
+        assert_eq!(shift_by(1.01 * shift, &mut s), norm2);
+        assert_eq!((&s.v, &s.g), (&v0, &g));
+        let reached = shift_by(0.99 * shift, &mut s);
+        let (worst, _) = max_norms(&s.g, &s.v);
+        if pins.is_empty() {
+            assert!(reached < 1e-20 * norm2, "|g|²_M {norm2} → {reached}");
+            // Rounding alone: the springs' forces at the shifted end positions.
+            assert!(worst <= 0.01 * TOLERANCE, "max |g| {worst} m/s");
+        } else {
+            // Held, the body cannot fly: the shift would bend it, and is not taken.
+            assert_eq!(reached, norm2);
+            assert_eq!(s.v, v0);
+        }
+    }
+}
+
+/// Each step's end velocities of two runs agree to within 1e-10 m/s at every point.
+fn assert_same_steps(a: &[Vec<Vec3>], b: &[Vec<Vec3>]) {
+    assert_eq!(a.len(), b.len());
+    for (step, (a, b)) in a.iter().zip(b).enumerate() {
+        let worst = a.iter().zip(b).map(|(a, b)| (*a - *b).length());
+        let worst = worst.fold(0.0, f64::max);
+        assert!(
+            worst < 1e-10,
+            "step {step}: velocities differ by {worst} m/s"
+        );
+    }
+}
+
+/// Newton's iterations in the fast regime keep the last one's `A`, and the steps end at the
+/// same velocities as with `A` assembled every iteration, to within the tolerance: a cube
+/// dropped onto a plane at 1/60 s, settling over 40 steps.
+#[test]
+fn newton_in_its_fast_regime_keeps_a_and_reaches_the_same_solution() {
+    let body = Body::lattice_box(
+        Lattice::new([6, 6, 6], Vec3::new(1.0, 1.0, 1.0)),
+        Material::classic(),
+    );
+    let mut model = ModelBuilder::new()
+        .bodies(vec![body])
+        .gravity(Vec3::new(0.0, 0.0, -9.81))
+        .plane(Some(crate::Plane::new([0.0, 0.0, 1.0, 0.05]).unwrap()))
+        .dt(1.0 / 60.0)
+        .integrator(Integrator::BackwardEuler)
+        .build()
+        .unwrap();
+    model.newton.tolerance = 1e-11;
+    let h = model.dt;
+    let start = crate::State::at_rest(&model);
+    let (control, mut force) = (Control::none(), ForceScratch::new(&model));
+    let run = |may_keep: bool, force: &mut ForceScratch| {
+        let mut s = ImplicitScratch::new(&model);
+        s.may_keep = may_keep;
+        let mut state = start.clone();
+        let mut ends = vec![];
+        let (mut pos, mut vel) = (state.pos.clone(), state.vel.clone());
+        for _ in 0..40 {
+            step(
+                &model, &state, &control, force, &mut s, h, &mut pos, &mut vel,
+            )
+            .unwrap();
+            state.pos.copy_from_slice(&pos);
+            state.vel.copy_from_slice(&vel);
+            ends.push(state.vel.clone());
+        }
+        (ends, s.kept)
+    };
+    let (kept_a, kept) = run(true, &mut force);
+    let (fresh_a, none) = run(false, &mut force);
+    assert_eq!(none, 0);
+    assert!(kept >= 20, "{kept} iterations kept A in 40 steps");
+    assert_same_steps(&kept_a, &fresh_a);
+}
+
+/// A step's first Newton iteration keeps the last step's `A` where that step ended in the
+/// fast regime and no spring's ends move apart faster than the regime allows: a cube
+/// settled on a plane does, in most steps, and its steps end where those assembling `A` end,
+/// to within the tolerance; a cube spinning in free flight (its springs turning) never does.
+#[test]
+fn a_settled_body_keeps_a_across_steps_and_a_spinning_one_does_not() {
+    let cube = || {
+        Body::lattice_box(
+            Lattice::new([6, 6, 6], Vec3::new(1.0, 1.0, 1.0)),
+            Material::classic(),
+        )
+    };
+    let model = |gravity: f64, plane: bool| {
+        let mut model = ModelBuilder::new()
+            .bodies(vec![cube()])
+            .gravity(Vec3::new(0.0, 0.0, -gravity))
+            .plane(plane.then(|| crate::Plane::new([0.0, 0.0, 1.0, 0.05]).unwrap()))
+            .dt(1.0 / 60.0)
+            .integrator(Integrator::BackwardEuler)
+            .build()
+            .unwrap();
+        model.newton.tolerance = 1e-11;
+        model
+    };
+    // Steps `from..to` (after `from` steps to settle), with `A` kept or not: each step's
+    // end velocities, the steps that kept the last step's `A`, and the Newton iterations.
+    let run = |model: &Model, start: &crate::State, may_keep: bool, steps: [usize; 2]| {
+        let (control, mut force) = (Control::none(), ForceScratch::new(model));
+        let mut s = ImplicitScratch::new(model);
+        let mut state = start.clone();
+        let (mut pos, mut vel, mut ends) = (state.pos.clone(), state.vel.clone(), vec![]);
+        let (mut kept, mut iterations) = (0, 0);
+        for n in 0..steps[1] {
+            s.may_keep = may_keep || n < steps[0];
+            let before = (s.kept_across, s.stats.newton_iterations);
+            let h = model.dt;
+            step(
+                model, &state, &control, &mut force, &mut s, h, &mut pos, &mut vel,
+            )
+            .unwrap();
+            (state.pos, state.vel) = (pos.clone(), vel.clone());
+            if n >= steps[0] {
+                kept += s.kept_across - before.0;
+                iterations += s.stats.newton_iterations - before.1;
+                ends.push(state.vel.clone());
+            }
+        }
+        (ends, kept, iterations)
+    };
+    let settled = model(9.81, true);
+    let start = crate::State::at_rest(&settled);
+    let (kept_a, kept, _) = run(&settled, &start, true, [40, 80]);
+    let (fresh_a, none, _) = run(&settled, &start, false, [40, 80]);
+    assert!(
+        kept >= 20,
+        "{kept} of 40 settled steps kept the last step's A"
+    );
+    assert_eq!(none, 0);
+    assert_same_steps(&kept_a, &fresh_a);
+    let free = model(0.0, false);
+    let mut spinning = crate::State::at_rest(&free);
+    let centre = Vec3::new(0.5, 0.5, 0.5);
+    for (v, &p) in spinning.vel.iter_mut().zip(&spinning.pos) {
+        let r = p - centre;
+        *v = Vec3::new(-r.y, r.x, 0.0) * 2.0;
+    }
+    let (_, kept, iterations) = run(&free, &spinning, true, [0, 20]);
+    assert!(
+        iterations >= 20,
+        "{iterations} Newton iterations in 20 steps"
+    );
+    assert_eq!(kept, 0, "a spinning cube kept A across {kept} steps");
+}
+
+/// With a swirling field's exact gradient in it, `A` is `M·∂g/∂v`: `A·d` matches the central
+/// difference of `M·g` along `d`, at a lattice stretched and turned so that its springs'
+/// transverse stiffness matters, in a field that is neither linear nor a gradient.
+#[test]
+fn a_with_the_swirl_is_the_derivative_of_the_residual() {
+    let box_ = Aabb::new(Vec3::new(-2.0, -2.0, -2.0), Vec3::new(2.0, 2.0, 2.0)).unwrap();
+    let swirl = |p: Vec3| Vec3::new(-p.y, p.x + 0.5 * p.z * p.z, p.x * p.y) * 12.0;
+    let field = ForceField::from_fn(9, box_, swirl).unwrap();
+    let body = Body::lattice_box(
+        Lattice::new([4, 3, 3], Vec3::new(0.9, 0.6, 0.6)),
+        Material::classic(),
+    );
+    let h = 1.0 / 60.0;
+    let model = ModelBuilder::new()
+        .bodies(vec![body])
+        .field(Some(field))
+        .dt(h)
+        .pins([5])
+        .build()
+        .unwrap();
+    let mut next = values(11);
+    let mut random = || Vec3::new(next(), next(), next());
+    let x0: Vec<Vec3> = crate::State::at_rest(&model)
+        .pos
+        .iter()
+        .map(|&p| Vec3::new(p.x * 1.3 - 0.4, p.y - 0.1 * p.z, p.z + 0.2 * p.x))
+        .collect();
+    let v: Vec<Vec3> = (0..x0.len()).map(|_| random() * 2.0).collect();
+    let d: Vec<Vec3> = (0..x0.len()).map(|_| random()).collect();
+    let (control, mut force) = (Control::none(), ForceScratch::new(&model));
+    let mut s = ImplicitScratch::new(&model);
+    s.load(&model);
+    s.start_dampers(&model, &x0);
+    let mut m_g = |s: &mut ImplicitScratch, v: &[Vec3]| {
+        s.v_soa.fill_zero();
+        s.v.copy_from_slice(v);
+        residual(&model, &control, &mut force, s, &x0, &x0, h, false);
+        (s.g.iter().zip(&s.mass))
+            .map(|(&g, &m)| g * m)
+            .collect::<Vec<_>>()
+    };
+    let eps = 1e-6;
+    let along = |sign: f64| -> Vec<Vec3> {
+        v.iter()
+            .zip(&d)
+            .map(|(&v, &d)| v + d * (sign * eps))
+            .collect()
+    };
+    let (up, down) = (m_g(&mut s, &along(1.0)), m_g(&mut s, &along(-1.0)));
+    m_g(&mut s, &v);
+    s.swirl_allowed = true;
+    assemble(
+        &model,
+        &control,
+        force.anchors(),
+        &mut s,
+        &x0,
+        h,
+        Curvature::True { shift: 0.0 },
+    );
+    assert!(
+        s.swirl,
+        "the field should swirl past the limit at this step"
+    );
+    let mut ad = vec![Vec3::ZERO; d.len()];
+    let correction = Some(&s.field_correction[..]);
+    let pairs = (&s.pair_rows[..], &s.pair_blocks[..]);
+    apply_to(
+        &mut s.springs,
+        &s.extra,
+        &s.free,
+        pairs.0,
+        pairs.1,
+        correction,
+        &d,
+        &mut ad,
+        Precision::Double,
+    );
+    let scale = ad.iter().map(|a| a.max_abs()).fold(0.0, f64::max);
+    for (p, ((&a, &u), &w)) in ad.iter().zip(&up).zip(&down).enumerate() {
+        let difference = (u - w) / (2.0 * eps) * s.free[p];
+        let off = (a - difference).max_abs();
+        assert!(
+            off <= 1e-6 * scale,
+            "point {p}: A·d {a:?}, difference {difference:?}"
+        );
+    }
+    // Without the swirl's correction, A·d misses it by far more.
+    apply_to(
+        &mut s.springs,
+        &s.extra,
+        &s.free,
+        pairs.0,
+        pairs.1,
+        None,
+        &d,
+        &mut ad,
+        Precision::Double,
+    );
+    let worst = ad
+        .iter()
+        .zip(up.iter().zip(&down))
+        .zip(&s.free)
+        .map(|((&a, (&u, &w)), &f)| (a - (u - w) / (2.0 * eps) * f).max_abs())
+        .fold(0.0, f64::max);
+    assert!(worst > 1e-3 * scale, "{worst} against {scale}");
+}
