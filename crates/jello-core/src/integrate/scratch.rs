@@ -37,13 +37,13 @@ pub struct Scratch {
 impl Scratch {
     /// How often implicit steps were taken in parts (see [`crate::integrate::cutback`]) since these
     /// buffers were made.
-    pub fn cutbacks(&self) -> crate::CutbackStats {
+    pub fn cutbacks(&self) -> crate::integrate::cutback::CutbackStats {
         self.cutback.stats()
     }
 
     /// The implicit solver's work (solves, Newton and conjugate-gradient iterations,
     /// assemblies of its matrix) since these buffers were made; zero under explicit integrators.
-    pub fn solver_stats(&self) -> crate::SolverStats {
+    pub fn solver_stats(&self) -> crate::integrate::implicit::SolverStats {
         self.implicit.stats()
     }
 
