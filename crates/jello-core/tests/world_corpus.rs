@@ -26,10 +26,12 @@ fn world_files(dir: &Path) -> Vec<std::path::PathBuf> {
 /// whose integrator diverges at its dt is stopped by the blow-up check with a suggested dt, and
 /// following that advice (at most three times, as a user would) it runs its 1000 steps.
 #[test]
+#[cfg_attr(
+    not(shared_worlds),
+    ignore = "needs ../shared/worlds, absent when this crate was built"
+)]
 fn every_readable_world_runs_1000_steps() {
-    let Some(dir) = common::shared_worlds() else {
-        return;
-    };
+    let dir = common::shared_worlds();
     let (mut ran, mut stopped) = (0, Vec::new());
     for path in world_files(&dir) {
         if path.file_name().unwrap() == "custom-IPC.w" {
@@ -74,10 +76,12 @@ fn every_readable_world_runs_1000_steps() {
 /// The one world naming an unknown integrator gets an error that lists the known ones, and runs
 /// when the integrator is given.
 #[test]
+#[cfg_attr(
+    not(shared_worlds),
+    ignore = "needs ../shared/worlds, absent when this crate was built"
+)]
 fn unknown_integrator_is_named_and_can_be_overridden() {
-    let Some(dir) = common::shared_worlds() else {
-        return;
-    };
+    let dir = common::shared_worlds();
     let path = dir.join("custom-IPC.w");
     let err = read(&path).unwrap_err().to_string();
     assert!(
@@ -97,10 +101,12 @@ fn unknown_integrator_is_named_and_can_be_overridden() {
 
 /// Every file the original reader cannot read gets an error naming the file and a line.
 #[test]
+#[cfg_attr(
+    not(shared_worlds),
+    ignore = "needs ../shared/worlds, absent when this crate was built"
+)]
 fn nonstandard_worlds_get_a_clear_error() {
-    let Some(dir) = common::shared_worlds() else {
-        return;
-    };
+    let dir = common::shared_worlds();
     let files = world_files(&dir.join("nonstandard"));
     assert_eq!(files.len(), 24);
     for path in files {

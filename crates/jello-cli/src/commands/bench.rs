@@ -99,7 +99,7 @@ struct Measurement {
     solver: Option<SolverStats>,
 }
 
-/// Runs the benchmark scene (see [`scenes::benchmark`]) and prints the rates.
+/// Runs the benchmark scene (see [`benchmark::scene`]) and prints the rates.
 pub fn bench(args: BenchArgs) -> Result<(), CliError> {
     if args.tolerance.is_some() {
         require_implicit(args.integrator, "--tolerance")?;
@@ -221,7 +221,7 @@ pub fn bench(args: BenchArgs) -> Result<(), CliError> {
     Ok(())
 }
 
-/// The benchmark scene (see [`scenes::benchmark`]) of `n³` points, at `dt` and solved to
+/// The benchmark scene (see [`benchmark::scene`]) of `n³` points, at `dt` and solved to
 /// `tolerance` if given.
 fn scene(
     n: usize,
