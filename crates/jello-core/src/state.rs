@@ -135,3 +135,10 @@ impl Pull {
         (self.target - p) * self.stiffness - v * self.damping
     }
 }
+
+/// The velocity at `p` of a rigid motion: translation at `v0` (m/s) plus rotation at `spin`
+/// (rad/s) about `centre`, `v0 + spin × (p − centre)`. How `jello create` and scene files give a
+/// body its initial velocity (`--velocity`, `--spin` about the centre of mass).
+pub fn rigid_velocity(v0: Vec3, spin: Vec3, centre: Vec3, p: Vec3) -> Vec3 {
+    v0 + spin.cross(p - centre)
+}

@@ -5,6 +5,7 @@
 mod meshes;
 
 use jello_core::formats::scene::{BodySpec, CubeSpec, MeshSpec, ObstacleSpec, PinSpec, ShakeSpec};
+use jello_core::model::body::rotation_xyz;
 use jello_core::surface::{CageVertices, Surface};
 use jello_core::{SceneFile, Vec3};
 use meshes::torus;
@@ -206,17 +207,18 @@ fn the_skin_reproduces_the_placed_mesh_at_rest() {
         assert_eq!(surface.triangles(), &mesh.triangles[..]);
         let mut skin = Vec::new();
         surface.positions(&made.model, &made.state, &mut skin);
-        // The same rigid motion of the mesh: rotate about the rest box's middle, then move it.
-        let body = made.model.body(0);
-        let r = body.rotation;
+        // The same rigid motion of the mesh: turned by `rotation` (x, then y, then z: tested in
+        // placement.rs) about the middle of the lattice's rest box, which goes to `centre`.
+        let r = rotation_xyz(rotation.unwrap_or([0.0; 3]));
         let lo = mesh
             .vertices
             .iter()
             .fold(Vec3::new(9.0, 9.0, 9.0), |a, &b| a.min(b));
-        let local = |p: Vec3| p - lo;
+        let middle = lo + made.model.body(0).lattice().size * 0.5;
+        let centre = centre.map_or(middle, |c| Vec3::new(c[0], c[1], c[2]));
         for (s, &v) in skin.iter().zip(&mesh.vertices) {
-            let d = local(v);
-            let want = body.origin + Vec3::new(r[0].dot(d), r[1].dot(d), r[2].dot(d));
+            let d = v - middle;
+            let want = centre + Vec3::new(r[0].dot(d), r[1].dot(d), r[2].dot(d));
             assert!((*s - want).max_abs() < 1e-12, "{s:?} vs {want:?}");
         }
     }

@@ -10,6 +10,7 @@ use jello_core::formats::scene::RegionSpec;
 use jello_core::model::body::rotation_xyz;
 use jello_core::model::field::RES_RANGE;
 use jello_core::model::field_preset::parse_numbers;
+use jello_core::state::rigid_velocity;
 use jello_core::{defaults, Aabb, FieldPreset, Integrator, Lattice, Vec3, World};
 
 use super::{
@@ -397,7 +398,7 @@ pub fn create(args: CreateArgs, matches: &clap::ArgMatches) -> Result<(), CliErr
     let velocities: Vec<Vec3> = positions
         .iter()
         .map(|&p| match spin {
-            Some(w) => v0 + w.vec3().cross(p - com),
+            Some(w) => rigid_velocity(v0, w.vec3(), com, p),
             None => v0,
         })
         .collect();

@@ -12,7 +12,7 @@ use crate::model::lattice::Lattice;
 use crate::model::obstacle::Sphere;
 use crate::model::springs::SpringScale;
 use crate::model::{Aabb, Model, ModelBuilder, ModelError, Obstacle, Plane};
-use crate::state::State;
+use crate::state::{rigid_velocity, State};
 use crate::vec3::Vec3;
 
 impl SceneFile {
@@ -422,7 +422,7 @@ impl BodySpec {
             return Err("velocity and spin must be finite".into());
         }
         for q in range.filter(active) {
-            state.vel[q] = v0 + w.cross(state.pos[q] - com);
+            state.vel[q] = rigid_velocity(v0, w, com, state.pos[q]);
         }
         Ok(())
     }
