@@ -9,7 +9,7 @@ mod meshes;
 
 use common::{cube, jelly, max_diff, stacked_cubes, Lcg as Rng};
 use jello_core::contact::pair_force;
-use jello_core::diagnostics::{body_centre_of_mass, momentum};
+use jello_core::diagnostics::{body_centre_of_mass, energy, momentum};
 use jello_core::forces::accelerations;
 use jello_core::{
     step, Aabb, Body, Control, Integrator, Lattice, Material, Model, ModelBuilder, Obstacle,
@@ -433,6 +433,44 @@ fn a_modulus_material_does_not_depend_on_the_resolution() {
         "1 × 0.5 × 0.5 m at 1000 kg/m³: {m4}"
     );
     assert!((t4 / t8 - 1.0).abs() < 0.1, "half periods {t4} and {t8}");
+}
+
+/// The modulus in absolute terms: a 4 × 4 × 4 lattice of side 0.6 m (spacing h = 0.2 m) at
+/// modulus E = 2·10⁴ Pa and density 1000 kg/m³ has springs of E·h = 4000 N/m and points of
+/// 1000·0.216/64 kg. Stretched along x by 1 %, it stores, spring by spring, `½·E·h·(|L| − R)²`:
+/// the structural springs along x by 0.01·h, the bend springs along x by 0.02·h, the face and
+/// body diagonals with an x component by the growth of their length, the rest not at all.
+#[test]
+fn a_modulus_material_stores_the_energy_of_springs_of_modulus_times_spacing() {
+    let (e, rho, side, n) = (2.0e4, 1000.0, 0.6, 4usize);
+    let h = side / (n - 1) as f64;
+    let body = Body::lattice_box(
+        Lattice::new([n; 3], Vec3::new(side, side, side)),
+        Material::classic(),
+    )
+    .with_modulus(e, 0.0, rho);
+    assert!((body.material.mass - rho * side.powi(3) / (n * n * n) as f64).abs() < 1e-15);
+    let model = ModelBuilder::new().bodies(vec![body]).build().unwrap();
+    let mut state = State::at_rest(&model);
+    let stretch = 0.01;
+    state.pos.iter_mut().for_each(|p| p.x *= 1.0 + stretch);
+    // By hand: how many springs of each direction, and how much each grows.
+    let (n, k) = (n as f64, e * h);
+    let grows = |d: [f64; 3]| {
+        let rest = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+        let x = d[0] * (1.0 + stretch);
+        (x * x + d[1] * d[1] + d[2] * d[2]).sqrt() - rest
+    };
+    let structural = (n - 1.0) * n * n * (stretch * h).powi(2);
+    let bend = (n - 2.0) * n * n * (2.0 * stretch * h).powi(2);
+    let face = 4.0 * (n - 1.0) * (n - 1.0) * n * grows([h, h, 0.0]).powi(2);
+    let body_diagonal = 4.0 * (n - 1.0).powi(3) * grows([h, h, h]).powi(2);
+    let want = 0.5 * k * (structural + bend + face + body_diagonal);
+    let got = energy(&model, &state).spring;
+    assert!(
+        (got - want).abs() < 1e-12 * want,
+        "{got} J against {want} J"
+    );
 }
 
 /// Stepping several bodies with holes allocates nothing.
