@@ -1,67 +1,98 @@
-"""Stepping releases the GIL: two threads stepping two simulations run at the same time."""
+"""Stepping releases the GIL: other Python threads run, and step other simulations, while a call
+of `step` is under way.
+
+Whether a call is under way is an event, not a time: while `step` runs, its simulation is
+borrowed mutably by the native module, so reading it from another thread raises RuntimeError
+("Already mutably borrowed"). That can only be seen from a thread that runs Python while the
+call is in progress, which it could not if the call held the GIL; no test here measures time.
+"""
 
 from __future__ import annotations
 
 import threading
-import time
 
 import jello
 from conftest import EXAMPLES
 
 
+def in_a_call(sim: jello.Simulation) -> bool:
+    """True when another thread is inside a call on `sim` (its native object is borrowed)."""
+    try:
+        sim.steps
+    except RuntimeError as e:
+        assert "borrowed" in str(e), e
+        return True
+    return False
+
+
+def test_the_borrow_shows_a_call_under_way() -> None:
+    # The probe itself: false outside any call, true during one.
+    sim = jello.load(EXAMPLES / "jello.w")
+    assert not in_a_call(sim)
+    seen = threading.Event()
+    done = threading.Event()
+
+    def watch() -> None:
+        while not done.is_set():
+            if in_a_call(sim):
+                seen.set()
+                return
+
+    watcher = threading.Thread(target=watch)
+    watcher.start()
+    sim.step(20_000)
+    done.set()
+    watcher.join()
+    assert seen.is_set()
+    assert not in_a_call(sim)
+
+
 def test_two_threads_stepping_overlap() -> None:
-    # Thread A makes one long step call; thread B makes short ones and counts those it finishes
-    # while A's call is under way. Were the GIL held through a call, B could run no Python
-    # between A's flag and A's return (one switch at most).
+    # Thread A makes one long call; the main thread makes short ones and counts those that
+    # began and ended while A's call was under way (its simulation borrowed before and after).
     long_run = jello.load(EXAMPLES / "jello.w")
     short_runs = jello.load(EXAMPLES / "rotate.w")
     a_started = threading.Event()
-    a_done = threading.Event()
-    overlapping = 0
 
     def a() -> None:
         a_started.set()
-        long_run.step(4000)
-        a_done.set()
+        long_run.step(20_000)
 
-    def b() -> None:
-        nonlocal overlapping
-        a_started.wait()
-        while not a_done.is_set():
-            short_runs.step(5)
-            if not a_done.is_set():
-                overlapping += 1
-
-    threads = [threading.Thread(target=a), threading.Thread(target=b)]
-    for t in threads:
-        t.start()
-    for t in threads:
-        t.join()
-    assert long_run.steps == 4000
-    assert overlapping > 10
+    thread = threading.Thread(target=a)
+    thread.start()
+    a_started.wait()
+    inside = 0
+    while thread.is_alive() and inside < 5:
+        before = in_a_call(long_run)
+        short_runs.step(5)
+        if before and in_a_call(long_run):
+            inside += 1
+    thread.join()
+    assert long_run.steps == 20_000
+    assert inside >= 1, "no short call ran while the long one was under way"
 
 
 def test_python_threads_run_while_stepping() -> None:
+    # A thread doing plain Python work sees the call under way, and keeps counting through it.
     sim = jello.load(EXAMPLES / "jello.w")
-    ticks = 0
     done = threading.Event()
+    ticks_inside = 0
 
     def count() -> None:
-        nonlocal ticks
+        nonlocal ticks_inside
         while not done.is_set():
-            ticks += 1
-            time.sleep(0.0005)
+            if in_a_call(sim):
+                ticks_inside += 1
+                if ticks_inside >= 3:
+                    return
 
     counter = threading.Thread(target=count)
     counter.start()
-    time.sleep(0.01)
-    before = ticks
-    sim.step(4000)
-    during = ticks - before
+    sim.step(20_000)
     done.set()
     counter.join()
-    # Holding the GIL for the whole call would allow a tick or two at its edges.
-    assert during > 20
+    # Holding the GIL for the whole call, the counter could not run Python during it at all.
+    assert ticks_inside >= 1
 
 
 def test_ctrl_c_stops_a_long_step_call_between_steps() -> None:

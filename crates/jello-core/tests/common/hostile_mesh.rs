@@ -14,7 +14,7 @@ pub const STL: &str = "hostile.stl";
 /// [`ALLOCATION_SLACK`]. The densest input is an OBJ polygon, one triangle per 2 bytes
 /// (`f 1 2 3 4 …`), each triangle taking 12 bytes, its line 8, its vertex in the face 4 and its
 /// three half-edges 48 in the edge check, vectors growing by doubling (so up to 3.5 times their
-/// final size allocated in all): measured, 68 bytes per byte (`large_inputs_stay_linear`); binary
+/// final size allocated in all): measured, 68 bytes per byte (`large_inputs_are_read_within_the_allocation_bound`); binary
 /// STL, under 10. A reader that made words for a message before knowing there is an error (it
 /// measured 114), copied the rest of the input per statement, or otherwise allocated more than
 /// linearly, exceeds the bound. (Time is never measured: a hang shows as a test that never ends.)
