@@ -519,6 +519,11 @@ def write_md(args, seconds, configs, peers, info, versions, jello_missing, insta
     if begin in old and end in old:
         L.append(old[old.index(begin):old.index(end) + len(end)])
         w("")
+    # So is the section of measurements kept by hand, each with its date and machine.
+    begin, end = "<!-- by hand: begin", "<!-- by hand: end -->"
+    if begin in old and end in old:
+        L.append(old[old.index(begin):old.index(end) + len(end)])
+        w("")
     tmp = args.out + ".tmp"
     with open(tmp, "w") as f:
         f.write("\n".join(L))
