@@ -243,3 +243,7 @@ pub fn check_writable_target(path: &Path) -> Result<(), FileError> {
 #[cfg(doctest)]
 #[doc = include_str!("../../../docs/rust.md")]
 struct RustGuide;
+
+#[cfg(doctest)]
+#[doc = include_str!("../../../README.md")]
+struct ReadmeTour;
