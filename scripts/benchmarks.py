@@ -318,7 +318,7 @@ def write_md(args, seconds, configs, peers, info, versions, jello_missing, insta
     w("")
     w("* **Scene** (the same in every implementation: `jello bench`, "
       "`crates/jello-core/src/scenes.rs`, `bench/peers/common.py`): an N×N×N lattice of side 1 "
-      "(spacing 1/(N−1)) centred at the origin; the springs of docs/spec.md (structural, 12 face + 8 "
+      "(spacing 1/(N−1)) centred at the origin; the springs of [docs/spec.md](docs/spec.md) (structural, 12 face + 8 "
       "body shear, bend; each pair once; rest lengths from the rest grid) with kElastic 200, "
       "dElastic 0.25; the box [−2, 2]³ with penalty springs kCollision 400, dCollision 0.25; mass "
       "1/512 per point at every N; every point starting at velocity (10, −10, 20); gravity "
