@@ -12,8 +12,8 @@ without being listed here. By the fence's language:
 - ``toml``: a scene; written to a file, it must pass ``jello info``.
 - ``rust``: a doctest of crates/jello-io (``cargo test --doc -p jello-io``): checked here only to
   be included there.
-- ``text`` (or ``json``), or no language: output, formats and formulas; not run (but rustdoc runs a block
-  without a language as Rust, so the pages that are doctests must say ``text``).
+- ``text`` (or ``json``), or no language: output, formats and formulas; not run (but rustdoc
+  runs a block without a language as Rust, so the pages that are doctests must say ``text``).
 
 A block that must not run has ``<!-- no-run: the reason -->`` on the line before its fence (a
 ``no-run`` TOML block must still parse). Every block runs in a fresh temporary folder holding a
