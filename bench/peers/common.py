@@ -1,10 +1,10 @@
 """Shared scene, command line and timing harness for the peer implementations.
 
-The scene is the one of `jello bench` (crates/jello-core/src/scenes.rs, SPEC.md):
+The scene is the one of `jello bench` (crates/jello-core/src/scenes.rs, docs/spec.md):
 
 * an N x N x N lattice of side 1 (spacing 1/(N-1)), point (i, j, k) at
   (i/(N-1) - 0.5, j/(N-1) - 0.5, k/(N-1) - 0.5), flat index (i*N + j)*N + k;
-* springs of SPEC.md, each unordered pair once, rest length = spacing * |offset|:
+* springs of docs/spec.md, each unordered pair once, rest length = spacing * |offset|:
   structural (axis neighbours at index distance 1), shear (12 face diagonals and
   8 body diagonals), bend (axis neighbours at index distance 2);
 * kElastic 200, dElastic 0.25 on every spring; box [-2, 2]^3 with zero-rest-length

@@ -40,7 +40,7 @@ export interface PanelHost {
 }
 
 /** The implicit integrators' tolerances offered (m/s): from the core's default, exact to
- *  rounding in practice, to one that steps 2–3× as fast (README, "Large steps"). A
+ *  rounding in practice, to one that steps 2–3× as fast (docs/implicit.md, "Tolerance"). A
  *  scene's own value is shown as it is. */
 const TOLERANCES: Record<string, number> = {
   '1e-9 (default)': 1e-9,

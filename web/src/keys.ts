@@ -2,7 +2,7 @@
 import type { App } from './app';
 import { toggleHelp } from './ui';
 
-/** Key, what it does (shown in the help overlay and the README). */
+/** Key, what it does (shown in the help overlay and in docs/viewer.md). */
 export const KEYS: [string, string][] = [
   ['v', 'lit surface ↔ wireframe'],
   ['s / h / b', 'structural / shear / bend springs on or off (wireframe)'],

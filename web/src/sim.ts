@@ -21,7 +21,7 @@ export async function loadCore(): Promise<void> {
 export const IMPLICIT_ABOVE_POINTS = 512;
 /** The integrator, step and tolerance such scenes start with: 1e-5 m/s moves no point visibly
  *  (4e-9 m after 2 s of a 16³ drop against the core's default 1e-9) and runs a 12³ cube in real
- *  time where 1e-9 runs 11³ (README, "Measurements"). */
+ *  time where 1e-9 runs 11³ (BENCHMARKS.md, "The viewer in Chromium"). */
 export const IMPLICIT_DEFAULT = { integrator: 'BackwardEuler', dt: 1 / 60, tolerance: 1e-5 };
 
 /** The state as the page's copy has it (at load or reset): shown until the worker sends its

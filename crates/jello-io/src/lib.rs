@@ -239,3 +239,14 @@ pub fn check_writable_target(path: &Path) -> Result<(), FileError> {
         _ => Ok(()),
     }
 }
+
+// The user guide's Rust examples, compiled and run as this crate's doctests (`cargo test --doc
+// -p jello-io`), so that every example in docs/ runs as printed. python/tests/test_docs.py
+// checks that every Markdown page with Rust blocks is listed here.
+#[cfg(doctest)]
+#[doc = include_str!("../../../docs/rust.md")]
+struct RustGuide;
+
+#[cfg(doctest)]
+#[doc = include_str!("../../../README.md")]
+struct ReadmeTour;
