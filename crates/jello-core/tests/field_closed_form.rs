@@ -1,9 +1,9 @@
 //! `ForceField` sampling against a closed form. Trilinear interpolation reproduces any function
 //! that is trilinear in (x, y, z) (an affine map plus xy, yz, xz and xyz terms) exactly, so a
-//! field whose nodes hold such a function `f`, at the node positions SPEC.md gives, must sample
+//! field whose nodes hold such a function `f`, at the node positions docs/spec.md gives, must sample
 //! to `f(p)` everywhere inside the box, and to `f(clamped p)` outside it.
 //!
-//! Independent of the code: the nodes are placed and stored here by SPEC.md's rules (node
+//! Independent of the code: the nodes are placed and stored here by docs/spec.md's rules (node
 //! `(i, j, k)` at `(−2 + 4i/(res−1), …)`, stored at `i*res*res + j*res + k`, and in a world file
 //! i outermost, k innermost), not by `ForceField::from_fn`. `f` has a different coefficient on
 //! every term, so swapping two axes, reversing one or transposing the storage order changes the
@@ -30,12 +30,12 @@ fn f(p: Vec3) -> Vec3 {
 /// Largest |f| over the box is below this (N).
 const SCALE: f64 = 40.0;
 
-/// Node `i` of `res` along any axis, by SPEC.md.
+/// Node `i` of `res` along any axis, by docs/spec.md.
 fn node(i: usize, res: usize) -> f64 {
     -2.0 + 4.0 * i as f64 / (res - 1) as f64
 }
 
-/// The node forces in SPEC.md's order: `(i, j, k)` at `i*res*res + j*res + k`.
+/// The node forces in docs/spec.md's order: `(i, j, k)` at `i*res*res + j*res + k`.
 fn nodes(res: usize) -> Vec<Vec3> {
     let mut forces = Vec::with_capacity(res * res * res);
     for i in 0..res {
@@ -120,7 +120,7 @@ fn outside_the_box_sampling_is_the_clamped_value() {
     }
 }
 
-/// `from_fn` puts its nodes where SPEC.md says and stores them in SPEC.md's order.
+/// `from_fn` puts its nodes where docs/spec.md says and stores them in docs/spec.md's order.
 #[test]
 fn from_fn_uses_the_spec_node_positions_and_order() {
     for res in [2, 3, 9] {

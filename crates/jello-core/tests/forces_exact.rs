@@ -3,7 +3,7 @@
 //! with the plane's coefficients scaled (same force), the force field and control forces; and
 //! one contact's restitution against the damped oscillator's closed form.
 //!
-//! Independent of the code: every expected value is SPEC.md's formula written out in this file
+//! Independent of the code: every expected value is docs/spec.md's formula written out in this file
 //! (`kCollision·depth·n − dCollision (v·n) n`, over the mass), never a crate helper. The points
 //! are the two ends of a 2-point lattice of rest length 1, placed exactly 1 m apart with equal
 //! velocities: the spring's length is exactly its rest length and its ends do not move apart, so
@@ -55,12 +55,12 @@ fn unit(axis: usize) -> Vec3 {
     Vec3::new(e[0], e[1], e[2])
 }
 
-/// SPEC.md's penalty spring: `kc·depth·n − dc (v·n) n`.
+/// docs/spec.md's penalty spring: `kc·depth·n − dc (v·n) n`.
 fn penalty(depth: f64, n: Vec3, v: Vec3, kc: f64, dc: f64) -> Vec3 {
     n * (kc * depth) - n * (dc * v.dot(n))
 }
 
-/// SPEC.md's box force on a point at `p` moving at `v`: one penalty spring per wall of
+/// docs/spec.md's box force on a point at `p` moving at `v`: one penalty spring per wall of
 /// `[lo, hi]³` the point is strictly outside of, toward its projection on that wall.
 fn walls_by_hand(p: Vec3, v: Vec3, lo: f64, hi: f64, kc: f64, dc: f64) -> Vec3 {
     let mut f = Vec3::ZERO;
@@ -76,7 +76,7 @@ fn walls_by_hand(p: Vec3, v: Vec3, lo: f64, hi: f64, kc: f64, dc: f64) -> Vec3 {
     f
 }
 
-/// SPEC.md's plane force: on the side of `a x + b y + c z + d` opposite to `reference`'s, depth
+/// docs/spec.md's plane force: on the side of `a x + b y + c z + d` opposite to `reference`'s, depth
 /// `|a x + b y + c z + d| / |(a, b, c)|` and `n` the unit normal into the allowed side.
 fn plane_by_hand(coeffs: [f64; 4], reference: Vec3, p: Vec3, v: Vec3) -> Vec3 {
     let [a, b, c, d] = coeffs;
@@ -142,7 +142,7 @@ fn walls_edges_and_corners() {
     }
 }
 
-/// A point exactly on a wall, edge or corner, moving out through it, feels nothing: SPEC.md's
+/// A point exactly on a wall, edge or corner, moving out through it, feels nothing: docs/spec.md's
 /// penalty acts only "strictly outside". Checked exactly (no spring force either).
 #[test]
 fn exactly_on_a_wall_is_zero() {
@@ -295,7 +295,7 @@ fn world_plane_faces_the_initial_centre_of_mass() {
     }
 }
 
-/// A world file's text by hand (SPEC.md's layout): RK4, dt 0.0005, 200 0.25 400 0.25, mass
+/// A world file's text by hand (docs/spec.md's layout): RK4, dt 0.0005, 200 0.25 400 0.25, mass
 /// 0.001953, the plane `a b c d`, no field, positions, zero velocities.
 fn world_text(plane: &str, pos: &[Vec3]) -> String {
     let mut s = format!("RK4\n0.0005 1\n200 0.25 400 0.25\n0.001953\n1\n{plane}\n0\n");
@@ -315,7 +315,7 @@ fn trilinear(p: Vec3) -> Vec3 {
     )
 }
 
-/// SPEC.md's node positions and storage order, by hand.
+/// docs/spec.md's node positions and storage order, by hand.
 fn field_by_hand(res: usize) -> Vec<Vec3> {
     let node = |i: usize| -2.0 + 4.0 * i as f64 / (res - 1) as f64;
     let mut forces = vec![Vec3::ZERO; res * res * res];
@@ -391,7 +391,7 @@ fn field_control_walls_and_plane_add_up() {
 /// One contact: a point meeting a wall at speed `v0` is a damped oscillator `m u'' = −kc u −
 /// dc u'` while in contact (u the depth), and leaves at `v0·exp(−ζπ/√(1−ζ²))`, `ζ = dc/(2√(kc m))`.
 /// Every one of the six walls, with a tangential velocity the wall must leave alone (no friction
-/// in SPEC.md: exactly unchanged).
+/// in docs/spec.md: exactly unchanged).
 ///
 /// The pair lies along a wall (perpendicular to its normal) and moves as one, so its spring
 /// stays exactly at rest and each point is a single point against the wall. RK4 at dt = 1e-6

@@ -7,7 +7,7 @@ use common::Lcg;
 use jello_core::forces::accelerations;
 use jello_core::{benchmark, Control, Integrator, Lattice, Model, ModelBuilder, Simulation, Vec3};
 
-/// Accelerations straight from SPEC.md: every spring of `model.springs()` once, then the walls and
+/// Accelerations straight from docs/spec.md: every spring of `model.springs()` once, then the walls and
 /// the mass (no field or plane in these models).
 fn reference(model: &Model, pos: &[Vec3], vel: &[Vec3]) -> Vec<Vec3> {
     let mut f = vec![Vec3::ZERO; pos.len()];

@@ -1,7 +1,7 @@
 //! Obstacles beyond the box and the classic plane: spheres, solid boxes and planes.
 //!
 //! - Exact accelerations at hand-placed points, every expected value written out from the penalty
-//!   spring of an obstacle (`(kCollision·depth − dCollision·v·n)·n`: SPEC.md's spring and normal
+//!   spring of an obstacle (`(kCollision·depth − dCollision·v·n)·n`: docs/spec.md's spring and normal
 //!   damping, plus Coulomb friction when the model has a coefficient) and each shape's geometry, on
 //!   a 2-point lattice whose spring exerts exactly no force (as in `forces_exact.rs`).
 //! - The collision energy's negative gradient (central differences) is the static contact force,

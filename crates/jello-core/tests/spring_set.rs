@@ -1,12 +1,12 @@
 //! The spring set by brute force over all pairs of points, and the forces it gives.
 //!
 //! Independent of the stencil tables (the lattice's and the force kernel's): every unordered pair
-//! of points is classified from its index offsets by SPEC.md's words alone (axis neighbours at
+//! of points is classified from its index offsets by docs/spec.md's words alone (axis neighbours at
 //! index distance 1: structural; face and body diagonals: shear; axis neighbours at distance 2:
 //! bend; nothing else), with its rest length from the rest grid. For the classic 8³ cube that is
 //! 1344 structural, 3724 shear and 1152 bend springs, of rest lengths 1/7, √2/7 or √3/7, and 2/7.
 //! The set must equal `Lattice::springs` and `Model::springs` as sets; and the forces of the
-//! brute-force set, summed here by SPEC.md's law, must equal `accelerations` (the stencil kernel).
+//! brute-force set, summed here by docs/spec.md's law, must equal `accelerations` (the stencil kernel).
 
 mod common;
 
@@ -19,7 +19,7 @@ use jello_core::{Body, Control, Lattice, Material, ModelBuilder, SpringKind, Spr
 /// A spring as `(a, b)` with `a < b` → (kind, rest length).
 type SpringSet = BTreeMap<(usize, usize), (SpringKind, f64)>;
 
-/// SPEC.md's classification of the pair of points at lattice coordinates `pa` and `pb`, with the
+/// docs/spec.md's classification of the pair of points at lattice coordinates `pa` and `pb`, with the
 /// rest length from the rest grid of spacings `h`; `None` when they are joined by no spring.
 fn classify(pa: [usize; 3], pb: [usize; 3], h: [f64; 3]) -> Option<(SpringKind, f64)> {
     let d = [0, 1, 2].map(|c| pa[c].abs_diff(pb[c]));
@@ -46,11 +46,11 @@ fn spacing(counts: [usize; 3], size: [f64; 3]) -> [f64; 3] {
     [0, 1, 2].map(|a| size[a] / (counts[a].max(2) - 1) as f64)
 }
 
-/// Every pair of an `nx × ny × nz` lattice of side lengths `size`, classified by SPEC.md.
+/// Every pair of an `nx × ny × nz` lattice of side lengths `size`, classified by docs/spec.md.
 fn brute_force(counts: [usize; 3], size: [f64; 3]) -> SpringSet {
     let [nx, ny, nz] = counts;
     let n = nx * ny * nz;
-    // Flat index (i*ny + j)*nz + k, k fastest (SPEC.md).
+    // Flat index (i*ny + j)*nz + k, k fastest (docs/spec.md).
     let ijk = |p: usize| [p / (ny * nz), (p / nz) % ny, p % nz];
     let h = spacing(counts, size);
     let mut set = SpringSet::new();
@@ -109,7 +109,7 @@ fn assert_same(got: &SpringSet, want: &SpringSet, what: &str) {
 #[test]
 fn classic_cube_springs_by_brute_force() {
     let want = brute_force([8, 8, 8], [1.0; 3]);
-    // SPEC.md's counts and rest lengths.
+    // docs/spec.md's counts and rest lengths.
     let count = |kind| want.values().filter(|(k, _)| *k == kind).count();
     assert_eq!(count(SpringKind::Structural), 1344);
     assert_eq!(count(SpringKind::Shear), 3724);
@@ -163,7 +163,7 @@ fn other_lattices_springs_by_brute_force() {
 }
 
 /// Accelerations of a deformed, moving lattice (no walls, field or plane touched) from the
-/// brute-force set and SPEC.md's law, `−k (|L| − R) L̂ − d ((vA − vB)·L̂) L̂` on A and the
+/// brute-force set and docs/spec.md's law, `−k (|L| − R) L̂ − d ((vA − vB)·L̂) L̂` on A and the
 /// opposite on B, against the force kernel. Per-kind constants differ, so a kind mix-up shows.
 /// Tolerance 1e-12 of the largest acceleration: the sums differ only in rounding order.
 #[test]

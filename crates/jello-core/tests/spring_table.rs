@@ -40,7 +40,7 @@ fn pair_scale(a: usize, b: usize) -> SpringScale {
     }
 }
 
-/// Every spring of a lattice by brute force over pairs of points (SPEC.md: axis neighbours at
+/// Every spring of a lattice by brute force over pairs of points (docs/spec.md: axis neighbours at
 /// distance 1 structural, face and body diagonals shear, axis neighbours at distance 2 bend), of
 /// those `keep` accepts: (a, b, rest length on the rest grid, kind index).
 fn brute_force(
@@ -72,7 +72,7 @@ fn brute_force(
     springs
 }
 
-/// Accelerations from the brute-force springs with their pair factors, SPEC.md's law.
+/// Accelerations from the brute-force springs with their pair factors, docs/spec.md's law.
 fn brute_force_accelerations(
     springs: &[(usize, usize, f64, usize)],
     m: &Material,

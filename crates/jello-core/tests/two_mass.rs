@@ -1,7 +1,7 @@
 //! Two masses joined by one damped spring against the closed form, and the energy behaviour of
 //! symplectic and explicit Euler on it.
 //!
-//! Independent of the code: the motion is derived here from SPEC.md's force law. With A and B on
+//! Independent of the code: the motion is derived here from docs/spec.md's force law. With A and B on
 //! the x axis, `r = xB − xA > 0`, `L = pA − pB = −r x̂`, so the force on A is
 //! `−k (r − R)(−x̂) − d ((vA − vB)·(−x̂))(−x̂) = (k (r − R) + d r') x̂` and B gets the opposite:
 //! `r'' = −(2/m)(k (r − R) + d r')`. So `u = r − R` is a damped oscillator with `ω0² = 2k/m` and

@@ -126,7 +126,7 @@ pub fn info(args: InfoArgs) -> Result<(), CliError> {
         "penetration    {:.6e} m (deepest point into a wall or the plane)",
         max_penetration(m, &s.pos)
     );
-    println!("stable dt      estimate per integrator (stiffest lattice mode at rest, and in this world's initial shape; see README):");
+    println!("stable dt      estimate per integrator (stiffest lattice mode at rest, and in this world's initial shape; see docs/cli.md):");
     let (at_rest, initial) = (ModeBounds::at_rest(m), ModeBounds::at(m, &s.pos));
     for integrator in Integrator::ALL {
         let h = at_rest

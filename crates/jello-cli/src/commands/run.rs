@@ -74,8 +74,8 @@ pub struct RunArgs {
     /// Frames per simulated second in the --export file (a frame every round(1/(fps·dt)) steps).
     #[arg(long, value_name = "F", default_value_t = 30.0, requires = "export", value_parser = parse_positive)]
     pub fps: f64,
-    /// Where to step: the f64 core on the CPU, or the f32 shaders on a GPU (explicit
-    /// integrators, one body without obstacles).
+    /// Where to step: the f64 core on the CPU, or the f32 shaders on a GPU (the explicit
+    /// integrators, with several bodies, obstacles, friction, pins and pulls; docs/gpu.md).
     #[arg(long, value_enum, default_value_t = Device::Cpu)]
     pub device: Device,
     /// No progress bar.

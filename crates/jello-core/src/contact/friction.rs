@@ -1,5 +1,5 @@
 //! Coulomb friction: of obstacles (planes, spheres, solid boxes) on the points touching them,
-//! and of contacts between bodies. The walls and the inclined plane of SPEC.md have none.
+//! and of contacts between bodies. The walls and the inclined plane of docs/spec.md have none.
 //!
 //! **Obstacles stick.** A point that touches an obstacle is tied to an *anchor*, the place where
 //! it came into contact, by a tangential spring of the collision stiffness and damper of the

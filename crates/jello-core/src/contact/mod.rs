@@ -1,6 +1,6 @@
 //! Contact: what keeps bodies out of the walls, the plane, the obstacles and each other.
 //!
-//! - [`obstacles`]: the penalty law of the walls, the plane and the obstacles (SPEC.md), and the
+//! - [`obstacles`]: the penalty law of the walls, the plane and the obstacles (docs/spec.md), and the
 //!   deepest penetration;
 //! - [`bodies`]: contacts between bodies, their penalty law and the overlap diagnostic;
 //! - [`broad_phase`]: the hashed uniform grid that finds the points of other bodies near a point;

@@ -1,5 +1,5 @@
 //! Contacts with the walls, the inclined plane and the obstacles: the penalty law
-//! `kCollision·depth·n − dCollision (v·n) n` (SPEC.md) with Coulomb friction across `n` (see
+//! `kCollision·depth·n − dCollision (v·n) n` (docs/spec.md) with Coulomb friction across `n` (see
 //! [`super::friction`]), in the branch-free forms the force kernel calls, and the deepest
 //! penetration. Each obstacle's depth and normal are defined once, with its shape, in
 //! [`crate::model::obstacle`].

@@ -252,7 +252,7 @@ fn range_count_on(body: &Body, on_team: bool) -> usize {
 /// Acceleration of every point (m/s²) at positions `pos` and velocities `vel`, written to `acc`.
 ///
 /// All slices have the model's point count. Total force over mass, where the force on a point is
-/// (SPEC.md): the sum of its spring forces, plus the interpolated force field, plus one penalty
+/// (docs/spec.md): the sum of its spring forces, plus the interpolated force field, plus one penalty
 /// spring per box wall it is strictly outside of, plus the plane penalty when it is on the
 /// forbidden side, plus the control force, then the obstacles' penalties and the control's pulls;
 /// a pinned point's acceleration is zero. This form allocates its buffers; the integrators use

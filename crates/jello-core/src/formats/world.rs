@@ -1,6 +1,6 @@
 //! The classic world file (`.w`): reader and writer.
 //!
-//! The format (SPEC.md) is whitespace-separated text in which line breaks carry no meaning:
+//! The format (docs/spec.md) is whitespace-separated text in which line breaks carry no meaning:
 //! integrator; `dt n`; `kElastic dElastic kCollision dCollision`; `mass`; `incPlanePresent` and,
 //! only when it is 1, `a b c d`; `res` and `res³` force triples; 512 position triples; 512
 //! velocity triples. The reader is stricter than the original one: it checks every value and

@@ -1,4 +1,4 @@
-//! The explicit integrators of SPEC.md: Euler, RK2 (midpoint), RK4 and symplectic Euler. Each
+//! The explicit integrators of docs/spec.md: Euler, RK2 (midpoint), RK4 and symplectic Euler. Each
 //! stage is one [`force_pass`], whose blocks the integrator updates while they are in cache.
 
 use super::blow_up::block_is_sound;

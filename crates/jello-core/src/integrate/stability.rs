@@ -1,6 +1,6 @@
 //! An estimate of the largest stable time step of each integrator for a model.
 //!
-//! Method (documented in the README, "How the stable time step is estimated"):
+//! Method (documented for users in docs/cli.md, "The stable time step"):
 //! 1. Find the stiffest mode: the largest eigenvalue `Ω²` of the spring stiffness matrix over the
 //!    mass, at the rest shape (power iteration; never above Gershgorin's bound `2·max_p Σ k / m`,
 //!    the sum over the springs at point `p`). The damping matrix has the same structure and gives

@@ -1,5 +1,5 @@
 //! The external force field: forces sampled on a `res × res × res` grid over the bounding box,
-//! read off by trilinear interpolation (SPEC.md).
+//! read off by trilinear interpolation (docs/spec.md).
 
 use crate::model::error::ModelError;
 use crate::model::obstacle::Aabb;

@@ -1,9 +1,11 @@
-//! The integrator names of SPEC.md and their aliases.
+//! The integrators' names and their aliases: the four explicit ones of the classic world files
+//! (docs/spec.md), and Jello's two implicit ones.
 
 use std::fmt;
 use std::str::FromStr;
 
-/// A time-stepping scheme. The names keep exactly the meanings SPEC.md gives them.
+/// A time-stepping scheme. The explicit ones keep exactly the meanings docs/spec.md gives their
+/// names; `BackwardEuler` and `SDIRK2` are Jello's own (docs/implicit.md).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum Integrator {
     /// Explicit (forward) Euler: `a = a(p, v); p += dt·v` (old velocity); `v += dt·a`.
@@ -36,7 +38,7 @@ impl Integrator {
         Integrator::Sdirk2,
     ];
 
-    /// The explicit integrators (a fixed number of force evaluations per step), which SPEC.md
+    /// The explicit integrators (a fixed number of force evaluations per step), which docs/spec.md
     /// names.
     pub const EXPLICIT: [Integrator; 4] = [
         Integrator::Euler,

@@ -4,7 +4,7 @@
 //! y, k is z; k varies fastest, as in the world file). The classic jello cube is the 8×8×8 lattice
 //! of side 1: point `(i, j, k)` rests at `(i/7, j/7, k/7)`.
 //!
-//! Springs connect each unordered pair of points once (SPEC.md): structural springs to the axis
+//! Springs connect each unordered pair of points once (docs/spec.md): structural springs to the axis
 //! neighbours at index distance 1, shear springs along the 12 face diagonals and 8 body diagonals,
 //! bend springs to the axis neighbours at index distance 2. For 8³ that is 6220 springs.
 
@@ -36,7 +36,7 @@ impl SpringKind {
     }
 }
 
-/// Index offsets `(di, dj, dk)` of the half stencil, with the kind of spring each joins (SPEC.md):
+/// Index offsets `(di, dj, dk)` of the half stencil, with the kind of spring each joins (docs/spec.md):
 /// every offset whose first non-zero component is positive, so that each unordered pair of
 /// points is visited exactly once. Its order is the order of the kernel's walk.
 pub const STENCIL: [([isize; 3], SpringKind); 16] = [
@@ -111,7 +111,7 @@ impl Lattice {
     }
 
     /// Rest position of point `(i, j, k)`: `size · i/(nx−1)` per axis, so the classic cube gives
-    /// exactly `i/7` as SPEC.md says. An axis with one point sits at 0.
+    /// exactly `i/7` as docs/spec.md says. An axis with one point sits at 0.
     pub fn rest_position(&self, i: usize, j: usize, k: usize) -> Vec3 {
         let axis = |n: usize, s: f64, c: usize| {
             if n > 1 {

@@ -53,7 +53,7 @@ pub struct Model {
     /// Damping of the collision penalty springs (N·s/m).
     pub d_collision: f64,
     /// Coulomb friction coefficient of obstacles and of contacts between bodies (at least 0;
-    /// 0 in world files). The walls and the inclined plane of SPEC.md have none. See
+    /// 0 in world files). The walls and the inclined plane of docs/spec.md have none. See
     /// [`crate::contact::friction`].
     pub friction: f64,
     /// The bounding box; points outside it are pushed back by penalty springs.

@@ -1,6 +1,6 @@
 //! Obstacles: the box that holds the jello, the classic inclined plane, and any number of static
 //! planes, spheres and solid boxes, all acting through the same zero-rest-length penalty spring
-//! (SPEC.md): `kCollision·depth·n − dCollision (v·n) n`, `n` the unit normal pointing back to
+//! (docs/spec.md): `kCollision·depth·n − dCollision (v·n) n`, `n` the unit normal pointing back to
 //! where the point may be.
 //!
 //! Every shape answers here, and only here, where a point touches it: the depth and the normal of
@@ -143,7 +143,7 @@ pub struct Plane {
 }
 
 impl Plane {
-    /// The plane whose allowed side holds `reference` (SPEC.md: the centre of mass of the initial
+    /// The plane whose allowed side holds `reference` (docs/spec.md: the centre of mass of the initial
     /// positions). A reference exactly on the plane gets the positive side, the side every
     /// official world uses. Fails when a coefficient is not finite or the length of `(a, b, c)`
     /// is zero or overflows.

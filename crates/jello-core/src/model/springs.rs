@@ -2,7 +2,7 @@
 //! and damping, read alike by the force kernel, the diagnostics and the stability estimate.
 //!
 //! By default a spring's rest length is its distance on the rest lattice and its stiffness and
-//! damping are its kind's in the body's material (SPEC.md). A body may also carry a
+//! damping are its kind's in the body's material (docs/spec.md). A body may also carry a
 //! [`SpringTable`]: per spring, factors on those three values. Factors rather than values, so
 //! that a material given after the table (a modulus, a change in the viewer) still applies, and
 //! a factor of exactly 1 leaves a value bit for bit what it was. The kernel reads a table as one

@@ -296,7 +296,7 @@ impl SceneFile {
     /// The scene as TOML text.
     pub fn to_toml(&self) -> String {
         let mut text =
-            String::from("# A Jello scene (see `jello create --help` and the README).\n");
+            String::from("# A Jello scene (see docs/scenes.md and `jello create --help`).\n");
         text.push_str(&toml::to_string(self).expect("a scene always serialises"));
         text
     }

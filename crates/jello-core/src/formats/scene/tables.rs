@@ -70,7 +70,7 @@ pub struct Collision {
     /// N·s/m.
     pub damping: f64,
     /// Coulomb friction coefficient of obstacles and of contacts between bodies (see
-    /// [`crate::contact::friction`]); the walls have none, as in SPEC.md.
+    /// [`crate::contact::friction`]); the walls have none, as in docs/spec.md.
     pub friction: f64,
 }
 
