@@ -68,7 +68,7 @@ pub use model::field::ForceField;
 pub use model::field_preset::FieldPreset;
 pub use model::integrator::{Integrator, UnknownIntegrator};
 pub use model::lattice::{Lattice, SpringKind};
-pub use model::obstacle::{Aabb, Contact, Obstacle, Plane, Sphere};
+pub use model::obstacle::{Aabb, Obstacle, ObstacleContact, Plane, Sphere};
 pub use model::solver::Newton;
 pub use model::springs::{Spring, SpringScale, SpringTable, Springs};
 pub use model::{defaults, Model, ModelBuilder, ModelError};

@@ -64,7 +64,7 @@ impl Simulation {
     /// `n` steps, stopping at the first blow-up.
     ///
     /// On lattices large enough for threads the steps share one team of threads (see
-    /// [`team`]): its threads wait for the next step's work spinning, and each keeps the same
+    /// `compute/team.rs`): its threads wait for the next step's work spinning, and each keeps the same
     /// part of the lattice from step to step. The results are the same as `n` calls of
     /// [`Simulation::step`].
     pub fn advance(&mut self, n: u64) -> Result<(), BlowUp> {

@@ -30,16 +30,16 @@
 //! forms wait on them. For wasm32 the crate builds on wgpu's WebGPU backend, where only the
 //! futures exist: the browser viewer steps with them (`jello-wasm`'s `JelloGpu`).
 //!
-//! Layout: `scene` packs a model into the buffers the shader reads, `simulation` drives the
+//! Layout: `packing` packs a model into the buffers the shader reads, `simulation` drives the
 //! device, and `shader/` holds the WGSL (`model.wgsl`, `stage.wgsl`, `forces.wgsl`, `grid.wgsl`,
 //! `check.wgsl`, `step.wgsl`, `resident.wgsl`).
 
 use std::fmt;
 
-mod scene;
+mod packing;
 mod simulation;
 
-pub use scene::{fits_resident, unsupported, MAX_BODIES, RESIDENT_POINTS};
+pub use packing::{fits_resident, unsupported, MAX_BODIES, RESIDENT_POINTS};
 pub use simulation::{GpuSimulation, Kernel};
 
 /// The WGSL module every GPU path runs (native through wgpu, and WebGPU in a browser): its parts

@@ -9,7 +9,7 @@ use jello_core::integrate::stability;
 use jello_core::{BlowUp, BlowUpCause, Control, Integrator, Model, State, Vec3};
 use wgpu::util::DeviceExt;
 
-use crate::scene::{self, Packed};
+use crate::packing::{self, Packed};
 use crate::{GpuError, StepError, RESIDENT_SHADER, SHADER};
 
 /// Threads per workgroup (the shader's `WORKGROUP`).
@@ -38,7 +38,7 @@ const STEPS_PER_DISPATCH: u64 = 64;
 
 /// How the shader steps: a dispatch per stage over every point (`step.wgsl`), or the whole lattice
 /// inside one workgroup, many steps per dispatch (`resident.wgsl`, for small models: see
-/// [`scene::fits_resident`]).
+/// [`packing::fits_resident`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Kernel {
     /// A dispatch per stage of every step.
@@ -82,12 +82,12 @@ impl Kernel {
         forced: Option<Kernel>,
         cpu_adapter: bool,
     ) -> Result<Kernel, GpuError> {
-        let fits = scene::fits_resident(model);
+        let fits = packing::fits_resident(model);
         match forced {
             Some(Kernel::Resident) if !fits => Err(GpuError::Unsupported(format!(
                 "the resident kernel for this model: it takes one body of at most {} points \
                  without friction anchors or moving pins",
-                scene::RESIDENT_POINTS
+                packing::RESIDENT_POINTS
             ))),
             Some(kernel) => Ok(kernel),
             None if fits && !cpu_adapter => Ok(Kernel::Resident),
@@ -131,7 +131,7 @@ pub struct GpuSimulation {
     status_read: wgpu::Buffer,
     state_read: wgpu::Buffer,
     uniform: wgpu::Buffer,
-    /// The scene (see `scene.rs`), where the control forces start (bytes), and the friction
+    /// The scene buffer (see `packing.rs`), where the control forces start (bytes), and the friction
     /// anchors with their copy at the start of the current submission (byte offset, bytes).
     scene: wgpu::Buffer,
     control_at: u64,
@@ -198,7 +198,7 @@ impl GpuSimulation {
         control: &Control,
         kernel: Option<Kernel>,
     ) -> Result<Self, GpuError> {
-        if let Some(what) = scene::unsupported(model, control) {
+        if let Some(what) = packing::unsupported(model, control) {
             return Err(GpuError::Unsupported(what));
         }
         control
@@ -264,7 +264,7 @@ impl GpuSimulation {
         kernel: Kernel,
     ) -> Self {
         let n = model.point_count();
-        let state_data = scene::pack_state(state);
+        let state_data = packing::pack_state(state);
         let storage = wgpu::BufferUsages::STORAGE
             | wgpu::BufferUsages::COPY_SRC
             | wgpu::BufferUsages::COPY_DST;
@@ -599,7 +599,7 @@ impl GpuSimulation {
         self.queue
             .write_buffer(&self.status, 0, bytemuck::cast_slice(&STATUS_START));
         if let Some((_, table_at)) = self.pins {
-            let rows = scene::pin_steps(&self.model, self.time, steps as usize);
+            let rows = packing::pin_steps(&self.model, self.time, steps as usize);
             self.queue
                 .write_buffer(&self.scene, table_at, bytemuck::cast_slice(&rows));
         }
@@ -676,10 +676,10 @@ impl GpuSimulation {
         self.queue.write_buffer(
             self.live(),
             0,
-            bytemuck::cast_slice(&scene::pack_state(state)),
+            bytemuck::cast_slice(&packing::pack_state(state)),
         );
         if let Some((points_at, _)) = self.pins {
-            let words = scene::pin_points(&self.model, state);
+            let words = packing::pin_points(&self.model, state);
             self.queue
                 .write_buffer(&self.scene, points_at, bytemuck::cast_slice(&words));
         }
@@ -691,19 +691,19 @@ impl GpuSimulation {
     /// [`GpuSimulation::new`] refuses it, when it is not valid for the model), for the steps
     /// after this call.
     pub fn set_control(&mut self, control: &Control) -> Result<(), GpuError> {
-        if let Some(what) = scene::unsupported(&self.model, control) {
+        if let Some(what) = packing::unsupported(&self.model, control) {
             return Err(GpuError::Unsupported(what));
         }
         control
             .check(&self.model)
             .map_err(|e| GpuError::Invalid(e.to_string()))?;
-        let words = scene::control_words(&self.model, control, self.uniform_field);
+        let words = packing::control_words(&self.model, control, self.uniform_field);
         self.queue
             .write_buffer(&self.scene, self.control_at, bytemuck::cast_slice(&words));
         self.queue.write_buffer(
             &self.uniform,
-            scene::PULLS_FLAG_OFFSET,
-            bytemuck::bytes_of(&scene::pulls_flag(control)),
+            packing::PULLS_FLAG_OFFSET,
+            bytemuck::bytes_of(&packing::pulls_flag(control)),
         );
         Ok(())
     }
@@ -799,7 +799,7 @@ impl GpuSimulation {
         encoder.copy_buffer_to_buffer(self.live(), 0, &self.state_read, 0, size);
         self.queue.submit([encoder.finish()]);
         let bytes = self.read(&self.state_read, size).await?;
-        let mut state = scene::unpack_state(bytemuck::cast_slice(&bytes));
+        let mut state = packing::unpack_state(bytemuck::cast_slice(&bytes));
         state.time = self.time;
         state.steps = self.steps;
         Ok(state)

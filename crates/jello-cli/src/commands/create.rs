@@ -1,5 +1,5 @@
 //! `jello create`: write a new world file, everything the original createWorld does and more;
-//! or, for an `OUT.toml`, a scene of bodies from meshes and lattices (see [`super::scene`]).
+//! or, for an `OUT.toml`, a scene of bodies from meshes and lattices (see [`super::create_scene`]).
 
 use std::path::PathBuf;
 use std::str::FromStr;
@@ -329,7 +329,7 @@ pub fn create(args: CreateArgs, matches: &clap::ArgMatches) -> Result<(), CliErr
     let out = &args.out;
     check_new_output(out, args.force)?;
     if is_scene(out) {
-        return super::scene::create_scene(&args, matches);
+        return super::create_scene::create_scene(&args, matches);
     }
     let scene_only = [
         ("--mesh", !args.mesh.is_empty()),

@@ -2,9 +2,9 @@
 
 pub mod bench;
 pub mod create;
+pub mod create_scene;
 pub mod info;
 pub mod run;
-pub mod scene;
 pub mod shape;
 pub mod view;
 

@@ -171,7 +171,7 @@ impl Soa {
     }
 
     /// [`Soa::copy_from`] in one block per thread of the team this thread leads (see
-    /// [`crate::compute::team`]), each thread the block of points it keeps from pass to pass.
+    /// `compute/team.rs`), each thread the block of points it keeps from pass to pass.
     pub fn team_copy_from(&mut self, aos: &[Vec3]) {
         let size = crate::compute::team::chunk_size(aos.len(), 1);
         crate::compute::team::for_each_chunk(self.parts_mut(), size, &|i, [x, y, z]| {

@@ -12,7 +12,7 @@
 //! its own planes and a private halo for the (at most two) planes after it, which the next chunk
 //! adds to its own before its points' accelerations are computed. That happens right after the
 //! chunk's springs, fused with the caller's update ([`force_pass`]), while the chunk is in cache.
-//! Threads take contiguous ranges of planes, as the items of a [`crate::compute::team`] loop: the same
+//! Threads take contiguous ranges of planes, as the items of a `compute/team.rs` loop: the same
 //! thread takes the same range pass after pass while the team lasts (a step, or the steps of
 //! [`crate::Simulation::advance`]), so each range's points stay in one core's caches. The
 //! chunking does not depend on the thread count, and a range that starts or ends inside a chunk
@@ -67,7 +67,7 @@ const MIN_RANGE_PLANES: usize = 2;
 /// not pay for waking others). The results are the same either way.
 pub const PARALLEL_MIN_POINTS: usize = 8 * 1024;
 
-/// The same inside a step of a spinning team ([`crate::compute::team`]), whose threads wait for work
+/// The same inside a step of a spinning team (`compute/team.rs`), whose threads wait for work
 /// without sleeping: the implicit solver's residuals at 16³ (4 096 points) go in two ranges.
 #[cfg(feature = "parallel")]
 const TEAM_MIN_POINTS: usize = 2 * 1024;
@@ -222,7 +222,7 @@ fn link_spans(links: &[u16], chunks: usize, chunk_len: usize, block: usize) -> V
 
 /// Contiguous ranges of planes a body's spring pass is split into for threads, on lattices large
 /// enough to be worth it (else one): one per thread of the rayon pool (whose threads make the
-/// team, see [`crate::compute::team`]), or two where each still gets two chunks (spare ranges balance the
+/// team, see `compute/team.rs`), or two where each still gets two chunks (spare ranges balance the
 /// threads that run slower); never fewer than [`MIN_RANGE_PLANES`] planes a range. Each range
 /// recomputes the springs reaching into its first planes from the planes before it (about half
 /// a plane of springs), which is why small ranges are avoided.

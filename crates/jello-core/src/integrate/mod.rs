@@ -37,7 +37,7 @@ use crate::state::{Control, State};
 /// implicit step that fails is first taken again in parts ([`crate::integrate::cutback`]).
 ///
 /// Stepping allocates nothing. On lattices large enough for threads, the step runs on a team of
-/// the rayon pool's threads ([`crate::compute::team`]): call it from inside the pool (`ThreadPool::install`
+/// the rayon pool's threads (`compute/team.rs`): call it from inside the pool (`ThreadPool::install`
 /// around the stepping loop, as `jello bench` does), since from outside, the join that starts
 /// the team goes through rayon's global queue, which allocates a small block every 63 jobs.
 /// Several steps in a row share one team through [`crate::Simulation::advance`].

@@ -105,8 +105,11 @@ impl Model {
     }
 
     /// The contacts of a point at `p` with the walls, the inclined plane and the obstacles, in
-    /// that order (each [`Contact`](crate::Contact) with its depth and normal).
-    pub fn contacts(&self, p: Vec3) -> impl Iterator<Item = crate::model::obstacle::Contact> + '_ {
+    /// that order (each [`ObstacleContact`](crate::ObstacleContact) with its depth and normal).
+    pub fn contacts(
+        &self,
+        p: Vec3,
+    ) -> impl Iterator<Item = crate::model::obstacle::ObstacleContact> + '_ {
         self.bounds
             .wall_contacts(p)
             .chain(self.plane.and_then(|pl| pl.contact(p)))

@@ -4,7 +4,7 @@
 //! where the point may be.
 //!
 //! Every shape answers here, and only here, where a point touches it: the depth and the normal of
-//! each [`Contact`]. The force kernel, the energy, the deepest penetration and the blow-up check
+//! each [`ObstacleContact`]. The force kernel, the energy, the deepest penetration and the blow-up check
 //! all read them from these functions (the kernel through their branch-free forms, so its point
 //! loop vectorises).
 
@@ -14,14 +14,14 @@ use crate::vec3::Vec3;
 
 /// Where a point touches an obstacle: how deep it is, and which way it is pushed.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Contact {
+pub struct ObstacleContact {
     /// Depth (m), greater than 0.
     pub depth: f64,
     /// Unit normal pointing out of the obstacle (into the side the point may be on).
     pub normal: Vec3,
 }
 
-impl Contact {
+impl ObstacleContact {
     /// The penalty spring's force (N) on a point moving at `v`, with stiffness `k` (N/m) and
     /// damping `d` (N·s/m): `k·depth·n − d (v·n) n`.
     #[inline]
@@ -82,20 +82,20 @@ impl Aabb {
     /// The walls' contacts with a point, as the box that holds the jello: one per wall the point
     /// is strictly outside of (past an edge or a corner, one per wall crossed), in the order x,
     /// y, z; each toward the point's projection on that wall.
-    pub fn wall_contacts(&self, p: Vec3) -> impl Iterator<Item = Contact> {
+    pub fn wall_contacts(&self, p: Vec3) -> impl Iterator<Item = ObstacleContact> {
         let (lo, hi) = (self.min.to_array(), self.max.to_array());
         let p = p.to_array();
         (0..3).filter_map(move |axis| {
             let mut n = [0.0; 3];
             if p[axis] < lo[axis] {
                 n[axis] = 1.0;
-                Some(Contact {
+                Some(ObstacleContact {
                     depth: lo[axis] - p[axis],
                     normal: Vec3::from_array(n),
                 })
             } else if p[axis] > hi[axis] {
                 n[axis] = -1.0;
-                Some(Contact {
+                Some(ObstacleContact {
                     depth: p[axis] - hi[axis],
                     normal: Vec3::from_array(n),
                 })
@@ -107,9 +107,9 @@ impl Aabb {
 
     /// As a solid box: the contact of a point strictly inside, through the nearest face (ties go
     /// to the first of −x, +x, −y, +y, −z, +z); `None` outside or on the surface.
-    pub fn solid_contact(&self, p: Vec3) -> Option<Contact> {
+    pub fn solid_contact(&self, p: Vec3) -> Option<ObstacleContact> {
         let (depth, normal) = self.solid_depth(p);
-        (depth > 0.0).then_some(Contact { depth, normal })
+        (depth > 0.0).then_some(ObstacleContact { depth, normal })
     }
 
     /// Branch-free form of [`Aabb::solid_contact`]: the depth to the nearest face (≤ 0 when the
@@ -197,9 +197,9 @@ impl Plane {
     /// The contact of a point on the forbidden side: depth `|a x + b y + c z + d| / |(a, b, c)|`,
     /// normal into the allowed side; `None` on the allowed side or on the plane.
     #[inline]
-    pub fn contact(&self, p: Vec3) -> Option<Contact> {
+    pub fn contact(&self, p: Vec3) -> Option<ObstacleContact> {
         let (depth, normal) = self.depth(p);
-        (depth > 0.0).then_some(Contact { depth, normal })
+        (depth > 0.0).then_some(ObstacleContact { depth, normal })
     }
 
     /// Branch-free form of [`Plane::contact`]: the depth (0 on the allowed side or the plane)
@@ -254,9 +254,9 @@ impl Sphere {
     /// The contact of a point strictly inside: depth `radius − |p − centre|`, normal along
     /// `p − centre`; a point exactly at the centre is pushed along +z. `None` outside or on the
     /// surface.
-    pub fn contact(&self, p: Vec3) -> Option<Contact> {
+    pub fn contact(&self, p: Vec3) -> Option<ObstacleContact> {
         let (depth, normal) = self.depth(p);
-        (depth > 0.0).then_some(Contact { depth, normal })
+        (depth > 0.0).then_some(ObstacleContact { depth, normal })
     }
 
     /// Branch-free form of [`Sphere::contact`]: the depth (≤ 0 when not strictly inside) and the
@@ -287,7 +287,7 @@ pub enum Obstacle {
 
 impl Obstacle {
     /// Where a point touches the obstacle, if it does.
-    pub fn contact(&self, p: Vec3) -> Option<Contact> {
+    pub fn contact(&self, p: Vec3) -> Option<ObstacleContact> {
         match self {
             Obstacle::Plane(plane) => plane.contact(p),
             Obstacle::Sphere(sphere) => sphere.contact(p),

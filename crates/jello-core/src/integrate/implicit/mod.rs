@@ -78,7 +78,7 @@
 //! smallest size allowed, with the state back at the step's start.
 //!
 //! On lattices of 4 096 points or more a step runs on a team of threads that spin between its
-//! loops ([`crate::compute::team`]): the force evaluations, `A·x`, the conjugate gradients' vector
+//! loops (`compute/team.rs`): the force evaluations, `A·x`, the conjugate gradients' vector
 //! updates and dot products, the assembly, most of the multigrid and the line search's merit
 //! are split into items that each sum in a fixed order whoever computes them (their sums then
 //! added in the items' order; the dot products' items are fixed by the number of points), and

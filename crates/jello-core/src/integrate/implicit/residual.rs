@@ -237,7 +237,7 @@ fn contact_change(model: &Model, xv: Vec3, xt: Vec3, step: Vec3) -> f64 {
             _ => break,
         }
     }
-    let sum = |c: &mut dyn Iterator<Item = crate::model::obstacle::Contact>| {
+    let sum = |c: &mut dyn Iterator<Item = crate::model::obstacle::ObstacleContact>| {
         c.map(|c| c.depth * c.depth).sum::<f64>()
     };
     let whole_v = sum(&mut model.contacts(xv));
