@@ -23,7 +23,7 @@ fi
 mkdir -p "$out"
 
 corner=7,7,7:0.14285714285714285,0.14285714285714285,0.14285714285714285
-stiff=(--k-elastic 500 --d-elastic 0.25 --k-collision 1000 --d-collision 0.25)
+stiff=(--stiffness 500 --damping 0.25 --collision-stiffness 1000 --collision-damping 0.25)
 create() { "$jello" create --force "$@" >/dev/null; }
 
 # The official five.
@@ -36,7 +36,7 @@ create "$out/rotate.w" --dt 0.001 "${stiff[@]}" --plane=1,-1,-1,4 --field vortex
 create "$out/skewedCorner.w" --dt 0.00001 "${stiff[@]}" --field uniform:0,0,0 --drag "$corner"
 
 # More to play with.
-create "$out/drop.w" --field gravity --res 2 --plane=0.2,0.1,1,1.5 --offset=-0.5,-0.5,0.5 --rotate 20,35,10
+create "$out/drop.w" --field gravity --res 2 --plane=0.2,0.1,1,1.5 --offset=-0.5,-0.5,0.5 --rotation 20,35,10
 create "$out/spin.w" --field gravity --res 2 --offset=-0.5,-0.5,-1.9 --spin 0,0,12 --velocity 3,0,6
 create "$out/tornado.w" --field tornado:0.02 --res 16 --offset=-1.5,-1.5,-1.9 --velocity 0,2,0 --scale 0.8
 create "$out/squash.w" --integrator SymplecticEuler --dt 0.0002 --field radial:0.05 --res 2 --scale 1.4 --offset=-0.7,-0.7,-0.7
@@ -47,21 +47,21 @@ for shape in torus blob mould; do
   "$jello" shape "$shape" "$meshes/$shape.obj" --detail 8 >/dev/null
 done
 jelly=(--density 1000 --modulus 2e5 --viscosity 40)
-scene=(--dt 0.001 --k-collision 2e5 --d-collision 50)
+scene=(--dt 0.001 --collision-stiffness 2e5 --collision-damping 50)
 # A ring dropped tilted on the floor.
-create "$out/torus.toml" "${scene[@]}" --mesh "$meshes/torus.obj" --cells 12 --at 0,0,-1 \
-  --rotate 35,10,0 "${jelly[@]}"
+create "$out/torus.toml" "${scene[@]}" --mesh "$meshes/torus.obj" --cells 12 --centre 0,0,-1 \
+  --rotation 35,10,0 "${jelly[@]}"
 # A lumpy blob thrown spinning down a ramp.
 create "$out/blob.toml" "${scene[@]}" --plane=0.35,0,1,1.5 --mesh "$meshes/blob.obj" --cells 10 \
-  --at=-0.8,0.3,0 --rotate 20,0,30 --spin 0,0,2 "${jelly[@]}"
+  --centre=-0.8,0.3,0 --rotation 20,0,30 --spin 0,0,2 "${jelly[@]}"
 # A fluted jelly mould turned out onto a plate and pushed: it wobbles to a stop (friction).
 create "$out/mould.toml" "${scene[@]}" --box=-0.8,-0.8,-2,0.8,0.8,-1.9 --mesh "$meshes/mould.obj" \
-  --cells 12 --at 0,0,-1.4 --velocity 1,0,0 "${jelly[@]}"
+  --cells 12 --centre 0,0,-1.4 --velocity 1,0,0 "${jelly[@]}"
 # Three cubes stacked a little askew, dropped on a ball.
 create "$out/stack.toml" "${scene[@]}" --sphere 0,0,-1.5,0.45 \
-  --cube 5 --size 0.5 --at 0.1,0,-0.75 --name bottom "${jelly[@]}" \
-  --cube 5 --size 0.5 --at 0.15,0.05,0 --rotate 0,0,20 --name middle "${jelly[@]}" \
-  --cube 5 --size 0.5 --at 0.1,0.1,0.75 --rotate 0,0,40 --name top "${jelly[@]}"
+  --cube 5 --size 0.5 --centre 0.1,0,-0.75 --name bottom "${jelly[@]}" \
+  --cube 5 --size 0.5 --centre 0.15,0.05,0 --rotation 0,0,20 --name middle "${jelly[@]}" \
+  --cube 5 --size 0.5 --centre 0.1,0.1,0.75 --rotation 0,0,40 --name top "${jelly[@]}"
 
 if $check; then
   if ! diff -r -q "$out" examples; then

@@ -64,6 +64,7 @@ class Simulation:
     """A world or scene being stepped: numpy arrays in and out."""
 
     def step(self, n: int = 1) -> None: ...
+    def advance(self, n: int) -> None: ...
     def run(self, n: int) -> float: ...
     @property
     def positions(self) -> npt.NDArray[np.float64]: ...
@@ -171,6 +172,7 @@ def cube(
     n: int | Sequence[int] | None = None,
     size: float | Sequence[float] | None = None,
     *,
+    centre: _Vec3 | None = None,
     at: _Vec3 | None = None,
     rotation: _Vec3 | None = None,
     velocity: _Vec3 | None = None,
@@ -192,6 +194,7 @@ def mesh(
     vertices: _Points | None = None,
     triangles: _Points | None = None,
     cells: int = 10,
+    centre: _Vec3 | None = None,
     at: _Vec3 | None = None,
     rotation: _Vec3 | None = None,
     velocity: _Vec3 | None = None,

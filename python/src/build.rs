@@ -110,7 +110,7 @@ pub(crate) fn one_or_three(value: &Bound<'_, PyAny>, what: &str) -> PyResult<[f6
 #[allow(clippy::too_many_arguments)]
 fn common(
     spec: &mut BodySpec,
-    at: Option<&Bound<'_, PyAny>>,
+    (centre, at): (Option<&Bound<'_, PyAny>>, Option<&Bound<'_, PyAny>>),
     rotation: Option<&Bound<'_, PyAny>>,
     velocity: Option<&Bound<'_, PyAny>>,
     spin: Option<&Bound<'_, PyAny>>,
@@ -125,7 +125,16 @@ fn common(
     regions: Vec<Region>,
     name: Option<String>,
 ) -> PyResult<()> {
-    spec.centre = at.map(|v| vec3(v, "at")).transpose()?;
+    spec.centre = match (centre, at) {
+        (Some(_), Some(_)) => {
+            return Err(PyValueError::new_err(
+                "give centre or at (the same: where the middle of the rest box goes), not both",
+            ))
+        }
+        (Some(v), None) => Some(vec3(v, "centre")?),
+        (None, Some(v)) => Some(vec3(v, "at")?),
+        (None, None) => None,
+    };
     spec.rotation = rotation.map(|v| vec3(v, "rotation")).transpose()?;
     spec.velocity = velocity.map(|v| vec3(v, "velocity")).transpose()?;
     spec.spin = spin.map(|v| vec3(v, "spin")).transpose()?;
@@ -150,10 +159,14 @@ fn common(
 const DEFAULT_CUBE_POINTS: usize = 8;
 
 /// A body that is a box lattice of `n` points per side (or `(nx, ny, nz)`) and side `size` m
-/// (or three sides); placement, motion and material as `jello create --cube` takes them.
+/// (or three sides); placement, motion and material as `jello create --cube` takes them:
+/// `centre` (also `at`) is where the middle of its rest box goes (m), `rotation` degrees about x,
+/// then y, then z, `velocity` (m/s), `spin` (rad/s about the centre of mass), `mass` per point,
+/// `total_mass` or `density`, `stiffness` and `damping` per spring (one, or per kind) or
+/// `modulus` and `viscosity` (docs/scenes.md, "One name per quantity").
 #[pyfunction]
 #[pyo3(signature = (
-    n = None, size = None, *, at = None, rotation = None, velocity = None, spin = None,
+    n = None, size = None, *, centre = None, at = None, rotation = None, velocity = None, spin = None,
     mass = None, total_mass = None, density = None, stiffness = None, damping = None,
     modulus = None, viscosity = None, pins = Vec::new(), regions = Vec::new(), name = None
 ))]
@@ -161,6 +174,7 @@ const DEFAULT_CUBE_POINTS: usize = 8;
 pub fn cube(
     n: Option<&Bound<'_, PyAny>>,
     size: Option<&Bound<'_, PyAny>>,
+    centre: Option<&Bound<'_, PyAny>>,
     at: Option<&Bound<'_, PyAny>>,
     rotation: Option<&Bound<'_, PyAny>>,
     velocity: Option<&Bound<'_, PyAny>>,
@@ -194,8 +208,21 @@ pub fn cube(
         ..BodySpec::default()
     };
     common(
-        &mut spec, at, rotation, velocity, spin, mass, total_mass, density, stiffness, damping,
-        modulus, viscosity, pins, regions, name,
+        &mut spec,
+        (centre, at),
+        rotation,
+        velocity,
+        spin,
+        mass,
+        total_mass,
+        density,
+        stiffness,
+        damping,
+        modulus,
+        viscosity,
+        pins,
+        regions,
+        name,
     )?;
     Ok(Body { spec })
 }
@@ -205,7 +232,7 @@ pub fn cube(
 /// `(t, 3)` arrays. Otherwise as `cube`.
 #[pyfunction]
 #[pyo3(signature = (
-    path = None, *, vertices = None, triangles = None, cells = DEFAULT_CELLS, at = None,
+    path = None, *, vertices = None, triangles = None, cells = DEFAULT_CELLS, centre = None, at = None,
     rotation = None, velocity = None, spin = None, mass = None, total_mass = None,
     density = None, stiffness = None, damping = None, modulus = None, viscosity = None,
     pins = Vec::new(), regions = Vec::new(), name = None
@@ -217,6 +244,7 @@ pub fn mesh(
     vertices: Option<&Bound<'_, PyAny>>,
     triangles: Option<&Bound<'_, PyAny>>,
     cells: usize,
+    centre: Option<&Bound<'_, PyAny>>,
     at: Option<&Bound<'_, PyAny>>,
     rotation: Option<&Bound<'_, PyAny>>,
     velocity: Option<&Bound<'_, PyAny>>,
@@ -269,8 +297,21 @@ pub fn mesh(
         ..BodySpec::default()
     };
     common(
-        &mut spec, at, rotation, velocity, spin, mass, total_mass, density, stiffness, damping,
-        modulus, viscosity, pins, regions, name,
+        &mut spec,
+        (centre, at),
+        rotation,
+        velocity,
+        spin,
+        mass,
+        total_mass,
+        density,
+        stiffness,
+        damping,
+        modulus,
+        viscosity,
+        pins,
+        regions,
+        name,
     )?;
     Ok(Body { spec })
 }
@@ -508,7 +549,7 @@ pub fn create(
                     .map_err(PyValueError::new_err)?;
             }
             Err(_) => {
-                scene.simulation.gravity = gravity.unwrap_or([0.0; 3]);
+                scene.simulation.gravity = Some(gravity.unwrap_or([0.0; 3]));
                 scene.field = Some(field_array(f)?);
             }
         },

@@ -104,7 +104,7 @@ impl Simulation {
     /// `n` steps with the GIL released, `after_step` called after each, in chunks of about
     /// [`SIGNAL_CHECK_EVERY`] between which Ctrl-C is looked for (a `KeyboardInterrupt` leaves a
     /// whole step). `Err` with the first blow-up, the state at the last good step.
-    fn advance(
+    fn step_cpu(
         &mut self,
         py: Python<'_>,
         n: u64,
@@ -172,10 +172,16 @@ impl Simulation {
     #[pyo3(signature = (n = 1))]
     fn step(&mut self, py: Python<'_>, n: u64) -> PyResult<()> {
         let result = match self.device {
-            Device::Cpu => self.advance(py, n, |_| {}),
+            Device::Cpu => self.step_cpu(py, n, |_| {}),
             Device::Gpu => self.gpu.advance(py, &mut self.sim, n),
         };
         result.map_err(|stop| self.raise(py, stop, None))
+    }
+
+    /// Advances `n` steps: `step(n)` under the Rust core's name (`Simulation::advance`), so
+    /// that `step` is one step and `advance(n)` is `n` in both.
+    fn advance(&mut self, py: Python<'_>, n: u64) -> PyResult<()> {
+        self.step(py, n)
     }
 
     /// Steps `n` times as `step` does and returns the deepest penetration (m) into a wall, the
@@ -184,7 +190,7 @@ impl Simulation {
     fn run(&mut self, py: Python<'_>, n: u64) -> PyResult<f64> {
         let mut deepest = max_penetration(&self.sim.model, &self.sim.state.pos);
         let result = match self.device {
-            Device::Cpu => self.advance(py, n, |sim| {
+            Device::Cpu => self.step_cpu(py, n, |sim| {
                 deepest = deepest.max(max_penetration(&sim.model, &sim.state.pos));
             }),
             Device::Gpu => {
@@ -429,7 +435,7 @@ impl Simulation {
     /// Steps an implicit integrator took in parts (see `cutbacks`) since the model last changed.
     #[getter]
     fn split_steps(&self) -> u64 {
-        self.sim.cutbacks().split_steps
+        self.sim.cutback_stats().split_steps
     }
 
     /// The implicit solver's work since the model last changed: solves, Newton and

@@ -117,3 +117,11 @@ def test_material_and_collision_changes_are_saved_and_read_back(tmp_path: object
     assert np.array_equal(sim.positions, again.positions)
     with pytest.raises(ValueError, match="body: 7 does not exist"):
         sim.set_material(mass=1.0, body=7)
+
+
+def test_advance_is_step_under_the_rust_name() -> None:
+    a, b = jello.load(EXAMPLES / "jello.w"), jello.load(EXAMPLES / "jello.w")
+    a.step(300)
+    b.advance(300)
+    assert a.steps == b.steps == 300
+    assert np.array_equal(a.positions, b.positions) and np.array_equal(a.velocities, b.velocities)

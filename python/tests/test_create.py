@@ -27,6 +27,34 @@ def test_the_stack_example_built_in_python_is_the_shipped_scene() -> None:
     assert [name for name, _ in sim.bodies] == ["bottom", "middle", "top"]
 
 
+def test_a_placed_cube_is_where_its_quarter_turns_take_it() -> None:
+    # By hand: a 2 x 1 x 1 m box of 3 x 2 x 2 points, its middle (1, 0.5, 0.5) put at (1, 0, 0),
+    # turned 90 degrees about x (y -> z, z -> -y) and then about z (x -> y, y -> -x): a corner at
+    # d from the middle goes to (1, 0, 0) + (dz, dx, dy).
+    body = jello.cube((3, 2, 2), (2.0, 1.0, 1.0), centre=(1.0, 0.0, 0.0), rotation=(90, 0, 90))
+    sim = jello.create([body], gravity=(0, 0, 0))
+    p = sim.positions.reshape(3, 2, 2, 3)
+    assert np.allclose(p[0, 0, 0], (0.5, -1.0, -0.5), rtol=0, atol=1e-12)
+    assert np.allclose(p[2, 0, 0], (0.5, 1.0, -0.5), rtol=0, atol=1e-12)
+    assert np.allclose(p[0, 0, 1], (1.5, -1.0, -0.5), rtol=0, atol=1e-12)
+    assert np.allclose(p[1, 1, 1], (1.5, 0.0, 0.5), rtol=0, atol=1e-12)
+    # `at` is the same placement under the command line's old name; both at once is an error.
+    again = jello.create([jello.cube((3, 2, 2), (2.0, 1.0, 1.0), at=(1.0, 0.0, 0.0), rotation=(90, 0, 90))],
+                         gravity=(0, 0, 0))
+    assert np.array_equal(again.positions, sim.positions)
+    with pytest.raises(ValueError, match="centre or at"):
+        jello.cube(3, centre=(0, 0, 0), at=(0, 0, 0))
+
+
+def test_a_spun_cube_moves_as_a_rigid_rotation() -> None:
+    # v = v0 + w x r about the centre of mass: w = 2 rad/s about z, v0 = 0.1 m/s along x.
+    sim = jello.create([jello.cube(2, 1.0, centre=(0.5, -0.5, 0.0), velocity=(0.1, 0, 0),
+                                   spin=(0, 0, 2))], gravity=(0, 0, 0))
+    v = sim.velocities.reshape(2, 2, 2, 3)
+    assert np.allclose(v[0, 0, 0], (1.1, -1.0, 0.0), rtol=0, atol=1e-12)  # r = (-0.5, -0.5, -0.5)
+    assert np.allclose(v[1, 1, 0], (-0.9, 1.0, 0.0), rtol=0, atol=1e-12)  # r = (0.5, 0.5, -0.5)
+
+
 def test_a_mesh_on_a_plane_is_the_shipped_blob(cli: Path, tmp_path: Path) -> None:
     obj = tmp_path / "blob.obj"
     subprocess.run([cli, "shape", "blob", obj, "--detail", "8"], check=True, capture_output=True)

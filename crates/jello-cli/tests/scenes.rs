@@ -739,3 +739,56 @@ fn create_writes_the_tolerance_and_cutbacks_of_a_scene() {
     }
     assert!(!t.path("e.toml").exists() && !t.path("e.w").exists());
 }
+
+/// One name per quantity (docs/scenes.md): the canonical options and their older names write the
+/// same scene, and a scene file that leaves gravity out falls as `jello create`'s default does.
+#[test]
+fn older_option_names_are_aliases_of_the_canonical_ones() {
+    let t = TempDir::new("aliases");
+    t.jello(&[
+        "create",
+        "new.toml",
+        "--cube",
+        "3",
+        "--centre",
+        "0,0,0.5",
+        "--rotation",
+        "0,0,30",
+        "--stiffness",
+        "300",
+        "--damping",
+        "0.5",
+        "--collision-stiffness",
+        "900",
+        "--collision-damping",
+        "0.7",
+    ]);
+    t.jello(&[
+        "create",
+        "old.toml",
+        "--cube",
+        "3",
+        "--at",
+        "0,0,0.5",
+        "--rotate",
+        "0,0,30",
+        "--k-elastic",
+        "300",
+        "--d-elastic",
+        "0.5",
+        "--k-collision",
+        "900",
+        "--d-collision",
+        "0.7",
+    ]);
+    assert_eq!(
+        fs::read_to_string(t.path("new.toml")).unwrap(),
+        fs::read_to_string(t.path("old.toml")).unwrap()
+    );
+    let written = t.scene("new.toml");
+    assert_eq!(written.simulation.gravity, Some([0.0, 0.0, -9.81]));
+    // Left out of a file: the same default.
+    let mut bare = written.clone();
+    bare.simulation.gravity = None;
+    assert_eq!(bare.gravity(), [0.0, 0.0, -9.81]);
+}

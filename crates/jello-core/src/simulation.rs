@@ -50,10 +50,11 @@ impl Simulation {
         )
     }
 
-    /// How often implicit steps were taken in parts (see [`cutback`](crate::integrate::cutback)) since this simulation
-    /// was made.
-    pub fn cutbacks(&self) -> CutbackStats {
-        self.scratch.cutbacks()
+    /// How often implicit steps were taken in parts since this simulation was made (see
+    /// [`cutback`](crate::integrate::cutback); "cutbacks", everywhere else, is how many times a
+    /// step may be halved: [`Newton::cutbacks`](crate::model::solver::Newton)).
+    pub fn cutback_stats(&self) -> CutbackStats {
+        self.scratch.cutback_stats()
     }
 
     /// The implicit solver's work since this simulation was made (see [`SolverStats`]).

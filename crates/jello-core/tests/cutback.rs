@@ -89,7 +89,7 @@ fn a_step_that_fails_is_taken_in_halves_until_it_converges() {
             retries: 2,
             finest: 2,
         };
-        assert_eq!(sim.cutbacks(), first, "{integrator}");
+        assert_eq!(sim.cutback_stats(), first, "{integrator}");
         // The solver's statistics count the failed tries' work too: a backward-Euler solve a
         // try, each failed one after all its iterations.
         if integrator == Integrator::BackwardEuler {
@@ -110,7 +110,7 @@ fn a_step_that_fails_is_taken_in_halves_until_it_converges() {
             substeps: 6,
             ..first
         };
-        assert_eq!(sim.cutbacks(), second, "{integrator}");
+        assert_eq!(sim.cutback_stats(), second, "{integrator}");
     }
 }
 
@@ -140,7 +140,7 @@ fn a_step_that_fails_at_the_smallest_size_is_reported_and_undone() {
         assert_eq!((err.step, err.time), (1, 0.0));
         let text = err.to_string();
         assert!(text.contains(said), "{text}");
-        assert_eq!(scratch.cutbacks().split_steps, 0);
+        assert_eq!(scratch.cutback_stats().split_steps, 0);
     }
 }
 
@@ -213,7 +213,7 @@ fn a_step_that_converges_is_untouched() {
             .unwrap();
         let mut sim = Simulation::new(model, scattered_classic());
         sim.advance(5).unwrap();
-        assert_eq!(sim.cutbacks(), CutbackStats::default());
+        assert_eq!(sim.cutback_stats(), CutbackStats::default());
         sim.state
     };
     assert_eq!(at(0), at(MAX_CUTBACKS));

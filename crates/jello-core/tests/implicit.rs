@@ -334,7 +334,7 @@ fn a_lattice_too_stiff_for_the_tolerance_converges_at_its_rounding_floor() {
                 assert!(e <= start, "step {n}: energy {e} above {start}");
             }
         }
-        assert_eq!(scratch.cutbacks().split_steps, 0);
+        assert_eq!(scratch.cutback_stats().split_steps, 0);
     }
 }
 
@@ -583,7 +583,7 @@ fn the_solver_counts_its_work() {
         }
         let mut sim = jello_core::Simulation::new(model, state);
         sim.advance(steps).unwrap();
-        assert_eq!(sim.cutbacks().split_steps, 0, "{integrator}");
+        assert_eq!(sim.cutback_stats().split_steps, 0, "{integrator}");
         sim.solver_stats()
     };
     let explicit = ModelBuilder::new().build().unwrap();

@@ -283,7 +283,7 @@ fn cut_back_steps_do_not_allocate() {
                 "{integrator}: the step allowed one halving converged"
             );
             assert!(
-                scratch.cutbacks().split_steps >= 1,
+                scratch.cutback_stats().split_steps >= 1,
                 "{integrator}: no step was cut back"
             );
             assert_eq!(made, 0, "{integrator}: {made} allocations");

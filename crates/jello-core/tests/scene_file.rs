@@ -52,7 +52,7 @@ fn a_scene_writes_and_reads_back_the_same() {
         ..PinSpec::default()
     }];
     let mut scene = SceneFile::new(vec![ring, cube_spec(4, 0.5, [0.0, 0.0, -1.0])]);
-    scene.simulation.gravity = [0.0, 0.0, -9.81];
+    scene.simulation.gravity = Some([0.0, 0.0, -9.81]);
     scene.obstacles.push(ObstacleSpec::Sphere {
         centre: [1.5, 1.5, 1.5],
         radius: 0.25,
@@ -411,4 +411,26 @@ fn bad_scenes_are_errors_naming_the_line_and_column() {
     // Not text.
     let e = SceneFile::parse(b"[[body]]\n\xff\xfe", "s.toml").unwrap_err();
     assert_eq!(e.line, 2);
+}
+
+/// Gravity left out of a scene file: 0, 0, −9.81 m/s² (as `jello create` and Python's
+/// `jello.create` give a new scene), but none in a scene with a force field; given, as given.
+#[test]
+fn gravity_left_out_is_the_new_scenes_default() {
+    let body = "[[body]]\ncube = { points = [2, 2, 2], size = [0.5, 0.5, 0.5] }\n";
+    let gravity = |text: &str| {
+        parse(text)
+            .unwrap()
+            .to_scene("s.toml")
+            .unwrap()
+            .model
+            .gravity
+    };
+    assert_eq!(gravity(body), Vec3::new(0.0, 0.0, -9.81));
+    let field = "[field]\nresolution = 2\nforces = [".to_string()
+        + &["[0.0, 0.0, 0.0]"; 8].join(", ")
+        + "]\n";
+    assert_eq!(gravity(&(field + body)), Vec3::ZERO);
+    let given = "[simulation]\ngravity = [1.0, 2.0, 3.0]\n".to_string() + body;
+    assert_eq!(gravity(&given), Vec3::new(1.0, 2.0, 3.0));
 }

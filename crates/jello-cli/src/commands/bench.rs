@@ -283,7 +283,7 @@ fn measure(
     sim.state = benchmark::scene(n, integrator)
         .map_err(|e| CliError::input(e.to_string()))?
         .1;
-    let split_before = sim.cutbacks().split_steps;
+    let split_before = sim.cutback_stats().split_steps;
     let solver_before = sim.solver_stats();
     let start = Instant::now();
     let mut steps = 0u64;
@@ -297,7 +297,7 @@ fn measure(
         dt,
         steps,
         wall: start.elapsed().as_secs_f64(),
-        split_steps: sim.cutbacks().split_steps - split_before,
+        split_steps: sim.cutback_stats().split_steps - split_before,
         solver: integrator
             .is_implicit()
             .then(|| sim.solver_stats() - solver_before),

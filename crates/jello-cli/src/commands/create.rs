@@ -45,17 +45,18 @@ pub struct CreateArgs {
     /// Simulation steps per displayed frame (the `n` of the file).
     #[arg(short = 'n', long, default_value_t = defaults::STEPS_PER_FRAME, value_parser = clap::value_parser!(u32).range(1..))]
     pub steps_per_frame: u32,
-    /// Stiffness of every lattice spring (N/m) [default: 200]; per body.
-    #[arg(long, value_parser = parse_positive)]
+    /// Stiffness of every lattice spring (N/m; the classic world's kElastic) [default: 200]; per
+    /// body.
+    #[arg(long = "stiffness", visible_alias = "k-elastic", value_name = "K", value_parser = parse_positive)]
     pub k_elastic: Vec<f64>,
-    /// Damping of every lattice spring (N·s/m) [default: 0.25]; per body.
-    #[arg(long, value_parser = parse_non_negative)]
+    /// Damping of every lattice spring (N·s/m; dElastic) [default: 0.25]; per body.
+    #[arg(long = "damping", visible_alias = "d-elastic", value_name = "D", value_parser = parse_non_negative)]
     pub d_elastic: Vec<f64>,
-    /// Stiffness of the collision penalty springs (N/m).
-    #[arg(long, value_parser = parse_positive, default_value_t = defaults::K_COLLISION)]
+    /// Stiffness of the collision penalty springs (N/m; kCollision).
+    #[arg(long = "collision-stiffness", visible_alias = "k-collision", value_name = "K", value_parser = parse_positive, default_value_t = defaults::K_COLLISION)]
     pub k_collision: f64,
-    /// Damping of the collision penalty springs (N·s/m).
-    #[arg(long, value_parser = parse_non_negative, default_value_t = defaults::D_COLLISION)]
+    /// Damping of the collision penalty springs (N·s/m; dCollision).
+    #[arg(long = "collision-damping", visible_alias = "d-collision", value_name = "D", value_parser = parse_non_negative, default_value_t = defaults::D_COLLISION)]
     pub d_collision: f64,
     /// Scene: Coulomb friction coefficient of obstacles and of contacts between bodies (the
     /// walls have none) [default: 0.5].
@@ -85,7 +86,12 @@ pub struct CreateArgs {
     #[arg(long, value_parser = parse_positive, default_value_t = 1.0)]
     pub scale: f64,
     /// Rotation about the body's centre, in degrees about x, then y, then z; per body.
-    #[arg(long, value_name = "RX,RY,RZ", allow_hyphen_values = true)]
+    #[arg(
+        long = "rotation",
+        visible_alias = "rotate",
+        value_name = "RX,RY,RZ",
+        allow_hyphen_values = true
+    )]
     pub rotate: Vec<Numbers<3>>,
     /// Where lattice point (0,0,0) sits after scaling and rotation (m); the default keeps the
     /// original cube, 0 to 1 on each axis (world files).
@@ -122,7 +128,12 @@ pub struct CreateArgs {
     pub size: Vec<f64>,
     /// Where the centre of the body's rest bounding box goes (m) [default: a mesh stays where it
     /// is, a cube has its corner at the origin]; per body.
-    #[arg(long, value_name = "X,Y,Z", allow_hyphen_values = true)]
+    #[arg(
+        long = "centre",
+        visible_alias = "at",
+        value_name = "X,Y,Z",
+        allow_hyphen_values = true
+    )]
     pub at: Vec<Numbers<3>>,
     /// A name for the body; per body.
     #[arg(long)]
@@ -131,11 +142,11 @@ pub struct CreateArgs {
     #[arg(long, value_parser = parse_positive)]
     pub density: Vec<f64>,
     /// Stiffness independent of the resolution (Pa): every spring gets modulus × spacing,
-    /// instead of --k-elastic; per body.
+    /// instead of --stiffness; per body.
     #[arg(long, value_parser = parse_positive)]
     pub modulus: Vec<f64>,
     /// Damping independent of the resolution (Pa·s): every spring gets viscosity × spacing,
-    /// instead of --d-elastic; per body.
+    /// instead of --damping; per body.
     #[arg(long, value_parser = parse_non_negative)]
     pub viscosity: Vec<f64>,
     /// Pin the body's points within R m of X,Y,Z (at rest, after placing it); without R, the
@@ -339,7 +350,7 @@ pub fn create(args: CreateArgs, matches: &clap::ArgMatches) -> Result<(), CliErr
         ("--region", !args.region.is_empty()),
         ("--cells", !args.cells.is_empty()),
         ("--size", !args.size.is_empty()),
-        ("--at", !args.at.is_empty()),
+        ("--centre", !args.at.is_empty()),
         ("--name", !args.name.is_empty()),
         ("--density", !args.density.is_empty()),
         ("--modulus", !args.modulus.is_empty()),
@@ -370,9 +381,9 @@ pub fn create(args: CreateArgs, matches: &clap::ArgMatches) -> Result<(), CliErr
         (None, Some(total)) => total / 512.0,
         (None, None) => defaults::MASS,
     };
-    let k_elastic = one(&args.k_elastic, "--k-elastic")?.unwrap_or(defaults::K_ELASTIC);
-    let d_elastic = one(&args.d_elastic, "--d-elastic")?.unwrap_or(defaults::D_ELASTIC);
-    let rotate = one(&args.rotate, "--rotate")?;
+    let k_elastic = one(&args.k_elastic, "--stiffness")?.unwrap_or(defaults::K_ELASTIC);
+    let d_elastic = one(&args.d_elastic, "--damping")?.unwrap_or(defaults::D_ELASTIC);
+    let rotate = one(&args.rotate, "--rotation")?;
     let velocity = one(&args.velocity, "--velocity")?.unwrap_or(Numbers([0.0; 3]));
     let spin = one(&args.spin, "--spin")?;
 

@@ -2,7 +2,7 @@
 //! pinned points, written as one self-contained TOML file (see [`jello_core::formats::scene`]).
 //!
 //! Per-body options apply to the `--mesh` or `--cube` they follow on the command line, so
-//! `--mesh a.obj --cells 8 --at 0,0,1 --cube 5 --velocity 0,0,-1` makes two bodies with their
+//! `--mesh a.obj --cells 8 --centre 0,0,1 --cube 5 --velocity 0,0,-1` makes two bodies with their
 //! own settings.
 
 use clap::ArgMatches;
@@ -87,7 +87,7 @@ pub fn create_scene(args: &CreateArgs, matches: &ArgMatches) -> Result<(), CliEr
         && matches.value_source("offset") == Some(clap::parser::ValueSource::CommandLine)
     {
         return Err(CliError::usage(
-            "--offset places the classic world's cube; in a scene use --at",
+            "--offset places the classic world's cube; in a scene use --centre",
         ));
     }
     // The bodies, in command-line order.
@@ -110,16 +110,16 @@ pub fn create_scene(args: &CreateArgs, matches: &ArgMatches) -> Result<(), CliEr
     let at: Vec<usize> = starts.iter().map(|(i, _)| *i).collect();
     let cells = per_body(matches, "cells", "--cells", &at, &args.cells)?;
     let size = per_body(matches, "size", "--size", &at, &args.size)?;
-    let centre = per_body(matches, "at", "--at", &at, &args.at)?;
+    let centre = per_body(matches, "at", "--centre", &at, &args.at)?;
     let name = per_body(matches, "name", "--name", &at, &args.name)?;
-    let rotate = per_body(matches, "rotate", "--rotate", &at, &args.rotate)?;
+    let rotate = per_body(matches, "rotate", "--rotation", &at, &args.rotate)?;
     let velocity = per_body(matches, "velocity", "--velocity", &at, &args.velocity)?;
     let spin = per_body(matches, "spin", "--spin", &at, &args.spin)?;
     let mass = per_body(matches, "mass", "--mass", &at, &args.mass)?;
     let total_mass = per_body(matches, "total_mass", "--total-mass", &at, &args.total_mass)?;
     let density = per_body(matches, "density", "--density", &at, &args.density)?;
-    let k = per_body(matches, "k_elastic", "--k-elastic", &at, &args.k_elastic)?;
-    let d = per_body(matches, "d_elastic", "--d-elastic", &at, &args.d_elastic)?;
+    let k = per_body(matches, "k_elastic", "--stiffness", &at, &args.k_elastic)?;
+    let d = per_body(matches, "d_elastic", "--damping", &at, &args.d_elastic)?;
     let modulus = per_body(matches, "modulus", "--modulus", &at, &args.modulus)?;
     let viscosity = per_body(matches, "viscosity", "--viscosity", &at, &args.viscosity)?;
     let pin_owners = owners(matches, "pin", "--pin", &at)?;

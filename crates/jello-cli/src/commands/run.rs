@@ -234,7 +234,7 @@ pub fn run(args: RunArgs) -> Result<(), CliError> {
         e.spring,
         e.collision
     );
-    let cut = sim.cutbacks();
+    let cut = sim.cutback_stats();
     if cut.split_steps > 0 {
         summary.push_str(&format!(
             ", {} steps taken in parts ({} substeps, the smallest dt/{})",

@@ -37,7 +37,7 @@ pub struct Scratch {
 impl Scratch {
     /// How often implicit steps were taken in parts (see [`crate::integrate::cutback`]) since these
     /// buffers were made.
-    pub fn cutbacks(&self) -> crate::integrate::cutback::CutbackStats {
+    pub fn cutback_stats(&self) -> crate::integrate::cutback::CutbackStats {
         self.cutback.stats()
     }
 

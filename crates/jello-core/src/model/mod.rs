@@ -48,9 +48,12 @@ pub struct Model {
     /// The soft bodies, their points one after the other in the state's arrays (see
     /// [`Model::bodies`]).
     bodies: Vec<Body>,
-    /// Stiffness of the collision penalty springs (N/m).
+    /// Stiffness of the collision penalty springs (N/m): the collision stiffness of scenes, the
+    /// command line and Python (docs/scenes.md, "One name per quantity").
+    #[doc(alias = "collision_stiffness")]
     pub k_collision: f64,
-    /// Damping of the collision penalty springs (N·s/m).
+    /// Damping of the collision penalty springs (N·s/m): the collision damping.
+    #[doc(alias = "collision_damping")]
     pub d_collision: f64,
     /// Coulomb friction coefficient of obstacles and of contacts between bodies (at least 0;
     /// 0 in world files). The walls and the inclined plane of docs/spec.md have none. See
@@ -261,7 +264,8 @@ impl ModelBuilder {
     }
 
     /// One stiffness (N/m) and damping (N·s/m) for every spring kind of the first body (default
-    /// 200 and 0.25).
+    /// 200 and 0.25: the classic world's kElastic and dElastic).
+    #[doc(alias = "stiffness")]
     pub fn elastic(mut self, k: f64, d: f64) -> Self {
         let m = &mut self.first_body().material;
         m.stiffness = [k; 3];
@@ -277,7 +281,9 @@ impl ModelBuilder {
         self
     }
 
-    /// Collision penalty stiffness (N/m) and damping (N·s/m) (default 400 and 0.25).
+    /// Collision penalty stiffness (N/m) and damping (N·s/m) (default 400 and 0.25: the classic
+    /// world's kCollision and dCollision).
+    #[doc(alias = "collision_stiffness")]
     pub fn collision(mut self, k: f64, d: f64) -> Self {
         self.k_collision = k;
         self.d_collision = d;

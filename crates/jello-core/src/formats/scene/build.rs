@@ -107,7 +107,7 @@ impl SceneFile {
             .integrator(integrator)
             .dt(self.simulation.dt)
             .steps_per_frame(self.simulation.steps_per_frame)
-            .gravity(v3(self.simulation.gravity))
+            .gravity(v3(self.gravity()))
             .collision(self.collision.stiffness, self.collision.damping)
             .friction(self.collision.friction)
             .bounds(bounds)

@@ -7,7 +7,8 @@
 //! integrator = "RK4"          # Euler, RK2, RK4, SymplecticEuler, BackwardEuler, SDIRK2
 //! dt = 0.0005                 # s
 //! steps_per_frame = 1
-//! gravity = [0.0, 0.0, -9.81] # m/s², on every point whatever its mass
+//! gravity = [0.0, 0.0, -9.81] # m/s², on every point whatever its mass (left out: this, or none
+//!                             # in a scene with a [field])
 //! cutbacks = 6                # implicit methods: halvings of a step that fails (0–20; see
 //!                             # jello_core::integrate::cutback)
 //! tolerance = 1e-9            # implicit methods: residual allowed per point (m/s, times the
@@ -194,12 +195,22 @@ impl SceneFile {
                 (g.unwrap_or([0.0; 3]), f)
             }
         };
-        self.simulation.gravity = gravity;
+        self.simulation.gravity = Some(gravity);
         self.field = field.map(|f| FieldSpec {
             resolution: res,
             forces: f.forces().iter().map(|v| v.to_array()).collect(),
         });
         Ok(())
+    }
+
+    /// The acceleration on every point (m/s²): `[simulation] gravity` when given, else
+    /// [`DEFAULT_GRAVITY`] without a field and none with one.
+    pub fn gravity(&self) -> [f64; 3] {
+        match (self.simulation.gravity, &self.field) {
+            (Some(g), _) => g,
+            (None, None) => DEFAULT_GRAVITY,
+            (None, Some(_)) => [0.0; 3],
+        }
     }
 
     /// Adds the plane `a x + b y + c z + d = 0` as an obstacle that keeps the bodies on the side

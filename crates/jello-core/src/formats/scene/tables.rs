@@ -19,8 +19,11 @@ pub struct Settings {
     pub dt: f64,
     /// Steps per displayed frame.
     pub steps_per_frame: u32,
-    /// Acceleration of every point (m/s²).
-    pub gravity: [f64; 3],
+    /// Acceleration of every point (m/s²). Left out: [`DEFAULT_GRAVITY`] in a scene without a
+    /// `[field]`, none in one with a field (the same rule as `jello create` and Python's
+    /// `jello.create`); written whenever it is given.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub gravity: Option<[f64; 3]>,
     /// How many times an implicit step that fails may be halved (see [`crate::integrate::cutback`]);
     /// written only when not the default.
     #[serde(skip_serializing_if = "is_default_cutbacks")]
@@ -53,7 +56,7 @@ impl Default for Settings {
             integrator: "RK4".into(),
             dt: defaults::DT,
             steps_per_frame: defaults::STEPS_PER_FRAME,
-            gravity: [0.0; 3],
+            gravity: None,
             cutbacks: crate::model::solver::CUTBACKS,
             tolerance: crate::model::solver::TOLERANCE,
             time: 0.0,
@@ -80,8 +83,8 @@ pub const DEFAULT_FRICTION: f64 = 0.5;
 /// Cells along a mesh's longest side when a new scene does not say.
 pub const DEFAULT_CELLS: usize = 10;
 
-/// Gravity of a new scene given neither gravity nor a field (m/s²; z is up, as in the classic
-/// worlds and the viewer).
+/// Gravity of a scene given neither gravity nor a field (m/s²; z is up, as in the classic worlds
+/// and the viewer), in a file, from `jello create` and from Python alike.
 pub const DEFAULT_GRAVITY: [f64; 3] = [0.0, 0.0, -9.81];
 
 impl Default for Collision {
