@@ -6,7 +6,7 @@
 #               adapter: Mesa's lavapipe where there is no GPU), examples up to date, and the
 #               Python package's tests (its own venv, pytest), and the viewer's browser tests
 #               (Playwright + Chromium)
-#   make fuzz   fuzz the world-file, OBJ and STL parsers in turn, FUZZ_SECONDS each (one with
+#   make fuzz   fuzz the world-file, OBJ, STL and scene parsers in turn, FUZZ_SECONDS each (one with
 #               FUZZ_TARGET=parse_obj; installs cargo-fuzz and nightly when missing)
 #   make bench  Jello (each SIMD tier) against NumPy, Numba, Taichi, Warp and C; rewrites
 #               BENCHMARKS.md

@@ -36,13 +36,13 @@ create "$out/rotate.w" --dt 0.001 "${stiff[@]}" --plane=1,-1,-1,4 --field vortex
 create "$out/skewedCorner.w" --dt 0.00001 "${stiff[@]}" --field uniform:0,0,0 --drag "$corner"
 
 # More to play with.
-create "$out/drop.w" --field gravity --res 2 --plane=0.2,0.1,1,1.5 --offset=-0.5,-0.5,0.5 --rotation 20,35,10
-create "$out/spin.w" --field gravity --res 2 --offset=-0.5,-0.5,-1.9 --spin 0,0,12 --velocity 3,0,6
-create "$out/tornado.w" --field tornado:0.02 --res 16 --offset=-1.5,-1.5,-1.9 --velocity 0,2,0 --scale 0.8
-create "$out/squash.w" --integrator SymplecticEuler --dt 0.0002 --field radial:0.05 --res 2 --scale 1.4 --offset=-0.7,-0.7,-0.7
+create "$out/drop.w" --field gravity --resolution 2 --plane=0.2,0.1,1,1.5 --offset=-0.5,-0.5,0.5 --rotation 20,35,10
+create "$out/spin.w" --field gravity --resolution 2 --offset=-0.5,-0.5,-1.9 --spin 0,0,12 --velocity 3,0,6
+create "$out/tornado.w" --field tornado:0.02 --resolution 16 --offset=-1.5,-1.5,-1.9 --velocity 0,2,0 --scale 0.8
+create "$out/squash.w" --integrator SymplecticEuler --dt 0.0002 --field radial:0.05 --resolution 2 --scale 1.4 --offset=-0.7,-0.7,-0.7
 
 # Scenes of shapes. One material for all: resolution-independent (density in kg/m³, modulus in
-# Pa, viscosity in Pa·s; see the README), with walls and obstacles stiff enough for its weight.
+# Pa, viscosity in Pa·s; see docs/scenes.md#materials), with walls and obstacles stiff enough for its weight.
 for shape in torus blob mould; do
   "$jello" shape "$shape" "$meshes/$shape.obj" --detail 8 >/dev/null
 done

@@ -459,12 +459,13 @@ pub fn region(
 /// makes one: `plane=(a, b, c, d)` keeps the bodies on the first body's side of
 /// `a x + b y + c z + d = 0`; `gravity` (m/s², default (0, 0, −9.81)) or a `field`: a preset
 /// ("uniform:FX,FY,FZ", "gravity[:G]", "vortex:S[:x|y|z]", "radial:S", "tornado:S", sampled on
-/// a `res`³ grid) or forces (N) as a `(r, r, r, 3)` array over the walls; a field replaces the
+/// a `resolution`³ grid, default 30; also `res`) or forces (N) as a `(r, r, r, 3)` array over
+/// the walls; a field replaces the
 /// default gravity. `bounds=(min, max)` are the walls (default ±2 m).
 #[pyfunction]
 #[pyo3(signature = (
-    bodies, *, obstacles = Vec::new(), plane = None, gravity = None, field = None, res = 30,
-    bounds = None, collision_stiffness = None, collision_damping = None, friction = None,
+    bodies, *, obstacles = Vec::new(), plane = None, gravity = None, field = None,
+    resolution = None, res = None, bounds = None, collision_stiffness = None, collision_damping = None, friction = None,
     integrator = "RK4", dt = None, steps_per_frame = None, name = "<scene>"
 ))]
 #[allow(clippy::too_many_arguments)]
@@ -475,7 +476,8 @@ pub fn create(
     plane: Option<&Bound<'_, PyAny>>,
     gravity: Option<&Bound<'_, PyAny>>,
     field: Option<&Bound<'_, PyAny>>,
-    res: usize,
+    resolution: Option<usize>,
+    res: Option<usize>,
     bounds: Option<(Bound<'_, PyAny>, Bound<'_, PyAny>)>,
     collision_stiffness: Option<f64>,
     collision_damping: Option<f64>,
@@ -490,6 +492,16 @@ pub fn create(
             "bodies: a scene needs at least one body (jello.cube(...) or jello.mesh(...))",
         ));
     }
+    let res = match (resolution, res) {
+        (Some(_), Some(_)) => {
+            return Err(PyValueError::new_err(
+                "give resolution or res (the same: the field's nodes per axis), not both",
+            ))
+        }
+        (r, s) => r
+            .or(s)
+            .unwrap_or(jello_core::model::field_preset::DEFAULT_RESOLUTION),
+    };
     let integrator = integrator
         .parse::<Integrator>()
         .map_err(|e| PyValueError::new_err(format!("integrator: {e}")))?;

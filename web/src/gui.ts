@@ -72,8 +72,8 @@ export class Panel {
     this.paramControllers.push(
       sim.add(this.params, 'integrator', host.integratorNames).name('integrator').onChange(apply),
       sim.add(this.params, 'dt').name('dt (s)').decimals(6).onFinishChange(apply),
-      sim.add(this.params, 'stiffness').name('k elastic (N/m)').decimals(3).onFinishChange(apply),
-      sim.add(this.params, 'damping').name('d elastic (N·s/m)').decimals(4).onFinishChange(apply),
+      sim.add(this.params, 'stiffness').name('stiffness (N/m)').decimals(3).onFinishChange(apply),
+      sim.add(this.params, 'damping').name('damping (N·s/m)').decimals(4).onFinishChange(apply),
       sim.add(this.params, 'mass').name('mass/point (kg)').decimals(7).onFinishChange(apply),
     );
     this.toleranceController = sim.add(this.params, 'tolerance', TOLERANCES).name('tolerance (m/s)').onChange(apply);

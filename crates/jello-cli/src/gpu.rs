@@ -66,7 +66,7 @@ impl Gpu {
     pub fn open(_: &Model, _: &State, _: &Control, name: &str) -> Result<Self, CliError> {
         Err(CliError::usage(format!(
             "{name}: --device gpu: this jello was built without the GPU backend; build it with \
-             `cargo build --release --features gpu`"
+             `cargo build --release -p jello-cli --features gpu`"
         )))
     }
 

@@ -9,7 +9,7 @@ use jello_core::diagnostics::centre_of_mass;
 use jello_core::formats::scene::RegionSpec;
 use jello_core::model::body::rotation_xyz;
 use jello_core::model::field::RES_RANGE;
-use jello_core::model::field_preset::parse_numbers;
+use jello_core::model::field_preset::{parse_numbers, DEFAULT_RESOLUTION};
 use jello_core::state::rigid_velocity;
 use jello_core::{defaults, Aabb, FieldPreset, Integrator, Lattice, Vec3, World};
 
@@ -79,8 +79,8 @@ pub struct CreateArgs {
         help = "Force field: none | uniform:FX,FY,FZ | gravity[:G] | vortex:S[:x|y|z] | radial:S | tornado:S"
     )]
     pub field: FieldPreset,
-    /// Force field grid resolution (2 to 30).
-    #[arg(long, default_value_t = 30, value_parser = clap::value_parser!(u32).range(2..=30))]
+    /// Force field grid resolution: nodes per axis (2 to 30).
+    #[arg(long = "resolution", visible_alias = "res", value_name = "R", default_value_t = DEFAULT_RESOLUTION as u32, value_parser = clap::value_parser!(u32).range(2..=30))]
     pub res: u32,
     /// Side length of the initial cube (m); its rest shape stays the 1 m cube (world files).
     #[arg(long, value_parser = parse_positive, default_value_t = 1.0)]

@@ -54,7 +54,7 @@ pub fn info(args: InfoArgs) -> Result<(), CliError> {
         );
     } else {
         println!(
-            "collision      kCollision = {} N/m, dCollision = {} N·s/m; gravity ({}, {}, {}) m/s²",
+            "collision      stiffness = {} N/m, damping = {} N·s/m; gravity ({}, {}, {}) m/s²",
             m.k_collision, m.d_collision, m.gravity.x, m.gravity.y, m.gravity.z
         );
         let b = m.bounds;

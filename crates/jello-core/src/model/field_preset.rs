@@ -9,6 +9,10 @@ use crate::model::field::ForceField;
 use crate::model::obstacle::Aabb;
 use crate::vec3::Vec3;
 
+/// Nodes per axis of the grid a preset is sampled on when none is given (`jello create
+/// --resolution`, Python's `jello.create(resolution=…)`): the classic worlds' 30.
+pub const DEFAULT_RESOLUTION: usize = 30;
+
 /// `N` comma-separated finite numbers, e.g. `1,-2,0.5`.
 pub fn parse_numbers<const N: usize>(s: &str) -> Result<[f64; N], String> {
     let parts: Vec<&str> = s.split(',').map(str::trim).collect();

@@ -13,7 +13,8 @@ use crate::vec3::Vec3;
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct Settings {
-    /// Euler, RK2, RK4 or SymplecticEuler (any case).
+    /// Euler, RK2, RK4, SymplecticEuler, BackwardEuler or SDIRK2 (any case; aliases as on the
+    /// command line).
     pub integrator: String,
     /// Time step (s).
     pub dt: f64,
