@@ -237,6 +237,7 @@ def create(
     collision_stiffness: float | None = None,
     collision_damping: float | None = None,
     friction: float | None = None,
+    wall_friction: float | None = None,
     integrator: str = "RK4",
     dt: float | None = None,
     steps_per_frame: int | None = None,

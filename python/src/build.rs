@@ -461,11 +461,14 @@ pub fn region(
 /// ("uniform:FX,FY,FZ", "gravity[:G]", "vortex:S[:x|y|z]", "radial:S", "tornado:S", sampled on
 /// a `resolution`³ grid, default 30; also `res`) or forces (N) as a `(r, r, r, 3)` array over
 /// the walls; a field replaces the
-/// default gravity. `bounds=(min, max)` are the walls (default ±2 m).
+/// default gravity. `bounds=(min, max)` are the walls (default ±2 m); `friction` is the Coulomb
+/// coefficient of obstacles and contacts, `wall_friction` of the walls and the plane (0.5 each by
+/// default).
 #[pyfunction]
 #[pyo3(signature = (
     bodies, *, obstacles = Vec::new(), plane = None, gravity = None, field = None,
     resolution = None, res = None, bounds = None, collision_stiffness = None, collision_damping = None, friction = None,
+    wall_friction = None,
     integrator = "RK4", dt = None, steps_per_frame = None, name = "<scene>"
 ))]
 #[allow(clippy::too_many_arguments)]
@@ -482,6 +485,7 @@ pub fn create(
     collision_stiffness: Option<f64>,
     collision_damping: Option<f64>,
     friction: Option<f64>,
+    wall_friction: Option<f64>,
     integrator: &str,
     dt: Option<f64>,
     steps_per_frame: Option<u32>,
@@ -533,6 +537,9 @@ pub fn create(
     }
     if let Some(f) = friction {
         scene.collision.friction = f;
+    }
+    if let Some(f) = wall_friction {
+        scene.collision.wall_friction = f;
     }
     // The walls are written out even when they are the default, as `jello create` does.
     let classic = Aabb::classic();

@@ -161,3 +161,20 @@ def test_a_built_scene_saves_and_reads_back(tmp_path: Path) -> None:
     sim.step(50)
     again.step(50)
     assert np.array_equal(again.positions, sim.positions)
+
+
+def test_the_walls_friction_stops_a_cube_thrown_along_the_floor() -> None:
+    # A stiff cube thrown at 1.5 m/s along the box's floor stops after v^2 / (2 mu g) with the
+    # walls' friction mu = 0.4, and slides on at its speed without it.
+    def thrown(wall_friction: float) -> float:
+        body = jello.cube(4, 0.3, centre=(-1.0, 0.0, -1.849), mass=0.01, stiffness=2000.0,
+                          damping=2.0, velocity=(1.5, 0.0, 0.0))
+        sim = jello.create([body], wall_friction=wall_friction, collision_stiffness=4000.0,
+                           collision_damping=2.0, gravity=(0, 0, -9.81))
+        x0 = sim.positions[:, 0].mean()
+        sim.step(2000)  # 1 s
+        return float(sim.positions[:, 0].mean() - x0)
+    stopped = thrown(0.4)
+    assert stopped == pytest.approx(1.5**2 / (2 * 0.4 * 9.81), rel=0.1)
+    assert thrown(0.0) > 1.4
+    assert "wall_friction = 0.4" in jello.create([jello.cube(3)], wall_friction=0.4).dumps()

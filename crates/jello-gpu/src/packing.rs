@@ -111,10 +111,11 @@ pub struct Packed {
     pub points: Vec<[u32; 2]>,
     /// The scene buffer.
     pub scene: Vec<[u32; 4]>,
-    /// Where the control forces start in `scene` (vec4), and where the friction anchors do
-    /// (`None` without obstacle friction).
+    /// Where the control forces start in `scene` (vec4), where the friction anchors do (`None`
+    /// without friction on obstacles or walls), and how many per point there are.
     pub control_at: usize,
     pub anchors_at: Option<usize>,
+    pub anchor_slots: usize,
     /// Where the points' paths start in `scene` (vec4; see [`pin_points`]), where the pin table
     /// does, and the steps it has rows for, which a batch may not exceed (`None` without pins on
     /// paths).
@@ -250,10 +251,18 @@ impl Packed {
             points[p as usize][1] &= !MOVES;
         }
 
-        // Obstacle friction: an anchor per obstacle and point, none tied yet.
-        let anchors_at = (model.friction != 0.0 && !model.obstacles.is_empty()).then(|| {
+        // Friction anchors, none tied yet: per obstacle and point (with friction), then per
+        // wall (six, then the plane's slot) and point (with wall friction).
+        let obstacle_slots = if model.friction != 0.0 {
+            model.obstacles.len()
+        } else {
+            0
+        };
+        let wall_slots = if model.wall_friction != 0.0 { 7 } else { 0 };
+        let anchor_slots = obstacle_slots + wall_slots;
+        let anchors_at = (anchor_slots > 0).then(|| {
             let at = scene.len();
-            scene.resize(at + model.obstacles.len() * n, [0; 4]);
+            scene.resize(at + anchor_slots * n, [0; 4]);
             at
         });
 
@@ -291,13 +300,19 @@ impl Packed {
             model.obstacles.len() as u32,
             buckets as u32,
         ];
-        header.flags = [model.escape_margin as f32, 0.0, 0.0, pulls_flag(control)];
+        header.flags = [
+            model.escape_margin as f32,
+            model.wall_friction as f32,
+            0.0,
+            pulls_flag(control),
+        ];
         let flag = |on: bool| if on { 1.0 } else { 0.0 };
         let overrides = vec![
             ("ONE_BODY", flag(bodies.len() == 1)),
             ("CONTACTS", flag(buckets > 0)),
             ("OBSTACLES", flag(!model.obstacles.is_empty())),
             ("FRICTION", flag(model.friction > 0.0)),
+            ("WALL_FRICTION", flag(model.wall_friction > 0.0)),
             ("FIELD", flag(sampled)),
             ("CLASSIC_PLANE", flag(model.plane.is_some())),
             (
@@ -321,6 +336,7 @@ impl Packed {
             scene,
             control_at,
             anchors_at,
+            anchor_slots,
             pins,
             buckets,
             uniform_field,
@@ -409,11 +425,12 @@ pub const RESIDENT_POINTS: usize = 512;
 
 /// Whether `model` can step inside one workgroup (`resident.wgsl`): one body of at most
 /// [`RESIDENT_POINTS`] points, no friction anchors to update between steps (friction with
-/// obstacles), no pins moving on paths, an explicit integrator.
+/// obstacles or walls), no pins moving on paths, an explicit integrator.
 pub fn fits_resident(model: &Model) -> bool {
     model.bodies().len() == 1
         && model.point_count() <= RESIDENT_POINTS
         && (model.friction == 0.0 || model.obstacles.is_empty())
+        && model.wall_friction == 0.0
         && model.pin_motions.is_empty()
         && !model.integrator.is_implicit()
 }

@@ -306,7 +306,7 @@ impl GpuSimulation {
         let status_read = empty("status readback", STATUS_BYTES, read);
         let state_read = empty("state readback", (n * 32) as u64, read);
         let anchors = packed.anchors_at.map(|at| {
-            let bytes = (model.obstacles.len() * n * 16) as u64;
+            let bytes = (packed.anchor_slots * n * 16) as u64;
             let copy = empty("anchors checkpoint", bytes, storage);
             ((at * 16) as u64, bytes, copy)
         });

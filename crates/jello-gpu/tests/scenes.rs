@@ -161,6 +161,79 @@ fn obstacles_with_friction_hold_a_body_on_a_slope_as_on_the_core() {
     }
 }
 
+/// With the walls' and the plane's friction `mu`: the cube of [`obstacles`] on the inclined plane
+/// of the classic worlds (the same slope), or (`floor`) a cube thrown at 1.5 m/s along the box's
+/// floor.
+fn walls_with_friction(mu: f64, floor: bool) -> (Model, State) {
+    let (with_obstacles, _) = obstacles(mu, 20.0);
+    let Obstacle::Plane(slope) = with_obstacles.obstacles[0] else {
+        unreachable!("the first obstacle is the slope")
+    };
+    let builder = ModelBuilder::new()
+        .collision(20000.0, 20.0)
+        .wall_friction(mu)
+        .gravity(Vec3::new(0.0, 0.0, -9.81))
+        .dt(0.0005)
+        .integrator(Integrator::Rk4);
+    let builder = match floor {
+        true => builder.bodies(vec![cube(4, Vec3::new(-1.0, 0.0, -2.0 + 0.001), [0.0; 3])]),
+        false => builder
+            .bodies(vec![with_obstacles.body(0).clone()])
+            .plane(Some(slope)),
+    };
+    let model = builder.build().unwrap();
+    let mut state = State::at_rest(&model);
+    if floor {
+        state
+            .vel
+            .iter_mut()
+            .for_each(|v| *v = Vec3::new(1.5, 0.0, 0.0));
+    }
+    (model, state)
+}
+
+#[test]
+fn walls_and_the_plane_with_friction_hold_and_stop_bodies_as_on_the_core() {
+    // On the 20° slope the cube holds with μ = 0.6 and slides with μ = 0.1; the cube thrown
+    // along the floor at 1.5 m/s stops after about v²/(2μg) (0.19 m with μ = 0.6, 1.1 m with
+    // μ = 0.1): on both, to the same place.
+    for floor in [false, true] {
+        for (mu, sticks) in [(0.6, true), (0.1, false)] {
+            let (model, state) = walls_with_friction(mu, floor);
+            let control = Control::default();
+            let mut sim = gpu(&model, &state, &control);
+            let steps = 1600;
+            sim.step(steps).unwrap();
+            let on_gpu = sim.read_state().unwrap();
+            let reference = cpu(&model, &state, &control, steps);
+            let x = |s: &State| body_centre_of_mass(&model, 0, &s.pos).x;
+            let what = if floor {
+                "thrown along the floor"
+            } else {
+                "on the slope"
+            };
+            for (name, s) in [("GPU", &on_gpu), ("core", &reference)] {
+                let moved = x(s) - x(&state);
+                let (held, far) = if floor { (0.3, 0.6) } else { (0.1, 0.4) };
+                if sticks {
+                    assert!(
+                        moved.abs() < held,
+                        "{name}, {what}, μ = {mu}: moved {moved} m"
+                    );
+                } else {
+                    assert!(
+                        moved > far,
+                        "{name}, {what}, μ = {mu}: moved only {moved} m"
+                    );
+                }
+            }
+            let gap = x(&on_gpu) - x(&reference);
+            assert!(gap.abs() < 1e-3, "{what}, μ = {mu}: {gap} m from the core");
+            assert_same_energy(&model, &on_gpu, &reference, &format!("{what}, μ = {mu}: "));
+        }
+    }
+}
+
 #[test]
 fn a_ball_and_a_solid_box_push_points_out_as_on_the_core() {
     // In zero gravity, with friction, a cube overlapping the ball and another the solid box are

@@ -58,10 +58,13 @@ pub struct CreateArgs {
     /// Damping of the collision penalty springs (N·s/m; dCollision).
     #[arg(long = "collision-damping", visible_alias = "d-collision", value_name = "D", value_parser = parse_non_negative, default_value_t = defaults::D_COLLISION)]
     pub d_collision: f64,
-    /// Scene: Coulomb friction coefficient of obstacles and of contacts between bodies (the
-    /// walls have none) [default: 0.5].
+    /// Scene: Coulomb friction coefficient of obstacles and of contacts between bodies (the walls'
+    /// is --wall-friction) [default: 0.5].
     #[arg(long, value_parser = parse_non_negative)]
     pub friction: Option<f64>,
+    /// Scene: Coulomb friction coefficient of the walls and the inclined plane [default: 0.5].
+    #[arg(long, value_name = "MU", value_parser = parse_non_negative)]
+    pub wall_friction: Option<f64>,
     /// Mass of each point (kg) [default: 1/512]; per body.
     #[arg(long, value_parser = parse_positive)]
     pub mass: Vec<f64>,
@@ -346,6 +349,7 @@ pub fn create(args: CreateArgs, matches: &clap::ArgMatches) -> Result<(), CliErr
         ("--mesh", !args.mesh.is_empty()),
         ("--cube", !args.cube.is_empty()),
         ("--friction", args.friction.is_some()),
+        ("--wall-friction", args.wall_friction.is_some()),
         ("--shake", !args.shake.is_empty()),
         ("--region", !args.region.is_empty()),
         ("--cells", !args.cells.is_empty()),

@@ -8,7 +8,7 @@
 use clap::ArgMatches;
 use jello_core::formats::scene::{
     BodySpec, BoxSpec, Collision, CubeSpec, MeshSpec, ObstacleSpec, PinSpec, SceneFile, Settings,
-    ShakeSpec, DEFAULT_CELLS, DEFAULT_FRICTION,
+    ShakeSpec, DEFAULT_CELLS, DEFAULT_FRICTION, DEFAULT_WALL_FRICTION,
 };
 use jello_core::{Aabb, TriMesh, Vec3};
 
@@ -252,6 +252,7 @@ pub fn create_scene(args: &CreateArgs, matches: &ArgMatches) -> Result<(), CliEr
         stiffness: args.k_collision,
         damping: args.d_collision,
         friction: args.friction.unwrap_or(DEFAULT_FRICTION),
+        wall_friction: args.wall_friction.unwrap_or(DEFAULT_WALL_FRICTION),
     };
     scene.bounds = Some(BoxSpec {
         min: bounds.min.to_array(),

@@ -54,8 +54,8 @@ pub fn info(args: InfoArgs) -> Result<(), CliError> {
         );
     } else {
         println!(
-            "collision      stiffness = {} N/m, damping = {} N·s/m; gravity ({}, {}, {}) m/s²",
-            m.k_collision, m.d_collision, m.gravity.x, m.gravity.y, m.gravity.z
+            "collision      stiffness = {} N/m, damping = {} N·s/m; friction {} (walls and plane {}); gravity ({}, {}, {}) m/s²",
+            m.k_collision, m.d_collision, m.friction, m.wall_friction, m.gravity.x, m.gravity.y, m.gravity.z
         );
         let b = m.bounds;
         println!(

@@ -1,5 +1,6 @@
 //! Coulomb friction: of obstacles (planes, spheres, solid boxes) on the points touching them,
-//! and of contacts between bodies. The walls and the inclined plane of docs/spec.md have none.
+//! of the walls and the inclined plane (with their own coefficient, [`Model::wall_friction`]: 0
+//! in the classic worlds, whose docs/spec.md gives them none), and of contacts between bodies.
 //!
 //! **Obstacles stick.** A point that touches an obstacle is tied to an *anchor*, the place where
 //! it came into contact, by a tangential spring of the collision stiffness and damper of the
@@ -23,6 +24,7 @@
 //! [`sliding`] friction until the step ends. Anchors live in the step's scratch, not in the state:
 //! a run resumed from a saved state ties its touching points afresh where they are.
 
+use crate::model::obstacle::ObstacleContact;
 use crate::model::Model;
 use crate::vec3::Vec3;
 
@@ -155,26 +157,92 @@ pub(crate) fn sliding_tangent(
     }
 }
 
-/// Per obstacle and point, where the point is tied while it touches the obstacle (NaN when it
-/// does not): the state of obstacle friction, carried from step to step by the step's scratch.
-/// Empty when the model has no friction or no obstacles.
+/// A surface whose friction ties the points touching it to anchors: an obstacle (with the
+/// model's [`Model::friction`]), or a wall of the box or the inclined plane (with its
+/// [`Model::wall_friction`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Surface {
+    /// Obstacle `o` of the model.
+    Obstacle(usize),
+    /// Wall `w` of the box: 0 to 5 for −x, +x, −y, +y, −z, +z (see [`crate::Aabb::wall_contact`]).
+    Wall(usize),
+    /// The inclined plane.
+    Plane,
+}
+
+impl Surface {
+    /// The surface's contact with a point at `p`, if it touches it.
+    #[inline]
+    pub fn contact(self, model: &Model, p: Vec3) -> Option<ObstacleContact> {
+        match self {
+            Surface::Obstacle(o) => model.obstacles[o].contact(p),
+            Surface::Wall(w) => model.bounds.wall_contact(p, w),
+            Surface::Plane => model.plane.and_then(|pl| pl.contact(p)),
+        }
+    }
+
+    /// The surface's friction coefficient.
+    #[inline]
+    pub fn friction(self, model: &Model) -> f64 {
+        match self {
+            Surface::Obstacle(_) => model.friction,
+            Surface::Wall(_) | Surface::Plane => model.wall_friction,
+        }
+    }
+}
+
+/// The surfaces with friction anchors, in the anchors' order: the obstacles when the model has
+/// friction, then the six walls and the inclined plane (when there is one) when it has wall
+/// friction.
+pub fn anchored_surfaces(model: &Model) -> impl Iterator<Item = Surface> + '_ {
+    let obstacles = if model.friction != 0.0 {
+        model.obstacles.len()
+    } else {
+        0
+    };
+    let walls = if model.wall_friction != 0.0 {
+        6 + usize::from(model.plane.is_some())
+    } else {
+        0
+    };
+    (0..obstacles)
+        .map(Surface::Obstacle)
+        .chain((0..walls).map(|w| {
+            if w < 6 {
+                Surface::Wall(w)
+            } else {
+                Surface::Plane
+            }
+        }))
+}
+
+/// Per anchored surface ([`anchored_surfaces`]) and point, where the point is tied while it
+/// touches the surface (NaN when it does not): the state of the surfaces' friction, carried
+/// from step to step by the step's scratch. Empty when no surface has friction.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Anchors {
-    /// `obstacles × points`, obstacle-major.
+    /// `surfaces × points`, surface-major.
     at: Vec<Vec3>,
     points: usize,
+    /// The anchored obstacles (all of them, or none without friction): the walls' anchors
+    /// come after theirs.
+    obstacles: usize,
 }
 
 impl Anchors {
     /// No anchors yet, for `model`.
     pub fn new(model: &Model) -> Self {
-        if !Anchors::wanted(model) {
+        let surfaces = anchored_surfaces(model).count();
+        if surfaces == 0 {
             return Anchors::default();
         }
         let points = model.point_count();
         Anchors {
-            at: vec![NONE; model.obstacles.len() * points],
+            at: vec![NONE; surfaces * points],
             points,
+            obstacles: anchored_surfaces(model)
+                .filter(|s| matches!(s, Surface::Obstacle(_)))
+                .count(),
         }
     }
 
@@ -183,31 +251,45 @@ impl Anchors {
     pub(crate) fn copy_from(&mut self, other: &Anchors) {
         self.at.clone_from(&other.at);
         self.points = other.points;
+        self.obstacles = other.obstacles;
     }
 
-    /// Whether `model` has obstacle friction (a coefficient and an obstacle).
-    fn wanted(model: &Model) -> bool {
-        model.friction != 0.0 && !model.obstacles.is_empty()
-    }
-
-    /// True when these anchors are for `model`'s points and obstacles.
+    /// True when these anchors are for `model`'s points and anchored surfaces.
     pub fn fits(&self, model: &Model) -> bool {
-        if Anchors::wanted(model) {
-            self.points == model.point_count()
-                && self.at.len() == model.obstacles.len() * self.points
+        let surfaces = anchored_surfaces(model).count();
+        if surfaces > 0 {
+            self.points == model.point_count() && self.at.len() == surfaces * self.points
         } else {
             self.at.is_empty()
         }
     }
 
-    /// True when obstacle friction is on (there are anchors to keep).
+    /// True when no surface has friction (there are no anchors to keep).
     pub fn is_empty(&self) -> bool {
         self.at.is_empty()
     }
 
-    /// The anchors of obstacle `o`, one per point.
+    /// The anchors of obstacle `o`, one per point (the model must have friction).
     pub fn of(&self, o: usize) -> &[Vec3] {
         &self.at[o * self.points..(o + 1) * self.points]
+    }
+
+    /// The anchors of wall `w` (0 to 5), or of the inclined plane for `w = 6`, one per point
+    /// (the model must have wall friction).
+    pub fn of_wall(&self, w: usize) -> &[Vec3] {
+        self.of(self.obstacles + w)
+    }
+
+    /// Where point `i` is tied to `surface`, or [`NONE`] (also when the surface has no
+    /// anchors).
+    pub(crate) fn anchor(&self, surface: Surface, i: usize) -> Vec3 {
+        let slot = match surface {
+            Surface::Obstacle(o) if o < self.obstacles => o,
+            Surface::Obstacle(_) => return NONE,
+            Surface::Wall(w) => self.obstacles + w,
+            Surface::Plane => self.obstacles + 6,
+        };
+        self.at.get(slot * self.points + i).copied().unwrap_or(NONE)
     }
 
     /// After a step, with the points at `pos`: a point that left an obstacle lets go; one that
@@ -217,11 +299,11 @@ impl Anchors {
         if self.at.is_empty() {
             return;
         }
-        let mu = model.friction;
-        for (o, obstacle) in model.obstacles.iter().enumerate() {
-            let anchors = &mut self.at[o * self.points..(o + 1) * self.points];
+        for (slot, surface) in anchored_surfaces(model).enumerate() {
+            let mu = surface.friction(model);
+            let anchors = &mut self.at[slot * self.points..(slot + 1) * self.points];
             for (anchor, &p) in anchors.iter_mut().zip(pos) {
-                let Some(contact) = obstacle.contact(p) else {
+                let Some(contact) = surface.contact(model, p) else {
                     *anchor = NONE;
                     continue;
                 };

@@ -5,7 +5,7 @@
 
 use std::ops::Range;
 
-use crate::contact::friction::{self, Anchors};
+use crate::contact::friction::{self, Anchors, Surface};
 use crate::contact::obstacles::{penalty, wall_force};
 use crate::model::obstacle::Obstacle;
 use crate::model::Model;
@@ -60,8 +60,10 @@ fn block_accelerations_impl(model: &Model, point: PointInputs<'_>, acc: [&mut [f
     let control = point.control.map(|c| &c[..len]);
     let (kc, dc, mass) = (model.k_collision, model.d_collision, point.mass);
     let (lo, hi) = (model.bounds.min, model.bounds.max);
-    let obstacles =
-        !model.obstacles.is_empty() || point.contact.is_some() || model.gravity != Vec3::ZERO;
+    let obstacles = !model.obstacles.is_empty()
+        || point.contact.is_some()
+        || model.gravity != Vec3::ZERO
+        || model.wall_friction > 0.0;
     let block = point.first..point.first + len;
     let pulls = point
         .pulls
@@ -200,6 +202,21 @@ fn finish_forces(
             }
         }
     }
+    // Friction of the walls and the inclined plane (their penalty springs are above).
+    if model.wall_friction > 0.0 {
+        let law = [kc, dc, model.wall_friction];
+        let walls = 6 + usize::from(model.plane.is_some());
+        for w in 0..walls {
+            let surface = if w < 6 {
+                Surface::Wall(w)
+            } else {
+                Surface::Plane
+            };
+            let anchors = point.anchors.map(|a| &a.of_wall(w)[block.clone()]);
+            let force = [&mut *ax, &mut *ay, &mut *az];
+            add_friction(model, point, force, anchors, law, c_max, surface);
+        }
+    }
     // Pulls on the block's points, in the order given.
     for pull in point.pulls {
         let Some(t) = (pull.point as usize).checked_sub(block.start) else {
@@ -218,6 +235,34 @@ fn finish_forces(
         for a in a.iter_mut() {
             *a = *a / mass + g;
         }
+    }
+}
+
+/// `force += friction` over a block for a surface whose penalty spring is added elsewhere (a
+/// wall, the inclined plane), with the block's friction `anchors` (none: no anchors); `law` and
+/// `c_max` as [`friction::obstacle`] takes them.
+#[inline(always)]
+fn add_friction(
+    model: &Model,
+    point: PointInputs<'_>,
+    force: [&mut [f64]; 3],
+    anchors: Option<&[Vec3]>,
+    law: [f64; 3],
+    c_max: f64,
+    surface: Surface,
+) {
+    let [fx, fy, fz] = force;
+    let len = fx.len();
+    for t in 0..len {
+        let p = Vec3::new(point.pos[0][t], point.pos[1][t], point.pos[2][t]);
+        let Some(contact) = surface.contact(model, p) else {
+            continue;
+        };
+        let v = Vec3::new(point.vel[0][t], point.vel[1][t], point.vel[2][t]);
+        let anchor = anchors.map_or(friction::NONE, |a| a[t]);
+        let (depth, n) = (contact.depth, contact.normal);
+        let f = friction::obstacle(p, v, depth, n, anchor, law, c_max);
+        (fx[t], fy[t], fz[t]) = (fx[t] + f.x, fy[t] + f.y, fz[t] + f.z);
     }
 }
 

@@ -56,9 +56,12 @@ pub struct Model {
     #[doc(alias = "collision_damping")]
     pub d_collision: f64,
     /// Coulomb friction coefficient of obstacles and of contacts between bodies (at least 0;
-    /// 0 in world files). The walls and the inclined plane of docs/spec.md have none. See
-    /// [`crate::contact::friction`].
+    /// 0 in world files). See [`crate::contact::friction`].
     pub friction: f64,
+    /// Coulomb friction coefficient of the box's walls and the inclined plane (at least 0; 0 in
+    /// world files, whose walls and plane docs/spec.md gives none), by the same law as the
+    /// obstacles'.
+    pub wall_friction: f64,
     /// The bounding box; points outside it are pushed back by penalty springs.
     pub bounds: Aabb,
     /// The inclined plane, when present.
@@ -151,6 +154,7 @@ impl Model {
             k_collision: self.k_collision,
             d_collision: self.d_collision,
             friction: self.friction,
+            wall_friction: self.wall_friction,
             bounds: self.bounds,
             plane: self.plane,
             obstacles: self.obstacles.clone(),
@@ -174,6 +178,7 @@ pub struct ModelBuilder {
     k_collision: f64,
     d_collision: f64,
     friction: f64,
+    wall_friction: f64,
     bounds: Aabb,
     plane: Option<Plane>,
     obstacles: Vec<Obstacle>,
@@ -195,6 +200,7 @@ impl Default for ModelBuilder {
             k_collision: defaults::K_COLLISION,
             d_collision: defaults::D_COLLISION,
             friction: 0.0,
+            wall_friction: 0.0,
             bounds: Aabb::classic(),
             plane: None,
             obstacles: Vec::new(),
@@ -294,6 +300,13 @@ impl ModelBuilder {
     /// [`Model::friction`].
     pub fn friction(mut self, mu: f64) -> Self {
         self.friction = mu;
+        self
+    }
+
+    /// Coulomb friction coefficient of the walls and the inclined plane (default 0, as in the
+    /// classic world): see [`Model::wall_friction`].
+    pub fn wall_friction(mut self, mu: f64) -> Self {
+        self.wall_friction = mu;
         self
     }
 
@@ -403,6 +416,7 @@ impl ModelBuilder {
         positive("collision stiffness", self.k_collision)?;
         non_negative("collision damping", self.d_collision)?;
         non_negative("friction", self.friction)?;
+        non_negative("wall friction", self.wall_friction)?;
         positive("escape margin", self.escape_margin)?;
         if self.steps_per_frame == 0 {
             return Err(ModelError::new("steps per frame must be at least 1"));
@@ -462,6 +476,7 @@ impl ModelBuilder {
             k_collision: self.k_collision,
             d_collision: self.d_collision,
             friction: self.friction,
+            wall_friction: self.wall_friction,
             bounds: self.bounds,
             plane: self.plane,
             obstacles: self.obstacles,

@@ -105,6 +105,30 @@ impl Aabb {
         })
     }
 
+    /// The contact of wall `w` (0 to 5: −x, +x, −y, +y, −z, +z, the wall at the box's minimum
+    /// or maximum along each axis) with a point strictly outside it: the one of
+    /// [`Aabb::wall_contacts`] that belongs to that wall.
+    pub fn wall_contact(&self, p: Vec3, w: usize) -> Option<ObstacleContact> {
+        let (axis, max) = (w / 2, w % 2 == 1);
+        let (c, lo, hi) = (
+            p.to_array()[axis],
+            self.min.to_array()[axis],
+            self.max.to_array()[axis],
+        );
+        let mut n = [0.0; 3];
+        let depth = if max {
+            n[axis] = -1.0;
+            c - hi
+        } else {
+            n[axis] = 1.0;
+            lo - c
+        };
+        (depth > 0.0).then(|| ObstacleContact {
+            depth,
+            normal: Vec3::from_array(n),
+        })
+    }
+
     /// As a solid box: the contact of a point strictly inside, through the nearest face (ties go
     /// to the first of −x, +x, −y, +y, −z, +z); `None` outside or on the surface.
     pub fn solid_contact(&self, p: Vec3) -> Option<ObstacleContact> {

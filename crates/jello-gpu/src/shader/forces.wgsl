@@ -150,12 +150,12 @@ fn sliding(n: vec3<f32>, v: vec3<f32>, normal: f32, c_max: f32) -> vec3<f32> {
     return vec3<f32>(0.0);
 }
 
-// An obstacle's friction on a point touching it at `depth` along n, tied to `anchor` (w = 0:
-// not tied yet): the tangential spring and damper clamped to the Coulomb cone (the core's
-// friction::obstacle).
-fn obstacle_friction(p: vec3<f32>, v: vec3<f32>, depth: f32, n: vec3<f32>, anchor: vec4<f32>, c_max: f32) -> vec3<f32> {
+// An obstacle's (or a wall's) friction of coefficient `mu` on a point touching it at `depth`
+// along n, tied to `anchor` (w = 0: not tied yet): the tangential spring and damper clamped to
+// the Coulomb cone (the core's friction::obstacle).
+fn obstacle_friction(p: vec3<f32>, v: vec3<f32>, depth: f32, n: vec3<f32>, anchor: vec4<f32>, c_max: f32, mu: f32) -> vec3<f32> {
     let kc = P.law.y;
-    let limit = P.law.w * kc * depth;
+    let limit = mu * kc * depth;
     if (anchor.w == 0.0) {
         return sliding(n, v, limit, c_max);
     }
@@ -178,9 +178,45 @@ fn obstacles_on(i: u32, p: vec3<f32>, v: vec3<f32>, m: f32) -> vec3<f32> {
         if (c.w > 0.0) {
             f = f + c.xyz * (kc * c.w - dc * dot(v, c.xyz));
             if (FRICTION) {
-                let anchor = scene_f(P.at.w + o * P.counts.x + i);
-                f = f + obstacle_friction(p, v, c.w, c.xyz, anchor, c_max);
+                let anchor = scene_f(anchor_at(o, i));
+                f = f + obstacle_friction(p, v, c.w, c.xyz, anchor, c_max, P.law.w);
             }
+        }
+    }
+    return f;
+}
+
+// Wall w's contact with a point at p (0 to 5: −x, +x, −y, +y, −z, +z; 6: the classic plane): the
+// unit normal back into the box (or the plane's allowed side) and the depth (≤ 0: none), as the
+// core's Aabb::wall_contact and Plane::contact give them.
+fn wall_contact(w: u32, p: vec3<f32>) -> vec4<f32> {
+    if (w == 6u) {
+        return vec4<f32>(P.plane.xyz * (P.plane_side.y / P.plane_side.x), plane_depth(p));
+    }
+    let axis = w / 2u;
+    var n = vec3<f32>(0.0);
+    if (w % 2u == 0u) {
+        n[axis] = 1.0;
+        return vec4<f32>(n, P.box_lo[axis] - p[axis]);
+    }
+    n[axis] = -1.0;
+    return vec4<f32>(n, p[axis] - P.box_hi[axis]);
+}
+
+// The walls' and the classic plane's friction on point i at p moving at v, of mass m (their
+// penalty springs are in `finish`), in the core's order.
+fn walls_friction_on(i: u32, p: vec3<f32>, v: vec3<f32>, m: f32) -> vec3<f32> {
+    var f = vec3<f32>(0.0);
+    let c_max = m / P.law.x;
+    var walls = 6u;
+    if (CLASSIC_PLANE) {
+        walls = 7u;
+    }
+    for (var w = 0u; w < walls; w = w + 1u) {
+        let c = wall_contact(w, p);
+        if (c.w > 0.0) {
+            let anchor = scene_f(anchor_at(wall_slot(w), i));
+            f = f + obstacle_friction(p, v, c.w, c.xyz, anchor, c_max, P.flags.y);
         }
     }
     return f;
@@ -263,6 +299,9 @@ fn finish(i: u32, p: vec3<f32>, v: vec3<f32>, f_springs: vec3<f32>, b: u32) -> v
     }
     if (OBSTACLES) {
         f = f + obstacles_on(i, p, v, m);
+    }
+    if (WALL_FRICTION) {
+        f = f + walls_friction_on(i, p, v, m);
     }
     if (P.flags.w != 0.0) {
         let pulls = scene_f(P.at.z + 2u * i + 1u);

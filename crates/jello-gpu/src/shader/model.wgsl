@@ -31,12 +31,13 @@ const MAX_BODIES: u32 = 224u;
 
 // What the model has, fixed when its pipelines are made, so that the code of what it does not
 // have is compiled out: a single body; contacts between bodies; obstacles; friction (on
-// obstacles and between bodies); a sampled field; the classic plane (CLASSIC_PLANE); per-spring
-// values; pins that move on paths.
+// obstacles and between bodies); friction on the walls and the classic plane; a sampled field;
+// the classic plane (CLASSIC_PLANE); per-spring values; pins that move on paths.
 override ONE_BODY: bool = true;
 override CONTACTS: bool = false;
 override OBSTACLES: bool = false;
 override FRICTION: bool = false;
+override WALL_FRICTION: bool = false;
 override FIELD: bool = false;
 override CLASSIC_PLANE: bool = false;
 override SPRING_VALUES: bool = false;
@@ -48,7 +49,8 @@ struct Params {
     counts: vec4<u32>,
     // dt (s), kCollision (N/m), dCollision (N·s/m), friction coefficient
     law: vec4<f32>,
-    // escape margin (m), 0, 0, pulls present (1/0: set_control changes it)
+    // escape margin (m), friction coefficient of the walls and the plane, 0, pulls present (1/0:
+    // set_control changes it)
     flags: vec4<f32>,
     box_lo: vec4<f32>,
     box_hi: vec4<f32>,
@@ -59,7 +61,7 @@ struct Params {
     field_lo: vec4<f32>,
     field_hi: vec4<f32>,
     // Where regions start in `scene` (in vec4): obstacles, field nodes, control, friction anchors
-    // (NONE without obstacle friction)
+    // (NONE without friction on obstacles or walls)
     at: vec4<u32>,
     // field res, 0, 0, 0
     field_res: vec4<u32>,
@@ -87,7 +89,9 @@ struct Params {
 //   [Σ pull stiffness × target (N), Σ pull stiffness (N/m)];
 // - per-spring values of bodies that have them: for the point p of a body and stencil entry s,
 //   at 16 (p − first) + s, the rest length, stiffness and damping of the spring to +offset[s];
-// - friction anchors, per obstacle and point: where the point is tied, and 1 (or 0: not tied);
+// - friction anchors: where the point is tied, and 1 (or 0: not tied); per obstacle and point
+//   (FRICTION), then per wall (−x, +x, −y, +y, −z, +z, then the classic plane) and point
+//   (WALL_FRICTION): see `anchor_at`;
 // - pins on paths (PINS), one per point: [where its path has it at offset zero (m), the index
 //   of its path] (w NONE: on no path);
 // - the pin table (PINS), rewritten before every batch of steps: a row per step of the batch,
@@ -120,3 +124,13 @@ fn scene_f(at: u32) -> vec4<f32> {
     return bitcast<vec4<f32>>(scene[at]);
 }
 
+// Where point i's friction anchor on anchored surface `slot` is in `scene`: the obstacles' slots
+// first (with FRICTION), then the walls' (see `wall_slot`).
+fn anchor_at(slot: u32, i: u32) -> u32 {
+    return P.at.w + slot * P.counts.x + i;
+}
+
+// The anchor slot of wall w (0 to 5: −x, +x, −y, +y, −z, +z; 6: the classic plane).
+fn wall_slot(w: u32) -> u32 {
+    return select(0u, P.counts.z, FRICTION) + w;
+}

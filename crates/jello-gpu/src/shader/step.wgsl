@@ -176,8 +176,12 @@ fn anchors(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroup
         return;
     }
     let p = position(i);
-    for (var o = 0u; o < P.counts.z; o = o + 1u) {
-        let at = P.at.w + o * P.counts.x + i;
+    var obstacles = 0u;
+    if (FRICTION) {
+        obstacles = P.counts.z;
+    }
+    for (var o = 0u; o < obstacles; o = o + 1u) {
+        let at = anchor_at(o, i);
         // The obstacles from scene_rw: this pass may not bind the scene read-only as well.
         let shape = P.at.x + 3u * o;
         let c = shape_depth(scene_rw[shape].x, bitcast<vec4<f32>>(scene_rw[shape + 1u]),
@@ -194,6 +198,37 @@ fn anchors(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroup
         let offset = across(p - anchor.xyz, c.xyz);
         let size = length(offset);
         let reach = P.law.w * c.w;
+        if (size > reach) {
+            scene_rw[at] = bitcast<vec4<u32>>(vec4<f32>(p - offset * (reach / size), 1.0));
+        }
+    }
+    if (WALL_FRICTION) {
+        wall_anchors(i, p);
+    }
+}
+
+// The walls' and the classic plane's anchors, after the obstacles' (WALL_FRICTION), by the same
+// rule with their own coefficient.
+fn wall_anchors(i: u32, p: vec3<f32>) {
+    var walls = 6u;
+    if (CLASSIC_PLANE) {
+        walls = 7u;
+    }
+    for (var w = 0u; w < walls; w = w + 1u) {
+        let at = anchor_at(wall_slot(w), i);
+        let c = wall_contact(w, p);
+        if (!(c.w > 0.0)) {
+            scene_rw[at] = vec4<u32>(0u);
+            continue;
+        }
+        let anchor = bitcast<vec4<f32>>(scene_rw[at]);
+        if (anchor.w == 0.0) {
+            scene_rw[at] = bitcast<vec4<u32>>(vec4<f32>(p, 1.0));
+            continue;
+        }
+        let offset = across(p - anchor.xyz, c.xyz);
+        let size = length(offset);
+        let reach = P.flags.y * c.w;
         if (size > reach) {
             scene_rw[at] = bitcast<vec4<u32>>(vec4<f32>(p - offset * (reach / size), 1.0));
         }

@@ -110,6 +110,7 @@ impl SceneFile {
             .gravity(v3(self.gravity()))
             .collision(self.collision.stiffness, self.collision.damping)
             .friction(self.collision.friction)
+            .wall_friction(self.collision.wall_friction)
             .bounds(bounds)
             .obstacles(obstacles)
             .field(field)

@@ -17,7 +17,8 @@
 //! [collision]                 # the penalty springs of walls, obstacles and contacts
 //! stiffness = 400.0           # N/m
 //! damping = 0.25              # N·s/m
-//! friction = 0.5              # Coulomb coefficient of obstacles and contacts (not the walls)
+//! friction = 0.5              # Coulomb coefficient of obstacles and contacts
+//! wall_friction = 0.5         # and of the walls and the inclined plane
 //!
 //! [box]                       # the walls
 //! min = [-2.0, -2.0, -2.0]
@@ -62,6 +63,7 @@ mod tables;
 pub use tables::{
     BodySpec, BoxSpec, Collision, CubeSpec, FieldSpec, MeshSpec, ObstacleSpec, PinSpec, RegionSpec,
     Settings, ShakeSpec, StateSpec, DEFAULT_CELLS, DEFAULT_FRICTION, DEFAULT_GRAVITY,
+    DEFAULT_WALL_FRICTION,
 };
 
 use serde::{Deserialize, Serialize};

@@ -74,12 +74,19 @@ pub struct Collision {
     /// N·s/m.
     pub damping: f64,
     /// Coulomb friction coefficient of obstacles and of contacts between bodies (see
-    /// [`crate::contact::friction`]); the walls have none, as in docs/spec.md.
+    /// [`crate::contact::friction`]).
     pub friction: f64,
+    /// Coulomb friction coefficient of the walls and the inclined plane, by the obstacles' law
+    /// (the classic worlds' walls have none).
+    pub wall_friction: f64,
 }
 
 /// Friction coefficient of a scene that does not give one: about rubbery jelly on a plate.
 pub const DEFAULT_FRICTION: f64 = 0.5;
+
+/// Friction coefficient of the walls and the plane in a scene that does not give one: the
+/// obstacles' (a floor is a plate too).
+pub const DEFAULT_WALL_FRICTION: f64 = DEFAULT_FRICTION;
 
 /// Cells along a mesh's longest side when a new scene does not say.
 pub const DEFAULT_CELLS: usize = 10;
@@ -94,6 +101,7 @@ impl Default for Collision {
             stiffness: defaults::K_COLLISION,
             damping: defaults::D_COLLISION,
             friction: DEFAULT_FRICTION,
+            wall_friction: DEFAULT_WALL_FRICTION,
         }
     }
 }

@@ -11,7 +11,7 @@
 
 use crate::compute::soa::Soa;
 use crate::contact::bodies::Pair;
-use crate::contact::friction::{self, Anchors};
+use crate::contact::friction::{self, anchored_surfaces, Anchors};
 use crate::contact::Contacts;
 use crate::model::Model;
 use crate::vec3::Vec3;
@@ -65,17 +65,17 @@ pub(super) fn add_forces(
     let (kc, dc, mu) = (model.k_collision, model.d_collision, model.friction);
     let (px, py, pz) = (x_soa.x(), x_soa.y(), x_soa.z());
     let at = |i: usize| Vec3::new(px[i], py[i], pz[i]);
-    if mu > 0.0 && !model.obstacles.is_empty() {
+    if anchored_surfaces(model).next().is_some() {
         for (i, f) in force.iter_mut().enumerate() {
             if free[i] == 0.0 {
                 continue;
             }
             let p = at(i);
             let c_max = friction::implicit_cap(mass[i], model.dt, kc);
-            for (o, obstacle) in model.obstacles.iter().enumerate() {
-                if let Some(c) = obstacle.contact(p) {
-                    let anchor = anchors.of(o).get(i).copied().unwrap_or(friction::NONE);
-                    let law = [kc, dc, mu];
+            for surface in anchored_surfaces(model) {
+                if let Some(c) = surface.contact(model, p) {
+                    let anchor = anchors.anchor(surface, i);
+                    let law = [kc, dc, surface.friction(model)];
                     *f += friction::obstacle(p, v[i], c.depth, c.normal, anchor, law, c_max);
                 }
             }
@@ -119,7 +119,7 @@ mod tests {
     use super::super::stencil::Precision;
     use super::super::test_models::values;
     use super::super::ImplicitScratch;
-    use crate::contact::friction;
+    use crate::contact::friction::{self, Surface};
     use crate::forces::ForceScratch;
     use crate::model::body::{Body, Material, IDENTITY};
     use crate::model::lattice::Lattice;
@@ -209,7 +209,8 @@ mod tests {
         }
     }
 
-    /// `A` is the derivative of `M·g` (the residual times the masses) with obstacle friction:
+    /// `A` is the derivative of `M·g` (the residual times the masses) with the friction of an
+    /// obstacle, of the box's bottom wall and of the inclined plane, each the floor in turn:
     /// ties that hold and ties that slide, points with no anchor yet whose friction is at its
     /// cap or at its full size, each with its damper across the floor's normal (the directions
     /// of change lie in the floor where a point touches it: `A` leaves out the friction
@@ -217,16 +218,41 @@ mod tests {
     #[test]
     fn a_with_obstacle_friction_is_the_derivative_of_the_residual() {
         let floor = Plane::facing([0.0, 0.0, 1.0, 0.0], Vec3::new(0.0, 0.0, 1.0)).unwrap();
-        let model = ModelBuilder::new()
-            .bodies(vec![heavy_box([5, 4, 2], Vec3::new(0.0, 0.0, -0.05))])
-            .bounds(far())
-            .obstacle(Obstacle::Plane(floor))
-            .collision(2000.0, 5.0)
-            .friction(0.5)
-            .gravity(Vec3::new(0.0, 0.0, -9.81))
-            .dt(H)
-            .build()
-            .unwrap();
+        let bottom = Aabb::new(Vec3::new(-50.0, -50.0, 0.0), Vec3::new(50.0, 50.0, 50.0)).unwrap();
+        let builder = || {
+            ModelBuilder::new()
+                .bodies(vec![heavy_box([5, 4, 2], Vec3::new(0.0, 0.0, -0.05))])
+                .collision(2000.0, 5.0)
+                .gravity(Vec3::new(0.0, 0.0, -9.81))
+                .dt(H)
+        };
+        let floors = [
+            (
+                builder()
+                    .bounds(far())
+                    .obstacle(Obstacle::Plane(floor))
+                    .friction(0.5),
+                Surface::Obstacle(0),
+            ),
+            (
+                builder().bounds(bottom).wall_friction(0.5),
+                Surface::Wall(4),
+            ),
+            (
+                builder()
+                    .bounds(far())
+                    .plane(Some(floor))
+                    .wall_friction(0.5),
+                Surface::Plane,
+            ),
+        ];
+        for (model, surface) in floors {
+            friction_is_the_derivative(&model.build().unwrap(), surface);
+        }
+    }
+
+    fn friction_is_the_derivative(model: &Model, surface: Surface) {
+        let model = model.clone();
         let mut next = values(5);
         let mut random = || Vec3::new(next(), next(), next());
         let rest = State::at_rest(&model).pos;
@@ -260,11 +286,15 @@ mod tests {
         let mut regimes = [0; 4];
         for (i, (&x, &v)) in x0.iter().zip(&v).enumerate() {
             let p = x + v * H;
-            let Some(c) = model.obstacles[0].contact(p) else {
+            let Some(c) = surface.contact(&model, p) else {
                 continue;
             };
-            let anchor = force.anchors().of(0)[i];
-            let law = [model.k_collision, model.d_collision, model.friction];
+            let anchor = force.anchors().anchor(surface, i);
+            let law = [
+                model.k_collision,
+                model.d_collision,
+                surface.friction(&model),
+            ];
             let c_max = friction::implicit_cap(0.5, H, model.k_collision);
             let (_, along) =
                 friction::obstacle_tangent(p, v, c.depth, c.normal, anchor, law, c_max, H);
@@ -272,7 +302,7 @@ mod tests {
         }
         assert!(
             regimes.iter().all(|&n| n > 0),
-            "holding, sliding, capped, uncapped: {regimes:?}"
+            "{surface:?}: holding, sliding, capped, uncapped: {regimes:?}"
         );
         let (ad, difference, scale) = derivative(&model, &mut force, &x0, &v, &d);
         assert_close(&ad, &difference, scale);

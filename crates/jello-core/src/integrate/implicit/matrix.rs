@@ -2,7 +2,7 @@
 //! Levenberg–Marquardt shift where the true stiffness leaves it indefinite) and solved for.
 
 use crate::contact::bodies::Pair;
-use crate::contact::friction::{self, Anchors};
+use crate::contact::friction::{self, Anchors, Surface};
 use crate::model::field;
 use crate::model::Model;
 use crate::state::Control;
@@ -126,6 +126,21 @@ pub(super) fn assemble(
             .chain(model.plane.and_then(|pl| pl.contact(p)));
         for c in walls {
             add_outer(e, c.normal, h2 * kc);
+        }
+        // The walls' and the plane's friction, as the obstacles' below.
+        if model.wall_friction > 0.0 {
+            let walls = (0..6).map(Surface::Wall);
+            for surface in walls.chain(model.plane.map(|_| Surface::Plane)) {
+                if let Some(c) = surface.contact(model, p) {
+                    let anchor = anchors.anchor(surface, i);
+                    let c_max = friction::implicit_cap(s.mass[i], model.dt, kc);
+                    let law = [kc, dc, model.wall_friction];
+                    let (depth, n) = (c.depth, c.normal);
+                    let tangent =
+                        friction::obstacle_tangent(p, s.v[i], depth, n, anchor, law, c_max, h);
+                    add_tangent(e, n, tangent);
+                }
+            }
         }
         for (o, c) in model
             .obstacles
