@@ -1,131 +1,161 @@
-//! The broad phase of contacts between bodies: the active points sorted into cubic grid cells
-//! the size of the largest ball diameter, by a counting sort over a hash of the cell; each point
-//! then looks at the 27 cells around its own. Buffers are sized once, so a pass allocates
-//! nothing; the sort and the visits run in a fixed order, so the forces summed over them are bit
-//! for bit the same whatever the thread count.
+//! The broad phase of contacts between bodies: every kept cell of every body, as it is deformed
+//! now, sorted into a hashed uniform grid by the grid cells its bounding box overlaps (a counting
+//! sort, in the order of the bodies and their cells), so that a point finds the few cells it may
+//! be inside by looking in its own grid cell. Buffers are sized once (and grow only for a cell
+//! stretched over more grid cells than was room for); the sort and the visits run in a fixed
+//! order, so the forces summed over them are bit for bit the same whatever the thread count.
 
-use crate::model::body::Body;
+use crate::model::Model;
+use crate::vec3::Vec3;
 
-/// The active points of a model in a hashed uniform grid, sized once for a model.
+/// Room for this many grid cells per cell, on average, before the buffers grow.
+const ROOM_PER_CELL: usize = 8;
+
+/// The most grid cells along an axis one cell may overlap: a cell stretched further is torn.
+const MAX_SPAN: i32 = 16;
+
+/// The cells of a model's bodies in a hashed uniform grid.
 #[derive(Clone, Debug, Default)]
 pub(crate) struct BroadPhase {
+    /// Per cell (all bodies', in order): its body and the flat model index of its lower corner.
+    pub cell_body: Vec<u32>,
+    pub cell_corner: Vec<u32>,
+    /// Per cell: its bounding box at the last sort, and the grid cells it overlaps.
+    boxes: Vec<[Vec3; 2]>,
+    spans: Vec<[[i32; 3]; 2]>,
     /// Bucket starts of the hashed grid (`buckets + 1` entries).
     starts: Vec<u32>,
-    /// Active points sorted by bucket; in each bucket by index.
+    /// Cells sorted by bucket (as indices of `cell_body`), with the grid cell each entry is for.
     entries: Vec<u32>,
-    /// Per sorted entry: its grid cell.
-    entry_cells: Vec<[i32; 3]>,
-    /// Per sorted entry: its body.
-    entry_body: Vec<u32>,
-    /// Per point: its grid cell (for the sort).
-    point_cells: Vec<[i32; 3]>,
+    entry_keys: Vec<[i32; 3]>,
     /// Side of a grid cell (m).
-    cell: f64,
+    side: f64,
 }
 
 impl BroadPhase {
-    /// A grid of cells of side `cell` (m) for `points` points of which `active` are active.
-    pub(crate) fn new(points: usize, active: usize, cell: f64) -> Self {
-        let buckets = (2 * active).next_power_of_two();
+    /// Buffers for the cells of `model`'s bodies, in a grid of cells the size of the largest
+    /// cell's longest side.
+    pub(crate) fn new(model: &Model) -> Self {
+        let (mut cell_body, mut cell_corner) = (Vec::new(), Vec::new());
+        let mut side: f64 = 0.0;
+        for (b, body) in model.bodies().iter().enumerate() {
+            let surface = body.contact_surface();
+            let first = body.points().start as u32;
+            for &c in &surface.cells {
+                cell_body.push(b as u32);
+                cell_corner.push(first + c);
+            }
+            let h = body.lattice().spacing();
+            side = side.max(h.x).max(h.y).max(h.z);
+        }
+        let cells = cell_body.len();
+        let buckets = (2 * cells).next_power_of_two();
         BroadPhase {
+            cell_body,
+            cell_corner,
+            boxes: vec![[Vec3::ZERO; 2]; cells],
+            spans: vec![[[0; 3]; 2]; cells],
             starts: vec![0; buckets + 1],
-            entries: vec![0; active],
-            entry_cells: vec![[0; 3]; active],
-            entry_body: vec![0; active],
-            point_cells: vec![[0; 3]; points],
-            cell,
+            entries: Vec::with_capacity(ROOM_PER_CELL * cells),
+            entry_keys: Vec::with_capacity(ROOM_PER_CELL * cells),
+            side: if side > 0.0 { side } else { 1.0 },
         }
     }
 
-    /// Sorts the active points of `bodies`, at positions `[px, py, pz]`, into the grid.
-    pub(crate) fn sort(&mut self, bodies: &[Body], [px, py, pz]: [&[f64]; 3]) {
-        let BroadPhase {
-            starts,
-            entries,
-            entry_cells,
-            entry_body,
-            point_cells,
-            cell,
-        } = self;
-        let inv = 1.0 / *cell;
-        let mask = starts.len() - 2;
-        // Counting sort of the active points by bucket.
-        starts.fill(0);
-        for body in bodies {
-            for q in active_points(body) {
-                let c = [px[q], py[q], pz[q]].map(|x| (x * inv).floor() as i32);
-                point_cells[q] = c;
-                starts[hash(c) & mask] += 1;
+    /// Sorts the cells, at positions `[px, py, pz]`, into the grid, each by its box grown by
+    /// `margin` (m) on every side.
+    pub(crate) fn sort(&mut self, model: &Model, [px, py, pz]: [&[f64]; 3], margin: f64) {
+        let inv = 1.0 / self.side;
+        let grid = |c: Vec3| (c * inv).to_array().map(|x| x.floor() as i32);
+        let mask = self.starts.len() - 2;
+        let bodies = model.bodies();
+        // Each cell's box and span, and how many entries each bucket gets.
+        self.starts.fill(0);
+        let mut total = 0;
+        for (g, (&b, &corner)) in self.cell_body.iter().zip(&self.cell_corner).enumerate() {
+            let offsets = &bodies[b as usize].contact_surface().offsets;
+            let (inf, minf) = (f64::INFINITY, f64::NEG_INFINITY);
+            let (mut lo, mut hi) = (Vec3::new(inf, inf, inf), Vec3::new(minf, minf, minf));
+            for &o in offsets {
+                let q = corner as usize + o;
+                let p = Vec3::new(px[q], py[q], pz[q]);
+                (lo, hi) = (lo.min(p), hi.max(p));
             }
+            let grow = Vec3::new(margin, margin, margin);
+            let (lo, hi) = (lo - grow, hi + grow);
+            self.boxes[g] = [lo, hi];
+            let mut span = [grid(lo), grid(hi)];
+            // A cell torn across the box (a step blowing up, which the step then rejects) is
+            // left out rather than entered in thousands of buckets.
+            if !(lo.is_finite() && hi.is_finite())
+                || (0..3).any(|a| span[1][a] - span[0][a] > MAX_SPAN)
+            {
+                span = [[0; 3], [-1; 3]];
+                self.boxes[g] = [Vec3::ZERO, Vec3::new(-1.0, -1.0, -1.0)];
+            }
+            self.spans[g] = span;
+            for_each_key(span, |key| {
+                self.starts[hash(key) & mask] += 1;
+                total += 1;
+            });
         }
+        // Starts by a prefix sum; then each cell into the buckets of its span, in order.
         let mut sum = 0;
-        for s in starts.iter_mut() {
+        for s in self.starts.iter_mut() {
             let count = *s;
             *s = sum;
             sum += count;
         }
-        for (b, body) in bodies.iter().enumerate() {
-            for q in active_points(body) {
-                let c = point_cells[q];
-                let slot = &mut starts[hash(c) & mask];
+        self.entries.resize(total, 0);
+        self.entry_keys.resize(total, [0; 3]);
+        for (g, &span) in self.spans.iter().enumerate() {
+            for_each_key(span, |key| {
+                let slot = &mut self.starts[hash(key) & mask];
                 let e = *slot as usize;
-                (entries[e], entry_cells[e], entry_body[e]) = (q as u32, c, b as u32);
+                (self.entries[e], self.entry_keys[e]) = (g as u32, key);
                 *slot += 1;
-            }
+            });
         }
         // Each bucket's start is now the next one's; shift back.
-        for b in (1..starts.len()).rev() {
-            starts[b] = starts[b - 1];
+        for b in (1..self.starts.len()).rev() {
+            self.starts[b] = self.starts[b - 1];
         }
-        starts[0] = 0;
+        self.starts[0] = 0;
     }
 
-    /// The grid cell of point `q` in the last [`BroadPhase::sort`].
+    /// Calls `near(cell)` for every cell whose box (grown) at the last sort holds `p`, in a fixed
+    /// order (the cells' order), until it returns true.
     #[inline]
-    pub(crate) fn cell_of(&self, q: usize) -> [i32; 3] {
-        self.point_cells[q]
-    }
-
-    /// Calls `near(e, body of e)` for every active point `e` of a body other than `body` in the
-    /// 27 grid cells around `cell`, in a fixed order.
-    #[inline]
-    pub(crate) fn for_each_near(
-        &self,
-        body: &Body,
-        cell: [i32; 3],
-        mut near: impl FnMut(usize, usize),
-    ) {
-        let mask = self.starts.len() - 2;
-        let own = body.points();
-        for n in 0..27 {
-            let d = [n / 9 - 1, n / 3 % 3 - 1, n % 3 - 1];
-            let around = [
-                cell[0].wrapping_add(d[0]),
-                cell[1].wrapping_add(d[1]),
-                cell[2].wrapping_add(d[2]),
-            ];
-            let bucket = hash(around) & mask;
-            let range = self.starts[bucket] as usize..self.starts[bucket + 1] as usize;
-            let candidates = self.entries[range.clone()]
-                .iter()
-                .zip(&self.entry_cells[range.clone()])
-                .zip(&self.entry_body[range]);
-            for ((&e, &ec), &eb) in candidates {
-                // Another cell hashed to the same bucket, or the same body: skip.
-                let e = e as usize;
-                if ec != around || own.contains(&e) {
-                    continue;
-                }
-                near(e, eb as usize);
+    pub(crate) fn find_near(&self, p: Vec3, mut near: impl FnMut(usize) -> bool) {
+        let key = (p * (1.0 / self.side)).to_array().map(|x| x.floor() as i32);
+        let bucket = hash(key) & (self.starts.len() - 2);
+        let range = self.starts[bucket] as usize..self.starts[bucket + 1] as usize;
+        for (&g, &k) in self.entries[range.clone()]
+            .iter()
+            .zip(&self.entry_keys[range])
+        {
+            let [lo, hi] = self.boxes[g as usize];
+            let inside = p.x >= lo.x && p.x <= hi.x && p.y >= lo.y && p.y <= hi.y;
+            if k != key || !(inside && p.z >= lo.z && p.z <= hi.z) {
+                continue;
+            }
+            if near(g as usize) {
+                return;
             }
         }
     }
 }
 
-/// The active points of a body, as flat indices of the model.
-pub(crate) fn active_points(body: &Body) -> impl Iterator<Item = usize> + '_ {
-    body.points()
-        .filter(move |&q| body.is_active(q - body.points().start))
+/// Calls `f` with every grid cell of `span` (inclusive), x outermost.
+#[inline]
+fn for_each_key([lo, hi]: [[i32; 3]; 2], mut f: impl FnMut([i32; 3])) {
+    for x in lo[0]..=hi[0] {
+        for y in lo[1]..=hi[1] {
+            for z in lo[2]..=hi[2] {
+                f([x, y, z]);
+            }
+        }
+    }
 }
 
 /// A hash of a grid cell (the three large primes of Teschner et al. 2003).

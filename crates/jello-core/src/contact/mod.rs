@@ -14,5 +14,5 @@ pub mod broad_phase;
 pub mod friction;
 pub mod obstacles;
 
-pub use bodies::{overlap, pair_force, Contacts};
+pub use bodies::{overlap, touch_force, Contacts};
 pub use obstacles::max_penetration;

@@ -129,11 +129,6 @@ impl ForceScratch {
         &self.anchors
     }
 
-    /// The contacts between bodies of the last force evaluation (their grid at its positions).
-    pub(crate) fn contacts(&self) -> &Contacts {
-        &self.contacts
-    }
-
     /// The anchors, to be put back after a step that is taken again (see [`crate::integrate::cutback`]).
     pub(crate) fn anchors_mut(&mut self) -> &mut Anchors {
         &mut self.anchors
@@ -332,13 +327,17 @@ where
     force_pass_with(model, p, v, control, scratch, outs, update, Ties::Held)
 }
 
-/// Whether a [`force_pass`] reads the obstacles' friction anchors.
+/// Whether a [`force_pass`] reads the obstacles' friction anchors and computes the contacts
+/// between bodies.
 #[derive(Clone, Copy, PartialEq, Eq)]
 pub(crate) enum Ties {
-    /// Points tied to an anchor feel its spring and damper (every force evaluation of a step).
+    /// Points tied to an anchor feel its spring and damper, and bodies touch (every force
+    /// evaluation of an explicit step).
     Held,
-    /// As if no point had an anchor: at zero velocities the pass then has no friction at all
-    /// (the implicit integrators add it themselves, at the iterate's velocities).
+    /// As if no point had an anchor, and without contacts between bodies: at zero velocities
+    /// the pass then has no friction at all (the implicit integrators add friction themselves,
+    /// at the iterate's velocities, and the contacts between bodies, at the touches found at
+    /// the step's start).
     Ignored,
 }
 
@@ -385,7 +384,7 @@ where
     } = scratch;
     let anchors = (!anchors.is_empty() && ties == Ties::Held).then_some(&*anchors);
     // Contacts between bodies first: every chunk's update reads them.
-    let several = model.bodies().len() > 1;
+    let several = model.bodies().len() > 1 && ties == Ties::Held;
     if several {
         contacts.compute(model, p, v);
     }

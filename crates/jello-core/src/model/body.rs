@@ -21,6 +21,9 @@
 use std::ops::Range;
 
 use crate::model::error::ModelError;
+use std::sync::{Arc, OnceLock};
+
+use crate::model::contact_surface::ContactSurface;
 use crate::model::lattice::{Lattice, SpringKind, STENCIL};
 use crate::model::skin::Skin;
 use crate::model::springs::{Spring, SpringScale, SpringTable, Springs};
@@ -122,6 +125,30 @@ pub struct Body {
     pub skin: Option<Skin>,
     /// Flat index of the body's first point in the model's point arrays (set by the model).
     pub(crate) first: usize,
+    /// The surface other bodies touch, computed when first asked for (see
+    /// [`Body::contact_surface`]).
+    contact: ContactCache,
+}
+
+/// A body's [`ContactSurface`], computed once, when contact first asks for it: derived from the
+/// body, so it plays no part in comparing bodies.
+#[derive(Clone, Default)]
+struct ContactCache(OnceLock<Arc<ContactSurface>>);
+
+impl PartialEq for ContactCache {
+    fn eq(&self, _: &Self) -> bool {
+        true
+    }
+}
+
+impl std::fmt::Debug for ContactCache {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(if self.0.get().is_some() {
+            "ContactCache(computed)"
+        } else {
+            "ContactCache(not yet)"
+        })
+    }
 }
 
 /// The identity rotation.
@@ -161,6 +188,7 @@ impl Body {
             rotation: IDENTITY,
             skin: None,
             first: 0,
+            contact: ContactCache::default(),
         }
     }
 
@@ -249,7 +277,16 @@ impl Body {
     /// The same body carrying `skin` (embedded in this lattice).
     pub fn with_skin(mut self, skin: Skin) -> Self {
         self.skin = Some(skin);
+        self.contact = ContactCache::default();
         self
+    }
+
+    /// The surface other bodies touch: its samples and its signed distances at rest (see
+    /// [`crate::model::contact_surface`]), computed on the first call.
+    pub fn contact_surface(&self) -> &ContactSurface {
+        self.contact
+            .0
+            .get_or_init(|| Arc::new(ContactSurface::new(self)))
     }
 
     /// The lattice.

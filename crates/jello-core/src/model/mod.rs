@@ -17,6 +17,7 @@
 //! - [`defaults`]: the classic world's values; [`error`]: [`ModelError`] and shared checks.
 
 pub mod body;
+pub mod contact_surface;
 pub mod defaults;
 pub mod error;
 pub mod field;

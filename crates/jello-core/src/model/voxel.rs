@@ -266,7 +266,7 @@ fn bounds(vertices: &[Vec3], triangles: &[[u32; 3]]) -> (Vec3, Vec3) {
 /// (lower index first) and negated for the other direction, so two triangles sharing an edge
 /// see exactly opposite values; a ray exactly on an edge or a vertex is given to one triangle
 /// by the top-left rule.
-fn ray_crossing(vertices: &[Vec3], t: [u32; 3], y: f64, z: f64) -> Option<(f64, i32)> {
+pub(crate) fn ray_crossing(vertices: &[Vec3], t: [u32; 3], y: f64, z: f64) -> Option<(f64, i32)> {
     let p = t.map(|v| vertices[v as usize]);
     // Edge function of the directed edge a → b at (y, z): positive on the left of it in the
     // (y, z) plane. Computed with the lower vertex index first and negated for the other

@@ -10,59 +10,113 @@
 //! is assembled with the rest (`matrix.rs`).
 
 use crate::compute::soa::Soa;
-use crate::contact::bodies::Pair;
+use crate::contact::bodies::Touch;
 use crate::contact::friction::{self, anchored_surfaces, Anchors};
 use crate::contact::Contacts;
 use crate::model::Model;
 use crate::vec3::Vec3;
 
-/// A damper between two bodies' points that overlap at the step's start: the points, and the
-/// unit vector from the second to the first.
-pub(super) type StartPair = ([u32; 2], Vec3);
+/// How far outside another body (times the largest of the bodies' cells) a sample is held to it
+/// through a step: the most a sample is expected to close in on a surface within one step.
+const MARGIN: f64 = 0.5;
 
-/// The pairs of points of different bodies that overlap at positions `x` (in `x_soa`, through
-/// `contacts`, whose grid this leaves at `x`), with their directions, into `pairs`; none
-/// without collision damping.
-pub(super) fn start_pairs(
+/// The touches a step holds its contacts between bodies to, found at its start `x` (in
+/// `x_soa`): every sample of a body inside another, or less than [`MARGIN`] cells outside it,
+/// with its depth then (negative: the gap), the other body's outward normal and the weights of
+/// the points the force goes to (see [`Contacts::near`]).
+pub(super) fn start_touches(
     model: &Model,
     contacts: &mut Contacts,
     x_soa: &Soa,
-    zero: &Soa,
-    pairs: &mut Vec<StartPair>,
+    touches: &mut Vec<Touch>,
 ) {
-    pairs.clear();
-    if model.bodies().len() < 2 || model.d_collision == 0.0 {
+    touches.clear();
+    if model.bodies().len() < 2 {
         return;
     }
-    contacts.compute(model, x_soa, zero);
-    let (px, py, pz) = (x_soa.x(), x_soa.y(), x_soa.z());
-    let at = |i: usize| Vec3::new(px[i], py[i], pz[i]);
-    for &Pair { a, b, .. } in contacts.pairs() {
-        let d = at(a) - at(b);
-        let l = d.length();
-        if l > 0.0 {
-            pairs.push(([a as u32, b as u32], d / l));
+    let cell = model
+        .bodies()
+        .iter()
+        .map(|b| b.min_spacing())
+        .fold(0.0, f64::max);
+    contacts.near(model, x_soa, MARGIN * cell, touches);
+}
+
+/// A touch's depth (m) at positions `x`, from its depth where it was found, at `x0`: the
+/// sample's displacement into the other body along the normal it had then.
+#[inline]
+fn depth_at(t: &Touch, x: impl Fn(usize) -> Vec3, x0: &[Vec3]) -> f64 {
+    let moved = (t.points.iter().zip(&t.weights)).fold(Vec3::ZERO, |s, (&p, &w)| {
+        s + (x(p as usize) - x0[p as usize]) * w
+    });
+    t.depth - t.normal.dot(moved)
+}
+
+/// The contacts between bodies in an implicit step, at the touches found at its start: for each,
+/// the penalty spring along the normal it had then, `kCollision·depth`, with the depth followed
+/// linearly from there (so that the residual is smooth in the iterate and its derivative is
+/// `A`'s block, `h²·kCollision·nnᵀ`, on the sample's displacement relative to the other body;
+/// a touch whose depth falls to 0 lets go), its sliding friction at the iterate's velocities,
+/// and, where it touched at the start, its damper along that normal. As `force`.
+#[allow(clippy::too_many_arguments)]
+fn add_touches(
+    model: &Model,
+    touches: &[Touch],
+    x: impl Fn(usize) -> Vec3,
+    x0: &[Vec3],
+    v: &[Vec3],
+    free: &[f64],
+    force: &mut [Vec3],
+) {
+    let (kc, dc, mu) = (model.k_collision, model.d_collision, model.friction);
+    for t in touches {
+        let depth = depth_at(t, &x, x0);
+        let w = t.relative(|q| v[q]);
+        let n = t.normal;
+        let mut f = Vec3::ZERO;
+        if depth > 0.0 {
+            f += n * (kc * depth);
+            if mu > 0.0 {
+                let c_max = friction::implicit_cap(t.reduced, model.dt, kc);
+                f += friction::sliding(n, w, mu * kc * depth, c_max);
+            }
+        }
+        if t.depth > 0.0 {
+            f -= n * (dc * n.dot(w));
+        }
+        spread(&t.points, &t.weights, f, free, force);
+    }
+}
+
+/// Adds `f`, the force on a touch's sample, to `force` at its points by their weights (minus
+/// it at the other body's), where they move (`free`).
+fn spread(points: &[u32; 16], weights: &[f64; 16], f: Vec3, free: &[f64], force: &mut [Vec3]) {
+    for (&p, &w) in points.iter().zip(weights) {
+        let p = p as usize;
+        if free[p] != 0.0 {
+            force[p] += f * w;
         }
     }
 }
 
 /// What the residual's force pass leaves out, added to `force` (N per point): friction at the
-/// positions `x_soa` and velocities `v`, and the dampers between bodies along `start_pairs`.
-/// `contacts` is the force pass's, its grid at `x_soa`; `mass` per point (kg), `free` 1 for a
-/// moving point (0: nothing is added to it).
+/// positions `x_soa` and velocities `v`, and the contacts between bodies at `touches` (found
+/// with the points at `x0`). `mass` per point (kg), `free` 1 for a moving point (0: nothing is
+/// added to it).
 #[allow(clippy::too_many_arguments)]
 pub(super) fn add_forces(
     model: &Model,
     anchors: &Anchors,
-    contacts: &Contacts,
-    start_pairs: &[StartPair],
+    touches: &[Touch],
     x_soa: &Soa,
+    x0: &[Vec3],
     v: &[Vec3],
     mass: &[f64],
     free: &[f64],
     force: &mut [Vec3],
 ) {
-    let (kc, dc, mu) = (model.k_collision, model.d_collision, model.friction);
+    let kc = model.k_collision;
+    let dc = model.d_collision;
     let (px, py, pz) = (x_soa.x(), x_soa.y(), x_soa.z());
     let at = |i: usize| Vec3::new(px[i], py[i], pz[i]);
     if anchored_surfaces(model).next().is_some() {
@@ -81,34 +135,40 @@ pub(super) fn add_forces(
             }
         }
     }
-    if model.bodies().len() < 2 {
-        return;
-    }
-    if mu > 0.0 {
-        for &Pair {
-            a,
-            b,
-            reach,
-            reduced,
-        } in contacts.pairs()
-        {
-            let d = at(a) - at(b);
-            let l = d.length();
-            if l > 0.0 {
-                let normal = mu * kc * (reach - l);
-                let c_max = friction::implicit_cap(reduced, model.dt, kc);
-                let f = friction::sliding(d / l, v[a] - v[b], normal, c_max);
-                force[a] += f;
-                force[b] -= f;
-            }
+    add_touches(model, touches, at, x0, v, free, force);
+}
+
+/// A touch's part of `A` at positions `x` and velocities `v` (step `h`): the penalty spring's
+/// `h²·kCollision·nnᵀ` and its friction's while it is in, the damper's `h·dCollision·nnᵀ` where it
+/// touched at the start; `None` when it has none.
+pub(super) fn touch_block(
+    model: &Model,
+    t: &Touch,
+    x: impl Fn(usize) -> Vec3,
+    x0: &[Vec3],
+    v: &[Vec3],
+    h: f64,
+) -> Option<super::sym::Sym> {
+    let (kc, dc, mu) = (model.k_collision, model.d_collision, model.friction);
+    let depth = depth_at(t, x, x0);
+    let n = t.normal;
+    let mut block = [0.0; 6];
+    let mut any = false;
+    if depth > 0.0 {
+        super::sym::add_outer(&mut block, n, h * h * kc);
+        if mu > 0.0 {
+            let c_max = friction::implicit_cap(t.reduced, model.dt, kc);
+            let w = t.relative(|q| v[q]);
+            let tangent = friction::sliding_tangent(n, w, mu * kc * depth, c_max, h);
+            super::matrix::add_tangent(&mut block, n, tangent);
         }
+        any = true;
     }
-    for &([a, b], n) in start_pairs {
-        let (a, b) = (a as usize, b as usize);
-        let f = n * (dc * n.dot(v[a] - v[b]));
-        force[a] -= f;
-        force[b] += f;
+    if t.depth > 0.0 && dc > 0.0 {
+        super::sym::add_outer(&mut block, n, h * dc);
+        any = true;
     }
+    any.then_some(block)
 }
 
 #[cfg(test)]
@@ -308,40 +368,61 @@ mod tests {
         assert_close(&ad, &difference, scale);
     }
 
-    /// `A` is the derivative of `M·g` with contacts between bodies: the penalty springs of the
-    /// pairs that overlap at the iterate and the dampers of those that overlapped at the step's
-    /// start.
+    /// `A` is the derivative of `M·g` with contacts between bodies, held to the touches found at
+    /// the step's start: their penalty springs along the normals they had then (the depth
+    /// followed linearly), and their dampers; each alone (the other's coefficient too small to
+    /// count), for bodies overlapping by a hundredth of a cell, moved rigidly.
     #[test]
     fn a_with_contacts_between_bodies_is_the_derivative_of_the_residual() {
-        let model = ModelBuilder::new()
-            .bodies(vec![
+        let bodies = || {
+            vec![
                 heavy_box([3, 3, 3], Vec3::ZERO),
-                heavy_box([3, 4, 3], Vec3::new(1.5, 0.4, 0.3)),
-            ])
-            .bounds(far())
-            .collision(2000.0, 50.0)
-            .pins([4])
-            .dt(H)
-            .build()
-            .unwrap();
+                heavy_box([3, 4, 3], Vec3::new(1.99, 0.4, 0.3)),
+            ]
+        };
         let mut next = values(9);
         let mut random = || Vec3::new(next(), next(), next());
-        let x0 = State::at_rest(&model).pos;
-        let v: Vec<Vec3> = x0.iter().map(|_| random()).collect();
-        let d: Vec<Vec3> = x0.iter().map(|_| random()).collect();
-        let mut force = ForceScratch::new(&model);
-        let (ad, difference, scale) = derivative(&model, &mut force, &x0, &v, &d);
-        assert_close(&ad, &difference, scale);
-        // The dampers matter: without them `A·d` misses by far more.
-        let mut s = ImplicitScratch::new(&model);
-        s.load(&model);
-        s.start_dampers(&model, &x0);
-        assert!(s.start_pairs.len() >= 4, "{} pairs", s.start_pairs.len());
-        let undamped = model.to_builder().collision(2000.0, 0.0).build().unwrap();
-        let (ad, _, _) = derivative(&undamped, &mut force, &x0, &v, &d);
-        let worst = (ad.iter().zip(&difference))
-            .map(|(&a, &f)| (a - f).max_abs())
-            .fold(0.0, f64::max);
-        assert!(worst > 1e-3 * scale, "{worst} against {scale}");
+        let (first, second) = (random() * 0.2, random() * 0.2);
+        let (d_first, d_second) = (random(), random());
+        for (kc, dc, tolerance) in [(1e-9, 50.0, 1e-6), (2000.0, 1e-9, 1e-6)] {
+            let model = ModelBuilder::new()
+                .bodies(bodies())
+                .bounds(far())
+                .collision(kc, dc)
+                .pins([4])
+                .dt(H)
+                .build()
+                .unwrap();
+            let x0 = State::at_rest(&model).pos;
+            let split = model.body(1).points().start;
+            let rigid = |a: Vec3, b: Vec3| -> Vec<Vec3> {
+                (0..x0.len())
+                    .map(|i| if i < split { a } else { b })
+                    .collect()
+            };
+            let (v, d) = (rigid(first, second), rigid(d_first, d_second));
+            let mut force = ForceScratch::new(&model);
+            let (ad, difference, scale) = derivative(&model, &mut force, &x0, &v, &d);
+            for (p, (&a, &f)) in ad.iter().zip(&difference).enumerate() {
+                assert!(
+                    (a - f).max_abs() <= tolerance * scale,
+                    "kCollision {kc}, point {p}: A·d {a:?}, difference {f:?}"
+                );
+            }
+            if dc > 1.0 {
+                let mut s = ImplicitScratch::new(&model);
+                s.load(&model);
+                s.start_dampers(&model, &x0);
+                let touches = s.start_touches.len();
+                assert!(touches >= 4, "{touches} touches");
+                // The dampers matter: without them `A·d` misses by far more.
+                let undamped = model.to_builder().collision(kc, 0.0).build().unwrap();
+                let (ad, _, _) = derivative(&undamped, &mut force, &x0, &v, &d);
+                let worst = (ad.iter().zip(&difference))
+                    .map(|(&a, &f)| (a - f).max_abs())
+                    .fold(0.0, f64::max);
+                assert!(worst > 1e-3 * scale, "{worst} against {scale}");
+            }
+        }
     }
 }

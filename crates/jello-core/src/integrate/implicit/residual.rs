@@ -80,9 +80,9 @@ pub(super) fn residual(
     contacts::add_forces(
         model,
         force.anchors(),
-        force.contacts(),
-        &s.start_pairs,
+        &s.start_touches,
         &s.x_soa,
+        &s.touched_at,
         v,
         &s.mass,
         &s.free,

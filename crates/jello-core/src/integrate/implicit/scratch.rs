@@ -3,7 +3,6 @@
 //! the step's start).
 
 use super::cg::sum_chunks;
-use super::contacts::StartPair;
 use super::gmres::Gmres;
 use super::matrix::can_swirl;
 use super::multigrid::Multigrid;
@@ -12,6 +11,7 @@ use super::stencil::SpringMatrix;
 use super::sym::{add_outer, Sym};
 use super::SolverStats;
 use crate::compute::soa::Soa;
+use crate::contact::bodies::Touch;
 use crate::contact::Contacts;
 use crate::model::body::Body;
 use crate::model::Model;
@@ -79,8 +79,11 @@ pub struct ImplicitScratch {
     /// Per point: the damping matrix `dCollision·Σ n nᵀ` of the walls, plane and obstacles it is
     /// in at the step's start.
     pub(super) start_damping: Vec<Sym>,
-    /// The dampers between bodies: the pairs of points that overlap at the step's start.
-    pub(super) start_pairs: Vec<StartPair>,
+    /// The dampers between bodies: the samples that touch another body at the step's start.
+    pub(super) start_touches: Vec<Touch>,
+    /// Where the points were when the touches were found (the start of a backward-Euler step,
+    /// the predicted middle of an SDIRK2 step): the touches' depths are followed from there.
+    pub(super) touched_at: Vec<Vec3>,
     /// Per point: the walls', plane's, obstacles' and pulls' part of `A`, then the inverse of the
     /// diagonal block.
     pub(super) extra: Vec<Sym>,
@@ -201,7 +204,14 @@ impl ImplicitScratch {
             kept_across: 0,
             keep_across: None,
             start_damping: vec![[0.0; 6]; n],
-            start_pairs: Vec::with_capacity(if several { 8 * n } else { 0 }),
+            touched_at: vec![Vec3::ZERO; if several { n } else { 0 }],
+            start_touches: Vec::with_capacity(if several {
+                (model.bodies().iter())
+                    .map(|b| b.contact_surface().sample_count())
+                    .sum()
+            } else {
+                0
+            }),
             extra: vec![[0.0; 6]; n],
             diag_inv: vec![[0.0; 6]; n],
             v: zeros.clone(),
@@ -346,10 +356,11 @@ impl ImplicitScratch {
             for (i, p) in x0.iter().enumerate() {
                 (xx[i], xy[i], xz[i]) = (p.x, p.y, p.z);
             }
-            let (contacts, pairs) = (&mut self.contacts, &mut self.start_pairs);
-            super::contacts::start_pairs(model, contacts, &self.x_soa, &self.v_soa, pairs);
+            let (contacts, touches) = (&mut self.contacts, &mut self.start_touches);
+            super::contacts::start_touches(model, contacts, &self.x_soa, touches);
+            self.touched_at.copy_from_slice(x0);
         } else {
-            self.start_pairs.clear();
+            self.start_touches.clear();
         }
         self.springs.start_dampers(x0, &mut self.start_dir);
         for ((d, &p), &free) in self.start_damping.iter_mut().zip(x0).zip(&self.free) {

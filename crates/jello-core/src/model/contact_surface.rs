@@ -1,0 +1,566 @@
+//! The surfaces bodies touch each other with. Per body:
+//!
+//! - its **samples**: the points of its surface that press on other bodies, each embedded in one
+//!   of its cells by its place there (the skin's vertices, for a body made from a mesh; else the
+//!   lattice points on its cage's surface), so that it moves with the cell's eight corners;
+//! - the **signed distance** at rest from each of its lattice points to its surface (its skin,
+//!   else its cage's surface): negative inside, interpolated trilinearly over a cell as the cell
+//!   deforms, so that "how deep is this point inside that body, and which way is out" is a
+//!   lookup in the cell the point is in.
+//!
+//! A sample of one body inside a cell of another where that body's interpolated distance is
+//! negative touches it: its depth is the distance over the gradient's length (the distance to
+//! the zero level, to first order, as the cell is deformed), its normal the gradient's direction.
+//! So bodies touch skin to skin, at any resolution, rather than a lattice spacing apart.
+
+use crate::model::body::Body;
+use crate::model::lattice::Lattice;
+use crate::model::voxel::ray_crossing;
+use crate::vec3::Vec3;
+
+/// Points of the distance grid per lattice spacing: a body of one cell across still has a
+/// point in its middle, below its surface.
+pub(crate) const REFINE: usize = 2;
+
+/// The eight corners of a cell as offsets `(a, b, c)`, in the order of [`weights`].
+pub(crate) const CORNERS: [[usize; 3]; 8] = [
+    [0, 0, 0],
+    [0, 0, 1],
+    [0, 1, 0],
+    [0, 1, 1],
+    [1, 0, 0],
+    [1, 0, 1],
+    [1, 1, 0],
+    [1, 1, 1],
+];
+
+/// The trilinear weights of the corners of a cell (in the order of [`CORNERS`]) at its place
+/// `(u, v, w)`.
+#[inline]
+pub(crate) fn weights([u, v, w]: [f64; 3]) -> [f64; 8] {
+    let f = |s: usize, t: f64| if s == 1 { t } else { 1.0 - t };
+    CORNERS.map(|[a, b, c]| f(a, u) * f(b, v) * f(c, w))
+}
+
+/// The derivatives of the trilinear weights along u, v and w, per corner.
+#[inline]
+fn weight_derivatives([u, v, w]: [f64; 3]) -> [[f64; 3]; 8] {
+    let f = |s: usize, t: f64| if s == 1 { t } else { 1.0 - t };
+    let d = |s: usize| if s == 1 { 1.0 } else { -1.0 };
+    CORNERS.map(|[a, b, c]| {
+        [
+            d(a) * f(b, v) * f(c, w),
+            f(a, u) * d(b) * f(c, w),
+            f(a, u) * f(b, v) * d(c),
+        ]
+    })
+}
+
+/// A point of a body's surface, embedded in one of its cells: the cell's lower corner (a
+/// lattice index of the body) and the point's place in it, each coordinate in `[0, 1]`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Sample {
+    pub(crate) corner: u32,
+    pub(crate) local: [f64; 3],
+}
+
+/// What contact needs of one body's surface (see the module documentation).
+#[derive(Clone, Debug, Default)]
+pub struct ContactSurface {
+    /// The points that press on other bodies.
+    pub(crate) samples: Vec<Sample>,
+    /// The signed distance at rest to the body's surface (m; negative inside; clamped two cell
+    /// diagonals deep) on a grid [`REFINE`] times as fine as the lattice (points per axis
+    /// `refined`), so that a body one cell thick still has an inside; 0 outside its kept cells.
+    pub(crate) distance: Vec<f64>,
+    pub(crate) refined: [usize; 3],
+    /// The kept cells, as the lattice indices of their lower corners, in flat order.
+    pub(crate) cells: Vec<u32>,
+    /// Flat-index offsets of a cell's corners from its lower corner, in the order of
+    /// [`CORNERS`].
+    pub(crate) offsets: [usize; 8],
+}
+
+impl ContactSurface {
+    /// How many points of the surface press on other bodies.
+    pub fn sample_count(&self) -> usize {
+        self.samples.len()
+    }
+
+    /// The interpolated distance in the cell whose lower corner is lattice point `corner`, at
+    /// its place `uvw`, and its gradient over `(u, v, w)`.
+    #[inline]
+    pub(crate) fn distance_in(&self, [ci, cj, ck]: [usize; 3], uvw: [f64; 3]) -> (f64, [f64; 3]) {
+        let r = REFINE as f64;
+        let sub = uvw.map(|u| ((u * r).floor() as usize).min(REFINE - 1));
+        let t = [0, 1, 2].map(|a| uvw[a] * r - sub[a] as f64);
+        let [_, ry, rz] = self.refined;
+        let base = ((REFINE * ci + sub[0]) * ry + REFINE * cj + sub[1]) * rz + REFINE * ck + sub[2];
+        let d = CORNERS.map(|[a, b, c]| self.distance[base + (a * ry + b) * rz + c]);
+        let w = weights(t);
+        let phi = d.iter().zip(w).map(|(d, w)| d * w).sum();
+        let mut g = [0.0; 3];
+        for (d, dw) in d.iter().zip(weight_derivatives(t)) {
+            for (g, dw) in g.iter_mut().zip(dw) {
+                *g += d * dw * r;
+            }
+        }
+        (phi, g)
+    }
+
+    /// The surface of `body`.
+    pub(crate) fn new(body: &Body) -> Self {
+        let lattice = body.lattice();
+        let [nx, ny, nz] = lattice.counts;
+        let kept = |i: usize, j: usize, k: usize| match body.cells() {
+            Some(cells) => cells[(i * (ny - 1) + j) * (nz - 1) + k],
+            None => true,
+        };
+        let mut cells = Vec::new();
+        if nx > 1 && ny > 1 && nz > 1 {
+            for i in 0..nx - 1 {
+                for j in 0..ny - 1 {
+                    for k in 0..nz - 1 {
+                        if kept(i, j, k) {
+                            cells.push(lattice.index(i, j, k) as u32);
+                        }
+                    }
+                }
+            }
+        }
+        if cells.is_empty() {
+            // A body without volume (a point, a row, a sheet one point thick): its points press
+            // on other bodies, each a sample on its own (all eight "corners" the point itself),
+            // and nothing is inside it.
+            return ContactSurface {
+                samples: (0..lattice.len() as u32)
+                    .map(|corner| Sample {
+                        corner,
+                        local: [0.0; 3],
+                    })
+                    .collect(),
+                offsets: [0; 8],
+                ..ContactSurface::default()
+            };
+        }
+        let offsets = CORNERS.map(|[a, b, c]| (a * ny + b) * nz + c);
+        // The surface at rest, in the lattice's own frame (placement turns and moves it, which
+        // changes no distance): the skin, else the cage's surface.
+        let rest = lattice.rest_positions();
+        let (vertices, triangles, samples) = match &body.skin {
+            Some(skin) => {
+                let mut vertices = vec![Vec3::ZERO; skin.len()];
+                skin.positions(&rest, &mut vertices);
+                let mut samples: Vec<Sample> = (skin.corner.iter().zip(&skin.local))
+                    .map(|(&corner, &local)| Sample { corner, local })
+                    .collect();
+                // Triangles larger than half a cell get points inside too, so that another
+                // body's corner cannot slip through a face between its vertices.
+                let h = lattice.spacing();
+                let spacing = 0.5 * h.x.min(h.y).min(h.z);
+                for t in &skin.triangles {
+                    let [a, b, c] = t.map(|v| vertices[v as usize]);
+                    let longest = (b - a).length().max((c - b).length()).max((a - c).length());
+                    let parts = (longest / spacing).ceil() as usize;
+                    for i in 0..=parts {
+                        for j in 0..=parts - i {
+                            let k = parts - i - j;
+                            // The vertices themselves (a part of 1) are samples already.
+                            if i == parts || j == parts || k == parts {
+                                continue;
+                            }
+                            let (u, v) = (i as f64 / parts as f64, j as f64 / parts as f64);
+                            let p = a + (b - a) * u + (c - a) * v;
+                            samples.extend(embed(&lattice, p, &kept));
+                        }
+                    }
+                }
+                (vertices, skin.triangles.clone(), samples)
+            }
+            None => {
+                let triangles = body.surface_triangles();
+                let mut on_surface = vec![false; lattice.len()];
+                for t in &triangles {
+                    for &p in t {
+                        on_surface[p as usize] = true;
+                    }
+                }
+                let samples = (0..lattice.len())
+                    .filter(|&p| on_surface[p])
+                    .filter_map(|p| cage_sample(&lattice, p, &kept))
+                    .collect();
+                (rest.clone(), triangles, samples)
+            }
+        };
+        let reach = 2.0 * lattice.spacing().length();
+        let (refined, distance) = signed_distances(&lattice, &cells, &vertices, &triangles, reach);
+        ContactSurface {
+            samples,
+            distance,
+            refined,
+            cells,
+            offsets,
+        }
+    }
+}
+
+/// A point `p` of the body at rest (the lattice's frame) as a sample: in the kept cell that
+/// holds it (the first, where it is on a face between cells), `None` when none does.
+fn embed(
+    lattice: &Lattice,
+    p: Vec3,
+    kept: &impl Fn(usize, usize, usize) -> bool,
+) -> Option<Sample> {
+    let h = lattice.spacing().to_array();
+    let q = p.to_array();
+    let cells = lattice.counts.map(|n| n.saturating_sub(1));
+    // The cells along each axis that hold the coordinate: one, or two on a plane between.
+    let candidates = |a: usize| {
+        let x = q[a] / h[a];
+        let i = (x.floor().max(0.0) as usize).min(cells[a].saturating_sub(1));
+        let on_plane = x == x.floor() && i > 0 && x.floor() as usize == i;
+        if on_plane {
+            [i, i - 1]
+        } else {
+            [i, i]
+        }
+    };
+    let (ci, cj, ck) = (candidates(0), candidates(1), candidates(2));
+    for &i in &ci {
+        for &j in &cj {
+            for &k in &ck {
+                if kept(i, j, k) {
+                    let local = [0, 1, 2].map(|a| {
+                        let c = [i, j, k][a];
+                        ((q[a] - c as f64 * h[a]) / h[a]).clamp(0.0, 1.0)
+                    });
+                    return Some(Sample {
+                        corner: lattice.index(i, j, k) as u32,
+                        local,
+                    });
+                }
+            }
+        }
+    }
+    None
+}
+
+/// Lattice point `p` as a sample: embedded in the first kept cell that has it as a corner.
+fn cage_sample(
+    lattice: &Lattice,
+    p: usize,
+    kept: &impl Fn(usize, usize, usize) -> bool,
+) -> Option<Sample> {
+    let [i, j, k] = lattice.coords(p);
+    let [nx, ny, nz] = lattice.counts;
+    CORNERS.iter().find_map(|&[a, b, c]| {
+        let (ci, cj, ck) = (i.checked_sub(a)?, j.checked_sub(b)?, k.checked_sub(c)?);
+        if ci + 1 >= nx || cj + 1 >= ny || ck + 1 >= nz || !kept(ci, cj, ck) {
+            return None;
+        }
+        Some(Sample {
+            corner: lattice.index(ci, cj, ck) as u32,
+            local: [a as f64, b as f64, c as f64],
+        })
+    })
+}
+
+/// The signed distance (m) to the closed surface `vertices` / `triangles` at the points of a
+/// grid [`REFINE`] times as fine as `lattice`, in the kept cells `cells` (their lower corners'
+/// lattice indices): negative inside; `−reach` for a point further than `reach` from the surface
+/// (inside: every point of a kept cell is within a cell's diagonal of the solid); 0 outside the
+/// kept cells. Returns the grid's points per axis and the distances.
+fn signed_distances(
+    lattice: &Lattice,
+    cells: &[u32],
+    vertices: &[Vec3],
+    triangles: &[[u32; 3]],
+    reach: f64,
+) -> ([usize; 3], Vec<f64>) {
+    let refined = lattice.counts.map(|n| REFINE * (n - 1).max(0) + 1);
+    let [rx, ry, rz] = refined;
+    let index = |i: usize, j: usize, k: usize| (i * ry + j) * rz + k;
+    let h = lattice.spacing() * (1.0 / REFINE as f64);
+    let at =
+        |i: usize, j: usize, k: usize| Vec3::new(i as f64 * h.x, j as f64 * h.y, k as f64 * h.z);
+    // The grid's points in kept cells.
+    let mut used = vec![false; rx * ry * rz];
+    for &c in cells {
+        let [ci, cj, ck] = lattice.coords(c as usize).map(|x| REFINE * x);
+        for i in ci..=ci + REFINE {
+            for j in cj..=cj + REFINE {
+                for k in ck..=ck + REFINE {
+                    used[index(i, j, k)] = true;
+                }
+            }
+        }
+    }
+    // Unsigned distance, through a grid of the triangles' boxes with cells of side `reach`.
+    let mut distance = vec![0.0; rx * ry * rz];
+    let inv = 1.0 / reach;
+    let cell_of = |p: Vec3| (p * inv).to_array().map(|c| c.floor() as i64);
+    let mut buckets: std::collections::HashMap<[i64; 3], Vec<u32>> =
+        std::collections::HashMap::new();
+    for (t, tri) in triangles.iter().enumerate() {
+        let [a, b, c] = tri.map(|v| vertices[v as usize]);
+        let (lo, hi) = (cell_of(a.min(b).min(c)), cell_of(a.max(b).max(c)));
+        for x in lo[0]..=hi[0] {
+            for y in lo[1]..=hi[1] {
+                for z in lo[2]..=hi[2] {
+                    buckets.entry([x, y, z]).or_default().push(t as u32);
+                }
+            }
+        }
+    }
+    let mut crossings: Vec<(f64, i32)> = Vec::new();
+    for j in 0..ry {
+        for k in 0..rz {
+            // Sign: a ray along +x through the row, counting the crossings past each point (a
+            // point exactly on the surface has distance 0, whatever its sign).
+            let (y, z) = (j as f64 * h.y, k as f64 * h.z);
+            crossings.clear();
+            crossings.extend(
+                triangles
+                    .iter()
+                    .filter_map(|&t| ray_crossing(vertices, t, y, z)),
+            );
+            for i in 0..rx {
+                let p = index(i, j, k);
+                if !used[p] {
+                    continue;
+                }
+                let q = at(i, j, k);
+                let c = cell_of(q);
+                let mut best = f64::INFINITY;
+                for dx in -1..=1 {
+                    for dy in -1..=1 {
+                        for dz in -1..=1 {
+                            let key = [c[0] + dx, c[1] + dy, c[2] + dz];
+                            for &t in buckets.get(&key).map_or(&[][..], |l| &l[..]) {
+                                let [a, b, c] = triangles[t as usize].map(|v| vertices[v as usize]);
+                                best = best.min(point_triangle_distance_squared(q, a, b, c));
+                            }
+                        }
+                    }
+                }
+                let unsigned = best.sqrt().min(reach);
+                let winding: i32 = crossings.iter().filter(|c| c.0 > q.x).map(|c| c.1).sum();
+                distance[p] = if winding != 0 { -unsigned } else { unsigned };
+            }
+        }
+    }
+    (refined, distance)
+}
+
+/// The squared distance from `p` to the triangle `a b c` (Ericson, "Real-Time Collision
+/// Detection", 5.1.5: the closest point by the region of the triangle it falls in).
+fn point_triangle_distance_squared(p: Vec3, a: Vec3, b: Vec3, c: Vec3) -> f64 {
+    let (ab, ac, ap) = (b - a, c - a, p - a);
+    let (d1, d2) = (ab.dot(ap), ac.dot(ap));
+    if d1 <= 0.0 && d2 <= 0.0 {
+        return ap.length_squared();
+    }
+    let bp = p - b;
+    let (d3, d4) = (ab.dot(bp), ac.dot(bp));
+    if d3 >= 0.0 && d4 <= d3 {
+        return bp.length_squared();
+    }
+    let vc = d1 * d4 - d3 * d2;
+    if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
+        let t = d1 / (d1 - d3);
+        return (p - (a + ab * t)).length_squared();
+    }
+    let cp = p - c;
+    let (d5, d6) = (ab.dot(cp), ac.dot(cp));
+    if d6 >= 0.0 && d5 <= d6 {
+        return cp.length_squared();
+    }
+    let vb = d5 * d2 - d1 * d6;
+    if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 {
+        let t = d2 / (d2 - d6);
+        return (p - (a + ac * t)).length_squared();
+    }
+    let va = d3 * d6 - d5 * d4;
+    if va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0 {
+        let t = (d4 - d3) / ((d4 - d3) + (d5 - d6));
+        return (p - (b + (c - b) * t)).length_squared();
+    }
+    let denom = 1.0 / (va + vb + vc);
+    let (v, w) = (vb * denom, vc * denom);
+    (p - (a + ab * v + ac * w)).length_squared()
+}
+
+/// Where a point of another body is inside a deformed cell: its place `(u, v, w)` in the cell
+/// (found by Newton's method on the trilinear map), and the inverse transpose of the map's
+/// derivative there (to turn gradients over `(u, v, w)` into gradients in space). `None` when it
+/// is not in the cell (by more than a rounding) or the cell is degenerate there.
+pub(crate) fn locate(corners: &[Vec3; 8], p: Vec3) -> Option<([f64; 3], [Vec3; 3])> {
+    locate_near(corners, p, 0.0)
+}
+
+/// [`locate`], also for a point outside the cell by up to `slack` of its size along each of
+/// `(u, v, w)`: its place then lies outside `[0, 1]³`, where the trilinear map extends.
+pub(crate) fn locate_near(
+    corners: &[Vec3; 8],
+    p: Vec3,
+    slack: f64,
+) -> Option<([f64; 3], [Vec3; 3])> {
+    let map = |uvw: [f64; 3]| {
+        let w = weights(uvw);
+        corners
+            .iter()
+            .zip(w)
+            .fold(Vec3::ZERO, |s, (&c, w)| s + c * w)
+    };
+    let jacobian = |uvw: [f64; 3]| {
+        let d = weight_derivatives(uvw);
+        let mut j = [Vec3::ZERO; 3];
+        for (c, d) in corners.iter().zip(d) {
+            for (col, dk) in j.iter_mut().zip(d) {
+                *col += *c * dk;
+            }
+        }
+        j // columns: ∂x/∂u, ∂x/∂v, ∂x/∂w
+    };
+    // The cell's size, to judge the residual by.
+    let size = (corners[7] - corners[0]).length() + (corners[6] - corners[1]).length();
+    let mut uvw = [0.5; 3];
+    let mut converged = false;
+    for _ in 0..MAX_LOCATE {
+        let r = p - map(uvw);
+        if r.length() <= 1e-12 * size {
+            converged = true;
+            break;
+        }
+        let inverse = inverse_columns(jacobian(uvw))?;
+        // Δ = J⁻¹ r, with the rows of J⁻¹ as `inverse`.
+        let delta = inverse.map(|row| row.dot(r));
+        for (u, d) in uvw.iter_mut().zip(delta) {
+            *u += d;
+        }
+        // Far outside the cell: not in it (Newton's method may wander off there).
+        if uvw
+            .iter()
+            .any(|u| !(-1.0 - slack..=2.0 + slack).contains(u))
+        {
+            return None;
+        }
+    }
+    let slack = slack + 1e-9;
+    if !converged || uvw.iter().any(|&u| !(-slack..=1.0 + slack).contains(&u)) {
+        return None;
+    }
+    let uvw = uvw.map(|u| u.clamp(-slack, 1.0 + slack));
+    // J⁻ᵀ: its columns are the rows of J⁻¹.
+    let rows = inverse_columns(jacobian(uvw))?;
+    Some((uvw, rows))
+}
+
+/// Newton iterations of [`locate`] at most (a point in a cell is found in four or five).
+const MAX_LOCATE: usize = 16;
+
+/// The rows of the inverse of the matrix with columns `c`, or `None` when it is singular.
+fn inverse_columns(c: [Vec3; 3]) -> Option<[Vec3; 3]> {
+    let (r0, r1, r2) = (c[1].cross(c[2]), c[2].cross(c[0]), c[0].cross(c[1]));
+    let det = c[0].dot(r0);
+    if !(det.abs() > 1e-300) || !det.is_finite() {
+        return None;
+    }
+    Some([r0 / det, r1 / det, r2 / det])
+}
+
+/// A gradient over `(u, v, w)` turned into one in space, with `rows` the rows of the cell
+/// map's inverse derivative from [`locate`]: `∇ₓφ = J⁻ᵀ ∇ᵤφ`.
+#[inline]
+pub(crate) fn in_space(g: [f64; 3], rows: &[Vec3; 3]) -> Vec3 {
+    rows[0] * g[0] + rows[1] * g[1] + rows[2] * g[2]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::body::Material;
+
+    /// A full box's distances are its cage's: 0 on the faces, minus the distance to the
+    /// nearest face inside (on the grid twice as fine), and its samples are the points of its
+    /// faces.
+    #[test]
+    fn a_box_knows_how_deep_each_of_its_points_is() {
+        let lattice = Lattice::new([5, 4, 6], Vec3::new(0.8, 0.6, 1.0));
+        let body = Body::lattice_box(lattice.clone(), Material::classic());
+        let surface = ContactSurface::new(&body);
+        let [rx, ry, rz] = surface.refined;
+        assert_eq!(surface.refined, [9, 7, 11]);
+        let h = lattice.spacing() * 0.5;
+        let reach = 2.0 * lattice.spacing().length();
+        for i in 0..rx {
+            for j in 0..ry {
+                for k in 0..rz {
+                    let x = Vec3::new(i as f64 * h.x, j as f64 * h.y, k as f64 * h.z);
+                    let want = -[x.x, 0.8 - x.x, x.y, 0.6 - x.y, x.z, 1.0 - x.z]
+                        .into_iter()
+                        .fold(f64::INFINITY, f64::min)
+                        .min(reach);
+                    let got = surface.distance[(i * ry + j) * rz + k];
+                    assert!(
+                        (got - want).abs() < 1e-12,
+                        "({i}, {j}, {k}): {got} against {want}"
+                    );
+                }
+            }
+        }
+        assert_eq!(surface.samples.len(), 5 * 4 * 6 - 3 * 2 * 4);
+    }
+
+    /// A body one cell thick still has an inside: the middle of its cell.
+    #[test]
+    fn a_body_one_cell_thick_has_an_inside() {
+        let lattice = Lattice::new([2, 2, 2], Vec3::new(0.2, 0.2, 0.2));
+        let body = Body::lattice_box(lattice, Material::classic());
+        let surface = ContactSurface::new(&body);
+        let (phi, _) = surface.distance_in([0, 0, 0], [0.5, 0.5, 0.5]);
+        assert!((phi + 0.1).abs() < 1e-12, "{phi}");
+        // Halfway from the bottom face to the middle: half as deep, deeper upward (0.1 m over
+        // half the cell: 0.2 m a unit of w).
+        let (phi, g) = surface.distance_in([0, 0, 0], [0.5, 0.5, 0.25]);
+        assert!((phi + 0.05).abs() < 1e-12, "{phi}");
+        assert!((g[2] + 0.2).abs() < 1e-12, "{g:?}");
+    }
+
+    /// Newton's method finds a point's place in a sheared, stretched cell, and a function
+    /// linear in space comes back with its gradient.
+    #[test]
+    fn a_point_is_located_in_a_deformed_cell() {
+        let corners = CORNERS.map(|[a, b, c]| {
+            let (a, b, c) = (a as f64, b as f64, c as f64);
+            Vec3::new(
+                0.3 + 0.5 * a + 0.1 * b,
+                0.4 * b + 0.05 * a * c,
+                0.6 * c + 0.02 * a * b,
+            )
+        });
+        let uvw = [0.3, 0.7, 0.45];
+        let w = weights(uvw);
+        let p = corners
+            .iter()
+            .zip(w)
+            .fold(Vec3::ZERO, |s, (&c, w)| s + c * w);
+        let (found, rows) = locate(&corners, p).expect("inside");
+        for (f, u) in found.iter().zip(uvw) {
+            assert!((f - u).abs() < 1e-12, "{found:?}");
+        }
+        // φ(x) = x·a composed with the trilinear map is trilinear in (u, v, w): its gradient
+        // over (u, v, w), turned into space, is a.
+        let a = Vec3::new(1.0, -2.0, 0.5);
+        let d = corners.map(|c| c.dot(a));
+        let mut gu = [0.0; 3];
+        for (d, dw) in d.iter().zip(weight_derivatives(found)) {
+            for (g, dw) in gu.iter_mut().zip(dw) {
+                *g += d * dw;
+            }
+        }
+        let g = in_space(gu, &rows);
+        assert!((g - a).max_abs() < 1e-9, "{g:?}");
+        assert!(locate(&corners, Vec3::new(5.0, 0.0, 0.0)).is_none());
+    }
+}
