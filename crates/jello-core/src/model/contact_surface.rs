@@ -20,10 +20,10 @@ use crate::vec3::Vec3;
 
 /// Points of the distance grid per lattice spacing: a body of one cell across still has a
 /// point in its middle, below its surface.
-pub(crate) const REFINE: usize = 2;
+pub const REFINE: usize = 2;
 
 /// The eight corners of a cell as offsets `(a, b, c)`, in the order of [`weights`].
-pub(crate) const CORNERS: [[usize; 3]; 8] = [
+pub const CORNERS: [[usize; 3]; 8] = [
     [0, 0, 0],
     [0, 0, 1],
     [0, 1, 0],
@@ -81,10 +81,45 @@ pub struct ContactSurface {
     pub(crate) offsets: [usize; 8],
 }
 
+impl Sample {
+    /// The lattice index (of its body) of the lower corner of the cell the sample is in.
+    pub fn corner(&self) -> u32 {
+        self.corner
+    }
+
+    /// The sample's place `(u, v, w)` in its cell, each in `[0, 1]`.
+    pub fn local(&self) -> [f64; 3] {
+        self.local
+    }
+}
+
 impl ContactSurface {
     /// How many points of the surface press on other bodies.
     pub fn sample_count(&self) -> usize {
         self.samples.len()
+    }
+
+    /// The points of the surface that press on other bodies.
+    pub fn samples(&self) -> &[Sample] {
+        &self.samples
+    }
+
+    /// The kept cells, as the lattice indices (of the body) of their lower corners.
+    pub fn cells(&self) -> &[u32] {
+        &self.cells
+    }
+
+    /// Lattice-index offsets of a cell's eight corners from its lower corner, in the order of
+    /// [`CORNERS`].
+    pub fn corner_offsets(&self) -> [usize; 8] {
+        self.offsets
+    }
+
+    /// The signed distance at rest to the surface (m) on its grid [`REFINE`] times as fine as
+    /// the lattice, and that grid's points per axis (flat index `(i·ry + j)·rz + k`); empty for
+    /// a body without cells.
+    pub fn distance_grid(&self) -> (&[f64], [usize; 3]) {
+        (&self.distance, self.refined)
     }
 
     /// The interpolated distance in the cell whose lower corner is lattice point `corner`, at
