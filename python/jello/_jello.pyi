@@ -238,6 +238,7 @@ def create(
     collision_damping: float | None = None,
     friction: float | None = None,
     wall_friction: float | None = None,
+    self_contact: bool = False,
     integrator: str = "RK4",
     dt: float | None = None,
     steps_per_frame: int | None = None,

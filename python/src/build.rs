@@ -463,12 +463,12 @@ pub fn region(
 /// the walls; a field replaces the
 /// default gravity. `bounds=(min, max)` are the walls (default ±2 m); `friction` is the Coulomb
 /// coefficient of obstacles and contacts, `wall_friction` of the walls and the plane (0.5 each by
-/// default).
+/// default); `self_contact=True` lets each body's surface touch its own (off by default).
 #[pyfunction]
 #[pyo3(signature = (
     bodies, *, obstacles = Vec::new(), plane = None, gravity = None, field = None,
     resolution = None, res = None, bounds = None, collision_stiffness = None, collision_damping = None, friction = None,
-    wall_friction = None,
+    wall_friction = None, self_contact = false,
     integrator = "RK4", dt = None, steps_per_frame = None, name = "<scene>"
 ))]
 #[allow(clippy::too_many_arguments)]
@@ -486,6 +486,7 @@ pub fn create(
     collision_damping: Option<f64>,
     friction: Option<f64>,
     wall_friction: Option<f64>,
+    self_contact: bool,
     integrator: &str,
     dt: Option<f64>,
     steps_per_frame: Option<u32>,
@@ -541,6 +542,7 @@ pub fn create(
     if let Some(f) = wall_friction {
         scene.collision.wall_friction = f;
     }
+    scene.collision.self_contact = self_contact;
     // The walls are written out even when they are the default, as `jello create` does.
     let classic = Aabb::classic();
     scene.bounds = Some(match bounds {

@@ -303,7 +303,10 @@ fn the_upper_of_two_stacked_cubes_stays_on_top() {
     // Skin on skin: neither a lattice spacing of air (0.1 m here) nor sunk in, a penalty
     // contact's overlap of well under a millimetre.
     let gap = bottom_of_upper - top_of_lower;
-    assert!(gap.abs() < 0.005, "the upper body rests {gap} m above the lower");
+    assert!(
+        gap.abs() < 0.005,
+        "the upper body rests {gap} m above the lower"
+    );
     let centre = |b: usize| z(b).sum::<f64>() / 125.0;
     assert!(centre(1) > top_of_lower, "the upper stays on top");
     assert!(

@@ -58,7 +58,7 @@ pub fn energy(model: &Model, state: &State) -> Energy {
             * 0.5
             * model.k_collision;
     }
-    if model.bodies().len() > 1 {
+    if model.surfaces_touch() {
         collision += crate::contact::overlap(model, &state.pos).1;
     }
     Energy {

@@ -441,8 +441,14 @@ fn a_cube_dropped_on_another_converges() {
                     panic!("{integrator}, dt {dt}, step {n}: {e}");
                 }
             }
-            let top_of_lower = state.pos[rl.clone()].iter().map(|p| p.y).fold(f64::MIN, f64::max);
-            let bottom_of_upper = state.pos[ru.clone()].iter().map(|p| p.y).fold(f64::MAX, f64::min);
+            let top_of_lower = state.pos[rl.clone()]
+                .iter()
+                .map(|p| p.y)
+                .fold(f64::MIN, f64::max);
+            let bottom_of_upper = state.pos[ru.clone()]
+                .iter()
+                .map(|p| p.y)
+                .fold(f64::MAX, f64::min);
             let gap = bottom_of_upper - top_of_lower;
             assert!(
                 gap.abs() < 0.002,

@@ -65,6 +65,9 @@ pub struct CreateArgs {
     /// Scene: Coulomb friction coefficient of the walls and the inclined plane [default: 0.5].
     #[arg(long, value_name = "MU", value_parser = parse_non_negative)]
     pub wall_friction: Option<f64>,
+    /// Scene: let each body's surface touch its own (a bar bent over, a torus squashed flat).
+    #[arg(long)]
+    pub self_contact: bool,
     /// Mass of each point (kg) [default: 1/512]; per body.
     #[arg(long, value_parser = parse_positive)]
     pub mass: Vec<f64>,
@@ -350,6 +353,7 @@ pub fn create(args: CreateArgs, matches: &clap::ArgMatches) -> Result<(), CliErr
         ("--cube", !args.cube.is_empty()),
         ("--friction", args.friction.is_some()),
         ("--wall-friction", args.wall_friction.is_some()),
+        ("--self-contact", args.self_contact),
         ("--shake", !args.shake.is_empty()),
         ("--region", !args.region.is_empty()),
         ("--cells", !args.cells.is_empty()),

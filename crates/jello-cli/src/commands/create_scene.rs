@@ -253,6 +253,7 @@ pub fn create_scene(args: &CreateArgs, matches: &ArgMatches) -> Result<(), CliEr
         damping: args.d_collision,
         friction: args.friction.unwrap_or(DEFAULT_FRICTION),
         wall_friction: args.wall_friction.unwrap_or(DEFAULT_WALL_FRICTION),
+        self_contact: args.self_contact,
     };
     scene.bounds = Some(BoxSpec {
         min: bounds.min.to_array(),

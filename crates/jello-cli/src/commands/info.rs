@@ -126,6 +126,7 @@ pub fn info(args: InfoArgs) -> Result<(), CliError> {
         "penetration    {:.6e} m (deepest point into a wall or the plane)",
         max_penetration(m, &s.pos)
     );
+    print_contacts(m, &s.pos, &source);
     println!("stable dt      estimate per integrator (stiffest lattice mode at rest, and in this world's initial shape; see docs/cli.md):");
     let (at_rest, initial) = (ModeBounds::at_rest(m), ModeBounds::at(m, &s.pos));
     for integrator in Integrator::ALL {
@@ -232,4 +233,46 @@ fn describe_scaled_springs(body: &jello_core::Body) -> String {
         "               {count} springs with their own values: {}",
         factors.join(", ")
     )
+}
+
+/// The pairs of bodies within a cell of each other, with how deep they overlap or how far apart
+/// they are, and the deepest overlap and the largest gap of them all.
+fn print_contacts(m: &Model, pos: &[jello_core::Vec3], source: &Source) {
+    if !m.surfaces_touch() {
+        return;
+    }
+    let name = |b: usize| match source {
+        Source::Scene(scene) => scene.bodies[b]
+            .name
+            .clone()
+            .unwrap_or_else(|| format!("body{}", b + 1)),
+        Source::World(_) => format!("body{}", b + 1),
+    };
+    let pairs = jello_core::contact::closest(m, pos);
+    if pairs.is_empty() {
+        println!(
+            "bodies         none within a cell of another{}",
+            if m.self_contact { " or of itself" } else { "" }
+        );
+        return;
+    }
+    let deepest = pairs.iter().map(|c| c.depth).fold(0.0f64, f64::max);
+    let widest = pairs.iter().map(|c| -c.depth).fold(0.0f64, f64::max);
+    println!(
+        "bodies         {} pair(s) within a cell of each other: deepest overlap {deepest:.3e} m, largest gap {widest:.3e} m",
+        pairs.len()
+    );
+    for c in &pairs {
+        let [a, b] = c.bodies;
+        let what = if c.depth > 0.0 {
+            format!("overlap {:.3e} m", c.depth)
+        } else {
+            format!("gap {:.3e} m", -c.depth)
+        };
+        if a == b {
+            println!("               {} with itself: {what}", name(a));
+        } else {
+            println!("               {} and {}: {what}", name(a), name(b));
+        }
+    }
 }

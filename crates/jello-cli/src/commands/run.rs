@@ -53,6 +53,10 @@ pub struct RunArgs {
     /// file's `tolerance`, else 1e-9].
     #[arg(long, value_name = "M/S", value_parser = parse_tolerance)]
     pub tolerance: Option<f64>,
+    /// Let each body's surface touch its own (a bar bent over, a torus squashed flat), as a
+    /// scene's `[collision] self_contact = true` does, for this run.
+    #[arg(long)]
+    pub self_contact: bool,
     /// Save the final state as a world file, or as a scene file when running a scene (written
     /// only if the run succeeds).
     #[arg(long, value_name = "OUT.w|OUT.toml")]
@@ -93,6 +97,9 @@ pub fn run(args: RunArgs) -> Result<(), CliError> {
     if let Some(tolerance) = args.tolerance {
         require_implicit(sim.model.integrator, "--tolerance")?;
         sim.model.newton.tolerance = tolerance;
+    }
+    if args.self_contact {
+        sim.model.self_contact = true;
     }
     let name = args.world.display().to_string();
     if let Some(out) = &args.save {

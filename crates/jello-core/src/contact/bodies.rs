@@ -15,17 +15,24 @@
 //! of the point it is at: contacts conserve linear momentum. Every body's samples are tested
 //! against every other body's cells, so two bodies touch on both sides.
 //!
+//! **Self-contact** ([`Model::self_contact`]): a body's samples are also tested against its
+//! own cells that share no corner with the sample's cell (those next to it are the same piece
+//! of surface), by the same law, so a bar bent over or a torus squashed flat meets itself.
+//!
 //! So skins touch: at rest a body sinks into the one under it by its weight over the collision
 //! stiffness of its touching samples, and stands no gap above it. Its limits: a sample moving
 //! through a whole cell of another body in one step can pass through it; edges of one body can
-//! pass between the samples of another (a coarse cage's points are a cell apart); a body does
-//! not touch itself.
+//! pass between the samples of another (a coarse cage's points are a cell apart); a body
+//! without volume (points, a row, a sheet one point thick) presses on others with each of its
+//! points but has no inside, so nothing touches it.
 //!
 //! The cells a sample may be in are found by the broad phase ([`super::broad_phase`]).
 
 use super::broad_phase::BroadPhase;
 use crate::compute::soa::Soa;
-use crate::model::contact_surface::{in_space, locate, locate_near, weights};
+use crate::model::contact_surface::{
+    cell_map, in_space, inverse_rows, locate, locate_near, weights,
+};
 use crate::model::Model;
 use crate::vec3::Vec3;
 
@@ -71,7 +78,7 @@ impl Contacts {
     /// Buffers for `model`; empty (and never used) for a model of one body.
     pub fn new(model: &Model) -> Self {
         let bodies = model.bodies();
-        if bodies.len() < 2 {
+        if !model.surfaces_touch() {
             return Contacts::default();
         }
         let samples: usize = bodies
@@ -89,7 +96,7 @@ impl Contacts {
 
     /// True when the buffers fit `model`.
     pub(crate) fn fits(&self, model: &Model) -> bool {
-        if model.bodies().len() < 2 {
+        if !model.surfaces_touch() {
             return true;
         }
         self.forces.len() == model.point_count() && self.mass.len() == model.bodies().len()
@@ -111,7 +118,7 @@ impl Contacts {
         forces.fill_zero();
         touches.clear();
         let bodies = model.bodies();
-        if bodies.len() < 2 {
+        if !model.surfaces_touch() {
             return;
         }
         let (px, py, pz) = (p.x(), p.y(), p.z());
@@ -134,21 +141,23 @@ impl Contacts {
                     (points[k], w[k]) = ((base + o) as u32, wk);
                     ps += at(base + o) * wk;
                 }
+                let own = body.lattice().coords(sample.corner as usize);
                 grid.find_near(ps, |g| {
                     let b = grid.cell_body[g] as usize;
-                    if b == a {
+                    let corner = grid.cell_corner[g] as usize;
+                    let cell = bodies[b]
+                        .lattice()
+                        .coords(corner - bodies[b].points().start);
+                    if b == a && !(model.self_contact && apart(own, cell)) {
                         return false;
                     }
                     let other = bodies[b].contact_surface();
-                    let corner = grid.cell_corner[g] as usize;
                     let corners = other.offsets.map(|o| at(corner + o));
                     let Some((uvw, rows)) = locate(&corners, ps) else {
                         return false;
                     };
                     // The first cell that holds the sample decides (cells only share faces,
                     // where their distances agree).
-                    let local = corner - bodies[b].points().start;
-                    let cell = bodies[b].lattice().coords(local);
                     let (phi, gu) = other.distance_in(cell, uvw);
                     let gradient = in_space(gu, &rows);
                     let length = gradient.length();
@@ -186,11 +195,12 @@ impl Contacts {
     /// `margin` (m), with their depths (negative: the gap) and the other body's normal and
     /// weights there, each sample once, into `out`: the touches the implicit integrators hold a
     /// step's contacts to (see [`crate::integrate::implicit`]). A sample outside the other
-    /// body's cells is placed by the trilinear map of the nearest, extended.
+    /// body's cells is judged by the nearest of them: its distance there, carried on to the
+    /// sample along its gradient, and its reaction goes to that nearest point.
     pub(crate) fn near(&mut self, model: &Model, p: &Soa, margin: f64, out: &mut Vec<Touch>) {
         out.clear();
         let bodies = model.bodies();
-        if bodies.len() < 2 {
+        if !model.surfaces_touch() {
             return;
         }
         let (px, py, pz) = (p.x(), p.y(), p.z());
@@ -211,29 +221,48 @@ impl Contacts {
                     ps += at(base + o) * wk;
                 }
                 // The cell that holds the sample, else the first near enough.
-                let mut found: Option<Touch> = None;
+                // The cell that holds the sample, else the nearest: the one whose nearest
+                // point is closest to it.
+                let mut found: Option<(f64, Option<Touch>)> = None;
+                let own = body.lattice().coords(sample.corner as usize);
                 grid.find_near(ps, |g| {
                     let b = grid.cell_body[g] as usize;
-                    if b == a {
+                    let corner = grid.cell_corner[g] as usize;
+                    let cell = bodies[b]
+                        .lattice()
+                        .coords(corner - bodies[b].points().start);
+                    if b == a && !(model.self_contact && apart(own, cell)) {
                         return false;
                     }
                     let other = bodies[b].contact_surface();
                     let h = bodies[b].min_spacing();
-                    let corner = grid.cell_corner[g] as usize;
                     let corners = other.offsets.map(|o| at(corner + o));
                     let Some((uvw, rows)) = locate_near(&corners, ps, margin / h) else {
                         return false;
                     };
                     let inside = uvw.iter().all(|u| (0.0..=1.0).contains(u));
-                    if found.is_some() && !inside {
+                    // Outside the cell, the distance is carried on from the cell's nearest
+                    // point along its gradient there (the trilinear map's extension would bend
+                    // it, and the distance's grid ends at the cell).
+                    let (uvw, rows, offset) = if inside {
+                        (uvw, rows, Vec3::ZERO)
+                    } else {
+                        let nearest = uvw.map(|u| u.clamp(0.0, 1.0));
+                        let Some(rows) = inverse_rows(&corners, nearest) else {
+                            return false;
+                        };
+                        (nearest, rows, ps - cell_map(&corners, nearest))
+                    };
+                    let far = offset.length();
+                    if found.as_ref().is_some_and(|(nearest, _)| *nearest <= far) {
                         return false;
                     }
-                    let local = corner - bodies[b].points().start;
-                    let (phi, gu) = other.distance_in(bodies[b].lattice().coords(local), uvw);
+                    let (phi, gu) = other.distance_in(cell, uvw);
                     let gradient = in_space(gu, &rows);
                     let length = gradient.length();
-                    let depth = -phi / length;
+                    let depth = -(phi + gradient.dot(offset)) / length;
                     if !(length > 0.0) || !(depth > -margin) {
+                        found = Some((far, None));
                         return inside;
                     }
                     let mut touch_points = points;
@@ -242,19 +271,27 @@ impl Contacts {
                         (touch_points[8 + k], touch_weights[8 + k]) = ((corner + o) as u32, -wb);
                     }
                     let (ma, mb) = (self.mass[a], self.mass[b]);
-                    found = Some(Touch {
+                    let touch = Touch {
                         points: touch_points,
                         weights: touch_weights,
                         depth,
                         normal: gradient / length,
                         reduced: ma * mb / (ma + mb),
-                    });
+                    };
+                    found = Some((far, Some(touch)));
                     inside
                 });
-                out.extend(found);
+                out.extend(found.and_then(|(_, touch)| touch));
             }
         }
     }
+}
+
+/// True when cells at lattice coordinates `a` and `b` of one body share no corner: a sample in
+/// the one may touch the other under self-contact (neighbouring cells are one surface).
+#[inline]
+fn apart(a: [usize; 3], b: [usize; 3]) -> bool {
+    a.iter().zip(b).any(|(&a, b)| a.abs_diff(b) > 1)
 }
 
 /// The force on a sample `depth` (m) inside another body whose outward normal there is `n`,
@@ -279,7 +316,7 @@ pub fn touch_force(n: Vec3, w: Vec3, depth: f64, [kc, dc, mu, c_max]: [f64; 4]) 
 /// `Σ ½ kCollision depth²` over the samples that touch (J), at positions `pos`: a diagnostic,
 /// never part of stepping.
 pub fn overlap(model: &Model, pos: &[Vec3]) -> (f64, f64) {
-    if model.bodies().len() < 2 {
+    if !model.surfaces_touch() {
         return (0.0, 0.0);
     }
     let mut contacts = Contacts::new(model);
@@ -294,6 +331,51 @@ pub fn overlap(model: &Model, pos: &[Vec3]) -> (f64, f64) {
                 energy + 0.5 * model.k_collision * t.depth * t.depth,
             )
         })
+}
+
+/// How close two bodies' surfaces come (or one body's to itself, under self-contact): a
+/// diagnostic, never part of stepping.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Closest {
+    /// The bodies (indices into the model's; equal for a body touching itself).
+    pub bodies: [usize; 2],
+    /// The deepest any sample of one is inside the other (m), or, when none is inside, minus
+    /// the smallest gap between them: negative is a gap.
+    pub depth: f64,
+}
+
+/// The pairs of bodies at positions `pos` whose surfaces come within a cell of each other (the
+/// larger cell of the model), each once, in order, with how deep they overlap or how far apart
+/// they are (see [`Closest`]).
+pub fn closest(model: &Model, pos: &[Vec3]) -> Vec<Closest> {
+    if !model.surfaces_touch() {
+        return Vec::new();
+    }
+    let cell = model
+        .bodies()
+        .iter()
+        .map(|b| b.min_spacing())
+        .fold(0.0, f64::max);
+    let mut contacts = Contacts::new(model);
+    let mut touches = Vec::new();
+    contacts.near(model, &Soa::from_aos(pos), cell, &mut touches);
+    let mut pairs: Vec<Closest> = Vec::new();
+    for t in &touches {
+        let (a, b) = (
+            model.locate(t.points[0] as usize).0,
+            model.locate(t.points[8] as usize).0,
+        );
+        let bodies = [a.min(b), a.max(b)];
+        match pairs.iter_mut().find(|c| c.bodies == bodies) {
+            Some(c) => c.depth = c.depth.max(t.depth),
+            None => pairs.push(Closest {
+                bodies,
+                depth: t.depth,
+            }),
+        }
+    }
+    pairs.sort_by_key(|c| c.bodies);
+    pairs
 }
 
 #[cfg(test)]
@@ -335,18 +417,20 @@ mod tests {
                     .iter()
                     .zip(wa)
                     .fold(Vec3::ZERO, |s, (&q, w)| s + vel[q] * w);
+                let own = body.lattice().coords(sample.corner as usize);
                 'cells: for (b, other) in bodies.iter().enumerate() {
-                    if b == a {
-                        continue;
-                    }
                     let os = other.contact_surface();
                     for &c in &os.cells {
+                        let cell = other.lattice().coords(c as usize);
+                        if b == a && !(model.self_contact && apart(own, cell)) {
+                            continue;
+                        }
                         let corner = other.points().start + c as usize;
                         let corners = os.offsets.map(|o| pos[corner + o]);
                         let Some((uvw, rows)) = locate(&corners, ps) else {
                             continue;
                         };
-                        let (phi, gu) = os.distance_in(other.lattice().coords(c as usize), uvw);
+                        let (phi, gu) = os.distance_in(cell, uvw);
                         let g = in_space(gu, &rows);
                         if phi < 0.0 && g.length() > 0.0 {
                             let (depth, n) = (-phi / g.length(), g / g.length());
@@ -372,7 +456,8 @@ mod tests {
     }
 
     /// Heaps of 3 to 5 bodies, boxes and lattices with holes of different spacings, deformed
-    /// and moving at random: the grid finds every touch the search over every cell finds.
+    /// and moving at random, some with self-contact: the grid finds every touch the search over
+    /// every cell finds.
     #[test]
     fn the_grid_finds_what_a_search_over_every_cell_finds() {
         let mut next = values(17);
@@ -405,11 +490,15 @@ mod tests {
                 .bounds(Aabb::new(Vec3::new(-9.0, -9.0, -9.0), Vec3::new(9.0, 9.0, 9.0)).unwrap())
                 .collision(400.0, 0.3)
                 .friction(if scene % 2 == 0 { 0.5 } else { 0.0 })
+                .self_contact(scene % 3 == 1)
                 .build()
                 .unwrap();
             let mut pos = State::at_rest(&model).pos;
+            // Every third scene with self-contact, its bodies crumpled so that they meet
+            // themselves.
+            let shake = if scene % 3 == 1 { 0.12 } else { 0.02 };
             for p in &mut pos {
-                *p += Vec3::new(next(), next(), next()) * 0.02;
+                *p += Vec3::new(next(), next(), next()) * shake;
             }
             let vel: Vec<Vec3> = pos
                 .iter()

@@ -2,8 +2,9 @@
 //!
 //! - [`obstacles`]: the penalty law of the walls, the plane and the obstacles (docs/spec.md), and the
 //!   deepest penetration;
-//! - [`bodies`]: contacts between bodies, their penalty law and the overlap diagnostic;
-//! - [`broad_phase`]: the hashed uniform grid that finds the points of other bodies near a point;
+//! - [`bodies`]: contacts between bodies' surfaces (and of a body with itself), their penalty
+//!   law and the overlap diagnostics;
+//! - [`broad_phase`]: the hashed uniform grid that finds the cells of bodies near a point;
 //! - [`friction`]: Coulomb friction, on obstacles (anchored ties) and between bodies (sliding).
 //!
 //! Contact reads the model; the force pass ([`crate::forces`]) and the implicit integrators
@@ -14,5 +15,5 @@ pub mod broad_phase;
 pub mod friction;
 pub mod obstacles;
 
-pub use bodies::{overlap, touch_force, Contacts};
+pub use bodies::{closest, overlap, touch_force, Closest, Contacts};
 pub use obstacles::max_penetration;

@@ -384,11 +384,11 @@ where
     } = scratch;
     let anchors = (!anchors.is_empty() && ties == Ties::Held).then_some(&*anchors);
     // Contacts between bodies first: every chunk's update reads them.
-    let several = model.bodies().len() > 1 && ties == Ties::Held;
-    if several {
+    let touching = model.surfaces_touch() && ties == Ties::Held;
+    if touching {
         contacts.compute(model, p, v);
     }
-    let contact = several.then(|| contacts.forces());
+    let contact = touching.then(|| contacts.forces());
     let mut outs = outs;
     let mut all = true;
     for (

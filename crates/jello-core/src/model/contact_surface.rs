@@ -440,23 +440,8 @@ pub(crate) fn locate_near(
     p: Vec3,
     slack: f64,
 ) -> Option<([f64; 3], [Vec3; 3])> {
-    let map = |uvw: [f64; 3]| {
-        let w = weights(uvw);
-        corners
-            .iter()
-            .zip(w)
-            .fold(Vec3::ZERO, |s, (&c, w)| s + c * w)
-    };
-    let jacobian = |uvw: [f64; 3]| {
-        let d = weight_derivatives(uvw);
-        let mut j = [Vec3::ZERO; 3];
-        for (c, d) in corners.iter().zip(d) {
-            for (col, dk) in j.iter_mut().zip(d) {
-                *col += *c * dk;
-            }
-        }
-        j // columns: ∂x/∂u, ∂x/∂v, ∂x/∂w
-    };
+    let map = |uvw: [f64; 3]| cell_map(corners, uvw);
+    let jacobian = |uvw: [f64; 3]| cell_jacobian(corners, uvw);
     // The cell's size, to judge the residual by.
     let size = (corners[7] - corners[0]).length() + (corners[6] - corners[1]).length();
     let mut uvw = [0.5; 3];
@@ -489,6 +474,33 @@ pub(crate) fn locate_near(
     // J⁻ᵀ: its columns are the rows of J⁻¹.
     let rows = inverse_columns(jacobian(uvw))?;
     Some((uvw, rows))
+}
+
+/// The point of a deformed cell (its corners in the order of [`CORNERS`]) at its place `uvw`.
+#[inline]
+pub(crate) fn cell_map(corners: &[Vec3; 8], uvw: [f64; 3]) -> Vec3 {
+    corners
+        .iter()
+        .zip(weights(uvw))
+        .fold(Vec3::ZERO, |s, (&c, w)| s + c * w)
+}
+
+/// The derivative of a deformed cell's map at `uvw`, as columns `∂x/∂u, ∂x/∂v, ∂x/∂w`.
+#[inline]
+fn cell_jacobian(corners: &[Vec3; 8], uvw: [f64; 3]) -> [Vec3; 3] {
+    let mut j = [Vec3::ZERO; 3];
+    for (c, d) in corners.iter().zip(weight_derivatives(uvw)) {
+        for (col, dk) in j.iter_mut().zip(d) {
+            *col += *c * dk;
+        }
+    }
+    j
+}
+
+/// The rows of the inverse of a deformed cell's map's derivative at `uvw` (as [`locate`] gives
+/// them), or `None` where the cell is degenerate.
+pub(crate) fn inverse_rows(corners: &[Vec3; 8], uvw: [f64; 3]) -> Option<[Vec3; 3]> {
+    inverse_columns(cell_jacobian(corners, uvw))
 }
 
 /// Newton iterations of [`locate`] at most (a point in a cell is found in four or five).

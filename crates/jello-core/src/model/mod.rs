@@ -63,6 +63,11 @@ pub struct Model {
     /// world files, whose walls and plane docs/spec.md gives none), by the same law as the
     /// obstacles'.
     pub wall_friction: f64,
+    /// Whether a body's surface touches its own cells that share no corner with the cell its
+    /// sample is in (a bar bent over, a torus squashed flat), by the law of contacts between
+    /// bodies (see [`crate::contact::bodies`]). Off by default: it costs a search per sample
+    /// for a model of one body.
+    pub self_contact: bool,
     /// The bounding box; points outside it are pushed back by penalty springs.
     pub bounds: Aabb,
     /// The inclined plane, when present.
@@ -123,6 +128,12 @@ impl Model {
             .chain(self.obstacles.iter().filter_map(move |o| o.contact(p)))
     }
 
+    /// True when surfaces may touch: the model has several bodies, or self-contact on (see
+    /// [`crate::contact::bodies`]).
+    pub fn surfaces_touch(&self) -> bool {
+        self.bodies.len() > 1 || self.self_contact
+    }
+
     /// The body that point `p` (flat index) belongs to, and its lattice coordinates there.
     pub fn locate(&self, p: usize) -> (usize, [usize; 3]) {
         let b = self
@@ -156,6 +167,7 @@ impl Model {
             d_collision: self.d_collision,
             friction: self.friction,
             wall_friction: self.wall_friction,
+            self_contact: self.self_contact,
             bounds: self.bounds,
             plane: self.plane,
             obstacles: self.obstacles.clone(),
@@ -180,6 +192,7 @@ pub struct ModelBuilder {
     d_collision: f64,
     friction: f64,
     wall_friction: f64,
+    self_contact: bool,
     bounds: Aabb,
     plane: Option<Plane>,
     obstacles: Vec<Obstacle>,
@@ -202,6 +215,7 @@ impl Default for ModelBuilder {
             d_collision: defaults::D_COLLISION,
             friction: 0.0,
             wall_friction: 0.0,
+            self_contact: false,
             bounds: Aabb::classic(),
             plane: None,
             obstacles: Vec::new(),
@@ -308,6 +322,12 @@ impl ModelBuilder {
     /// classic world): see [`Model::wall_friction`].
     pub fn wall_friction(mut self, mu: f64) -> Self {
         self.wall_friction = mu;
+        self
+    }
+
+    /// Self-contact of each body's surface (default off): see [`Model::self_contact`].
+    pub fn self_contact(mut self, on: bool) -> Self {
+        self.self_contact = on;
         self
     }
 
@@ -478,6 +498,7 @@ impl ModelBuilder {
             d_collision: self.d_collision,
             friction: self.friction,
             wall_friction: self.wall_friction,
+            self_contact: self.self_contact,
             bounds: self.bounds,
             plane: self.plane,
             obstacles: self.obstacles,

@@ -111,6 +111,7 @@ impl SceneFile {
             .collision(self.collision.stiffness, self.collision.damping)
             .friction(self.collision.friction)
             .wall_friction(self.collision.wall_friction)
+            .self_contact(self.collision.self_contact)
             .bounds(bounds)
             .obstacles(obstacles)
             .field(field)

@@ -19,6 +19,7 @@
 //! damping = 0.25              # N·s/m
 //! friction = 0.5              # Coulomb coefficient of obstacles and contacts
 //! wall_friction = 0.5         # and of the walls and the inclined plane
+//! self_contact = false        # whether a body's surface touches its own (a bar bent over)
 //!
 //! [box]                       # the walls
 //! min = [-2.0, -2.0, -2.0]

@@ -79,6 +79,14 @@ pub struct Collision {
     /// Coulomb friction coefficient of the walls and the inclined plane, by the obstacles' law
     /// (the classic worlds' walls have none).
     pub wall_friction: f64,
+    /// Whether each body's surface touches its own (see [`crate::Model::self_contact`]); off
+    /// unless the scene asks, and not written when off.
+    #[serde(skip_serializing_if = "is_false")]
+    pub self_contact: bool,
+}
+
+fn is_false(b: &bool) -> bool {
+    !*b
 }
 
 /// Friction coefficient of a scene that does not give one: about rubbery jelly on a plate.
@@ -102,6 +110,7 @@ impl Default for Collision {
             damping: defaults::D_COLLISION,
             friction: DEFAULT_FRICTION,
             wall_friction: DEFAULT_WALL_FRICTION,
+            self_contact: false,
         }
     }
 }

@@ -31,7 +31,7 @@ pub(super) fn start_touches(
     touches: &mut Vec<Touch>,
 ) {
     touches.clear();
-    if model.bodies().len() < 2 {
+    if !model.surfaces_touch() {
         return;
     }
     let cell = model

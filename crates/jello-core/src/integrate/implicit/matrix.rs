@@ -177,7 +177,8 @@ pub(super) fn assemble(
     for t in &s.start_touches {
         let touched_at = &s.touched_at;
         if let Some(block) =
-            super::contacts::touch_block(model, t, |i| at(i, &s.v), touched_at, &s.v, h) {
+            super::contacts::touch_block(model, t, |i| at(i, &s.v), touched_at, &s.v, h)
+        {
             add_coupling(
                 (&mut s.pair_rows, &mut s.pair_blocks),
                 &t.points,

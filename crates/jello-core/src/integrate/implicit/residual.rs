@@ -130,11 +130,11 @@ fn field_work(s: &ImplicitScratch, h: f64) -> f64 {
     work
 }
 
-/// True when the merit can be the incremental potential: one body (contacts between bodies are
-/// found by a grid the merit does not have) and no friction ties; a field's part is added along
+/// True when the merit can be the incremental potential: no surfaces touching (contacts between
+/// bodies and self-contact are found by a grid the merit does not have) and no friction ties; a field's part is added along
 /// each line (see [`field_work`]).
 pub(super) fn has_potential(model: &Model) -> bool {
-    model.bodies().len() == 1 && (model.friction == 0.0 || model.obstacles.is_empty())
+    !model.surfaces_touch() && (model.friction == 0.0 || model.obstacles.is_empty())
 }
 
 /// How much the incremental potential `½|v − v₀|²_M + ½h·vᵀD₀v + U(x₀ + h·v)` falls from the

@@ -175,7 +175,7 @@ impl ImplicitScratch {
         let n = model.point_count();
         // A step cut back is shorter than `dt`, so swirls less.
         let swirls = can_swirl(model, model.dt);
-        let several = model.bodies().len() > 1;
+        let several = model.surfaces_touch();
         let zeros = vec![Vec3::ZERO; n];
         ImplicitScratch {
             stats: SolverStats::default(),
@@ -351,7 +351,7 @@ impl ImplicitScratch {
     /// matrix, whose product gives the dampers' force in each residual), the contacts each
     /// point is in, and the pairs of points of different bodies that overlap.
     pub(super) fn start_dampers(&mut self, model: &Model, x0: &[Vec3]) {
-        if model.bodies().len() > 1 {
+        if model.surfaces_touch() {
             let [xx, xy, xz] = self.x_soa.parts_mut();
             for (i, p) in x0.iter().enumerate() {
                 (xx[i], xy[i], xz[i]) = (p.x, p.y, p.z);
