@@ -39,19 +39,40 @@ pub struct FrameWriter {
     dir: PathBuf,
     format: FrameFormat,
     surface: Surface,
+    /// Per body: its name, and where its triangles end in the surface's list (OBJ groups).
+    bodies: Vec<(String, usize)>,
     positions: Vec<Vec3>,
     written: usize,
 }
 
 impl FrameWriter {
-    /// Creates `dir` when missing.
-    pub fn new(dir: &Path, format: FrameFormat, model: &Model) -> Result<Self, CliError> {
+    /// Creates `dir` when missing; `names` are the bodies' (OBJ frames group each body's faces
+    /// under its name).
+    pub fn new(
+        dir: &Path,
+        format: FrameFormat,
+        model: &Model,
+        names: Vec<String>,
+    ) -> Result<Self, CliError> {
         std::fs::create_dir_all(dir)
             .map_err(|e| CliError::io(format!("{}: cannot create folder: {e}", dir.display())))?;
+        let surface = Surface::new(model, CageVertices::All);
+        // The surface lists each body's triangles in turn, over its own vertices.
+        let vertices = surface.body_vertices(model);
+        let triangles = surface.triangles();
+        let bodies = names
+            .into_iter()
+            .zip(&vertices)
+            .map(|(name, range)| {
+                let end = triangles.partition_point(|t| (t[0] as usize) < range.end);
+                (name, end)
+            })
+            .collect();
         Ok(FrameWriter {
             dir: dir.to_path_buf(),
             format,
-            surface: Surface::new(model, CageVertices::All),
+            surface,
+            bodies,
             positions: Vec::new(),
             written: 0,
         })
@@ -116,8 +137,13 @@ impl FrameWriter {
         for p in &self.positions {
             let _ = writeln!(s, "v {} {} {}", Num(p.x), Num(p.y), Num(p.z));
         }
-        for [a, b, c] in triangles {
-            let _ = writeln!(s, "f {} {} {}", a + 1, b + 1, c + 1);
+        let mut start = 0;
+        for (name, end) in &self.bodies {
+            let _ = writeln!(s, "o {name}");
+            for [a, b, c] in &triangles[start..*end] {
+                let _ = writeln!(s, "f {} {} {}", a + 1, b + 1, c + 1);
+            }
+            start = *end;
         }
         s
     }

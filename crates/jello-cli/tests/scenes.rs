@@ -357,7 +357,7 @@ fn bad_scene_input_is_a_clear_error_and_leaves_no_file() {
             "create", "x.toml", "--cube", "4", "--at", "0,0,0", "--cube", "4", "--at", "0.1,0,0",
         ],
         1,
-        "interpenetrating",
+        "body 1 (cube1) and body 2 (cube2) start inside each other",
     );
     t.fails(
         &["create", "x.toml", "--cube", "4", "--at", "1.9,0,0"],

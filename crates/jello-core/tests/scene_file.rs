@@ -351,7 +351,12 @@ fn bad_scenes_are_errors_naming_the_line_and_column() {
     );
     // Bodies that start in each other, outside the box, or in an obstacle.
     let two = format!("{cube}centre = [0.0, 0.0, 0.0]\n{cube}centre = [0.2, 0.0, 0.0]\n");
-    assert_error(&two, 0, 0, "bodies start interpenetrating");
+    assert_error(
+        &two,
+        0,
+        0,
+        "body 1 (body1) and body 2 (body2) start inside each other",
+    );
     assert_error(
         &format!("{cube}centre = [1.9, 0.0, 0.0]\n"),
         0,

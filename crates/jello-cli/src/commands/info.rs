@@ -241,13 +241,8 @@ fn print_contacts(m: &Model, pos: &[jello_core::Vec3], source: &Source) {
     if !m.surfaces_touch() {
         return;
     }
-    let name = |b: usize| match source {
-        Source::Scene(scene) => scene.bodies[b]
-            .name
-            .clone()
-            .unwrap_or_else(|| format!("body{}", b + 1)),
-        Source::World(_) => format!("body{}", b + 1),
-    };
+    let names = super::run::body_names(source, m);
+    let name = |b: usize| &names[b];
     let pairs = jello_core::contact::closest(m, pos);
     if pairs.is_empty() {
         println!(

@@ -127,7 +127,12 @@ pub fn run(args: RunArgs) -> Result<(), CliError> {
         Device::Cpu => None,
     };
     let mut frames = match &args.frames {
-        Some(dir) => Some(FrameWriter::new(dir, args.format, &sim.model)?),
+        Some(dir) => Some(FrameWriter::new(
+            dir,
+            args.format,
+            &sim.model,
+            body_names(&source, &sim.model),
+        )?),
         None => None,
     };
 
@@ -284,5 +289,15 @@ mod tests {
         assert_eq!(steps_for(1.0, 0.0005), 2000);
         assert_eq!(steps_for(0.3, 0.1), 3);
         assert_eq!(steps_for(0.35, 0.1), 4);
+    }
+}
+
+/// The bodies' names: a scene's, else `body1`, `body2`, ...
+pub(crate) fn body_names(source: &Source, model: &jello_core::Model) -> Vec<String> {
+    match source {
+        Source::Scene(scene) => scene.body_names(),
+        Source::World(_) => (1..=model.bodies().len())
+            .map(|b| format!("body{b}"))
+            .collect(),
     }
 }

@@ -1,5 +1,5 @@
 //! `jello shape NAME OUT.obj`: writes one of the closed meshes the project makes itself (a torus,
-//! a lumpy blob, a fluted jelly mould) as OBJ, to voxelise with `jello create --mesh`. The example
+//! a lumpy blob, a fluted jelly mould, a sphere, a capsule, an L) as OBJ, to voxelise with `jello create --mesh`. The example
 //! scenes are made from these, so that no third-party model is needed.
 
 use std::path::PathBuf;
@@ -14,8 +14,9 @@ use jello_io::{check_new_output, write_atomic};
 /// Arguments of `jello shape`.
 #[derive(Args, Debug)]
 pub struct ShapeArgs {
-    /// The shape: torus (a ring, genus 1), blob (a lumpy ball) or mould (a fluted jelly mould on
-    /// a flat base); each about 1 m across, centred on the z axis.
+    /// The shape: torus (a ring, genus 1), blob (a lumpy ball), mould (a fluted jelly mould on a
+    /// flat base), sphere, capsule (1 m long along z, 0.5 m across) or ell (an L-shaped block,
+    /// its arms 0.4 m thick, whatever the detail); each about 1 m across, centred on the z axis.
     #[arg(value_parser = clap::builder::PossibleValuesParser::new(SHAPES))]
     pub name: String,
     /// The OBJ file to write.

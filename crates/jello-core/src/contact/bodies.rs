@@ -5,7 +5,7 @@
 //! (samples), and the signed distance at rest of its lattice points to its surface,
 //! interpolated over each cell as the cell deforms. A sample of body A that lies inside a kept
 //! cell of another body B where B's interpolated distance `φ` is negative touches B: it is
-//! `depth = −φ/|∇φ|` inside B's surface, whose outward normal there is `n = ∇φ/|∇φ|`. It is
+//! `depth = −φ/max(|∇φ|, ½)` inside B's surface (see [`MIN_GRADIENT`]), whose outward normal there is `n = ∇φ/|∇φ|`. It is
 //! pushed out by a penalty spring with the model's collision stiffness and damped with its
 //! collision damping, `(kCollision·depth − dCollision (vA − vB)·n)·n`, with `vA − vB` the
 //! velocity of the sample relative to the point of B's cell it is at; across `n` acts Coulomb
@@ -30,9 +30,7 @@
 
 use super::broad_phase::BroadPhase;
 use crate::compute::soa::Soa;
-use crate::model::contact_surface::{
-    cell_map, in_space, inverse_rows, locate, locate_near, weights,
-};
+use crate::model::contact_surface::{cell_map, in_space, locate, locate_near, weights};
 use crate::model::Model;
 use crate::vec3::Vec3;
 
@@ -164,7 +162,7 @@ impl Contacts {
                     if !(phi < 0.0 && length > 0.0) {
                         return true;
                     }
-                    let (depth, n) = (-phi / length, gradient / length);
+                    let (depth, n) = (-phi / length.max(MIN_GRADIENT), gradient / length);
                     for (k, (&o, wb)) in other.offsets.iter().zip(weights(uvw)).enumerate() {
                         (points[8 + k], w[8 + k]) = ((corner + o) as u32, -wb);
                     }
@@ -241,16 +239,12 @@ impl Contacts {
                         return false;
                     };
                     let inside = uvw.iter().all(|u| (0.0..=1.0).contains(u));
-                    // Outside the cell, the distance is carried on from the cell's nearest
-                    // point along its gradient there (the trilinear map's extension would bend
-                    // it, and the distance's grid ends at the cell).
+                    // Outside the cell: apart from it by the distance to its nearest point (the
+                    // surface is inside the cells), along the line to that point.
                     let (uvw, rows, offset) = if inside {
                         (uvw, rows, Vec3::ZERO)
                     } else {
                         let nearest = uvw.map(|u| u.clamp(0.0, 1.0));
-                        let Some(rows) = inverse_rows(&corners, nearest) else {
-                            return false;
-                        };
                         (nearest, rows, ps - cell_map(&corners, nearest))
                     };
                     let far = offset.length();
@@ -258,10 +252,14 @@ impl Contacts {
                         return false;
                     }
                     let (phi, gu) = other.distance_in(cell, uvw);
-                    let gradient = in_space(gu, &rows);
-                    let length = gradient.length();
-                    let depth = -(phi + gradient.dot(offset)) / length;
-                    if !(length > 0.0) || !(depth > -margin) {
+                    let (depth, normal) = if inside {
+                        let gradient = in_space(gu, &rows);
+                        let length = gradient.length();
+                        (-phi / length.max(MIN_GRADIENT), gradient / length)
+                    } else {
+                        (-(phi.max(0.0) + far), offset / far)
+                    };
+                    if !normal.is_finite() || !(depth > -margin) {
                         found = Some((far, None));
                         return inside;
                     }
@@ -275,7 +273,7 @@ impl Contacts {
                         points: touch_points,
                         weights: touch_weights,
                         depth,
-                        normal: gradient / length,
+                        normal,
                         reduced: ma * mb / (ma + mb),
                     };
                     found = Some((far, Some(touch)));
@@ -286,6 +284,12 @@ impl Contacts {
         }
     }
 }
+
+/// The least gradient of the distance (in space) a depth is taken over: the distance over its
+/// gradient's length is the depth to first order as a cell deforms, but at a sharp edge of a
+/// surface the interpolated gradient vanishes with the distance, and where both are roundings
+/// their ratio would be noise.
+const MIN_GRADIENT: f64 = 0.5;
 
 /// True when cells at lattice coordinates `a` and `b` of one body share no corner: a sample in
 /// the one may touch the other under self-contact (neighbouring cells are one surface).
@@ -433,7 +437,7 @@ mod tests {
                         let (phi, gu) = os.distance_in(cell, uvw);
                         let g = in_space(gu, &rows);
                         if phi < 0.0 && g.length() > 0.0 {
-                            let (depth, n) = (-phi / g.length(), g / g.length());
+                            let (depth, n) = (-phi / g.length().max(MIN_GRADIENT), g / g.length());
                             let wb = weights(uvw);
                             let vb = (os.offsets.iter().zip(wb))
                                 .fold(Vec3::ZERO, |s, (&o, w)| s + vel[corner + o] * w);

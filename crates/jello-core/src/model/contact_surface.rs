@@ -497,12 +497,6 @@ fn cell_jacobian(corners: &[Vec3; 8], uvw: [f64; 3]) -> [Vec3; 3] {
     j
 }
 
-/// The rows of the inverse of a deformed cell's map's derivative at `uvw` (as [`locate`] gives
-/// them), or `None` where the cell is degenerate.
-pub(crate) fn inverse_rows(corners: &[Vec3; 8], uvw: [f64; 3]) -> Option<[Vec3; 3]> {
-    inverse_columns(cell_jacobian(corners, uvw))
-}
-
 /// Newton iterations of [`locate`] at most (a point in a cell is found in four or five).
 const MAX_LOCATE: usize = 16;
 

@@ -13,7 +13,7 @@ use super::TriMesh;
 use crate::vec3::Vec3;
 
 /// The shapes [`TriMesh::shape`] makes, by name.
-pub const SHAPES: [&str; 3] = ["torus", "blob", "mould"];
+pub const SHAPES: [&str; 6] = ["torus", "blob", "mould", "sphere", "capsule", "ell"];
 
 impl TriMesh {
     /// A ring doughnut about the z axis, centred on the origin: the tube of radius `minor`
@@ -111,6 +111,71 @@ impl TriMesh {
         })
     }
 
+    /// A sphere of radius 0.5 m centred on the origin: `rings` ≥ 2 rings from pole to pole,
+    /// `segments` ≥ 3 around.
+    pub fn sphere(rings: usize, segments: usize) -> TriMesh {
+        revolved(rings, segments, "sphere", |theta, v| {
+            let (sp, cp) = (PI * v).sin_cos();
+            Vec3::new(0.5 * sp * theta.cos(), 0.5 * sp * theta.sin(), -0.5 * cp)
+        })
+    }
+
+    /// A capsule 1 m long along z and 0.5 m across, centred on the origin: a cylinder of radius
+    /// 0.25 m capped by two half spheres, walked at even steps along its profile from the
+    /// bottom pole to the top one (`rings` ≥ 2 steps, `segments` ≥ 3 around).
+    pub fn capsule(rings: usize, segments: usize) -> TriMesh {
+        const R: f64 = 0.25;
+        let (arc, side) = (0.5 * PI * R, 1.0 - 2.0 * R);
+        let total = 2.0 * arc + side;
+        revolved(rings, segments, "capsule", |theta, v| {
+            let along = v * total;
+            let (r, z) = if along < arc {
+                let a = along / R;
+                (R * a.sin(), -0.5 + R * (1.0 - a.cos()))
+            } else if along <= arc + side {
+                (R, -0.5 + R + (along - arc))
+            } else {
+                let a = (total - along) / R;
+                (R * a.sin(), 0.5 - R * (1.0 - a.cos()))
+            };
+            Vec3::new(r * theta.cos(), r * theta.sin(), z)
+        })
+    }
+
+    /// An L: a block 1 m wide and 1 m tall in x and z, its arms 0.4 m thick, 0.4 m deep in y,
+    /// its bounding box centred on the origin. Flat faces with sharp edges: twelve triangles on
+    /// its two L-shaped faces and its six sides.
+    pub fn ell() -> TriMesh {
+        // The outline in (x, z), counter-clockwise seen with x right and z up.
+        const OUTLINE: [(f64, f64); 6] = [
+            (0.0, 0.0),
+            (1.0, 0.0),
+            (1.0, 0.4),
+            (0.4, 0.4),
+            (0.4, 1.0),
+            (0.0, 1.0),
+        ];
+        let mut vertices = Vec::with_capacity(12);
+        for y in [-0.2, 0.2] {
+            for (x, z) in OUTLINE {
+                vertices.push(Vec3::new(x - 0.5, y, z - 0.5));
+            }
+        }
+        let back = |i: usize| (i + 6) as u32;
+        // The L-shaped faces (front y = −0.2 faces −y, back faces +y), each four triangles
+        // over the outline's corners; then a quad per side.
+        let mut triangles = vec![[0, 1, 2], [0, 2, 3], [0, 3, 4], [0, 4, 5]];
+        for k in 0..4 {
+            let [a, b, c] = triangles[k];
+            triangles.push([back(a as usize), back(c as usize), back(b as usize)]);
+        }
+        for i in 0..6 {
+            let j = (i + 1) % 6;
+            quad(&mut triangles, [i as u32, back(i), back(j), j as u32]);
+        }
+        TriMesh::from_parts(&vertices, &triangles, "ell").expect("an L is a closed surface")
+    }
+
     /// The shape named `name` (one of [`SHAPES`]) at the resolution `detail` (≥ 3: segments
     /// around the z axis are `4·detail`, rings or tube segments `2·detail`), sized about 1 m.
     pub fn shape(name: &str, detail: usize) -> Option<TriMesh> {
@@ -119,6 +184,9 @@ impl TriMesh {
             "torus" => Some(TriMesh::torus(0.35, 0.15, 4 * detail, 2 * detail)),
             "blob" => Some(TriMesh::blob(2 * detail, 4 * detail)),
             "mould" => Some(TriMesh::mould(2 * detail, 4 * detail)),
+            "sphere" => Some(TriMesh::sphere(2 * detail, 4 * detail)),
+            "capsule" => Some(TriMesh::capsule(2 * detail, 4 * detail)),
+            "ell" => Some(TriMesh::ell()),
             _ => None,
         }
     }
@@ -237,6 +305,35 @@ mod tests {
         // Euler characteristic 0: V − E + F with E = 3F/2.
         let (v, f) = (torus.vertices.len() as i64, torus.triangles.len() as i64);
         assert_eq!(v - 3 * f / 2 + f, 0);
+    }
+
+    /// The sphere, the capsule and the L hold the volumes of their closed forms (the polygonal
+    /// ones from below, within the faceting's error; the L exactly).
+    #[test]
+    fn the_sphere_capsule_and_ell_have_their_volumes() {
+        let sphere = TriMesh::sphere(48, 96).volume();
+        let exact = 4.0 / 3.0 * PI * 0.125;
+        assert!(
+            sphere < exact && sphere > 0.995 * exact,
+            "{sphere} against {exact}"
+        );
+        let capsule = TriMesh::capsule(48, 96).volume();
+        let exact = PI * 0.0625 * 0.5 + 4.0 / 3.0 * PI * 0.25f64.powi(3);
+        assert!(
+            capsule < exact && capsule > 0.995 * exact,
+            "{capsule} against {exact}"
+        );
+        let ell = TriMesh::ell();
+        assert!(
+            (ell.volume() - 0.64 * 0.4).abs() < 1e-12,
+            "{}",
+            ell.volume()
+        );
+        let (lo, hi) = ell.bounds();
+        assert_eq!(
+            (lo, hi),
+            (Vec3::new(-0.5, -0.2, -0.5), Vec3::new(0.5, 0.2, 0.5))
+        );
     }
 
     #[test]

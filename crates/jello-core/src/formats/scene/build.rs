@@ -200,7 +200,7 @@ impl SceneFile {
         }
         // A saved state (a run's end) may rest against anything; a scene's start must be clear.
         if self.bodies.iter().all(|b| b.state.is_none()) {
-            check_start(&model, &state).map_err(error)?;
+            check_start(&model, &state, &names).map_err(error)?;
         }
         Ok(Scene {
             model,
@@ -211,8 +211,9 @@ impl SceneFile {
 }
 
 /// 1-based line and column of byte `offset` in `text`.
-/// Bodies must start inside the box, apart from each other, and outside the obstacles.
-fn check_start(model: &Model, state: &State) -> Result<(), String> {
+/// Bodies must start inside the box, apart from each other (their surfaces may touch, up to a
+/// rounding), and outside the obstacles; `names` are the bodies'.
+fn check_start(model: &Model, state: &State, names: &[String]) -> Result<(), String> {
     let bounds = model.bounds;
     for (b, body) in model.bodies().iter().enumerate() {
         let r = body.points();
@@ -237,10 +238,23 @@ fn check_start(model: &Model, state: &State) -> Result<(), String> {
             }
         }
     }
-    let (overlap, _) = crate::contact::overlap(model, &state.pos);
-    if overlap > 0.0 {
+    // Surfaces placed on each other touch but for a rounding.
+    let finest = model
+        .bodies()
+        .iter()
+        .map(|b| b.min_spacing())
+        .fold(f64::INFINITY, f64::min);
+    let pairs = crate::contact::closest(model, &state.pos);
+    if let Some(c) = pairs.iter().find(|c| c.depth > 1e-9 * finest) {
+        let [a, b] = c.bodies.map(|b| format!("body {} ({})", b + 1, names[b]));
+        let what = if a == b {
+            format!("{a} starts inside itself")
+        } else {
+            format!("{a} and {b} start inside each other")
+        };
         return Err(format!(
-            "bodies start interpenetrating (by {overlap:.3e} m, counting each point as a ball of half its lattice spacing); move them apart"
+            "{what} (a point of one surface {:.3e} m inside the other); move them apart",
+            c.depth
         ));
     }
     Ok(())
