@@ -4,8 +4,8 @@
 //! [`GpuSimulation`] takes a model and a state from the f64 core, uploads them once, and steps
 //! on the GPU: one WGSL module ([`SHADER`]), one thread per lattice point, gathers the forces on
 //! the point (its springs, each evaluated at both its ends, so no atomics and the same result on
-//! every run; the field, walls, plane, obstacles with their friction, contacts with other bodies
-//! through a hashed grid rebuilt before every force pass, control forces, pulls and gravity) and
+//! every run; the field, walls, plane, obstacles with their friction, contacts with other bodies,
+//! control forces, pulls and gravity) and
 //! applies one stage of Euler, symplectic Euler, RK2 or RK4. Many steps go into one submission;
 //! the last stage of every step checks the state (finite, not past the escape margin) into a
 //! status word and puts the pins that move on paths where their paths say (from a table of the
@@ -31,8 +31,15 @@
 //! futures exist: the browser viewer steps with them (`jello-wasm`'s `JelloGpu`).
 //!
 //! Layout: `packing` packs a model into the buffers the shader reads, `simulation` drives the
-//! device, and `shader/` holds the WGSL (`model.wgsl`, `stage.wgsl`, `forces.wgsl`, `grid.wgsl`,
-//! `check.wgsl`, `step.wgsl`, `resident.wgsl`).
+//! device, and `shader/` holds the WGSL (`model.wgsl`, `stage.wgsl`, `forces.wgsl`,
+//! `contact.wgsl`, `touch.wgsl`, `check.wgsl`, `step.wgsl`, `resident.wgsl`).
+//!
+//! Contacts between bodies are the core's surface contacts (`jello_core::contact::bodies`):
+//! before every force pass, passes over the bodies' cells and contact samples (`touch.wgsl`)
+//! sort the cells into a hashed grid, find each sample's touch and its force into a record, and
+//! list the touches per cell; each point then gathers the forces of the samples it is a corner
+//! of and of the touches in its cells, in the samples' order. Counting sorts with a sort of each
+//! list after them: no float atomics, and the same bits on every run.
 
 use std::fmt;
 
@@ -48,7 +55,8 @@ pub const SHADER: &str = concat!(
     include_str!("shader/model.wgsl"),
     include_str!("shader/stage.wgsl"),
     include_str!("shader/forces.wgsl"),
-    include_str!("shader/grid.wgsl"),
+    include_str!("shader/contact.wgsl"),
+    include_str!("shader/touch.wgsl"),
     include_str!("shader/check.wgsl"),
     include_str!("shader/step.wgsl"),
 );
@@ -58,7 +66,7 @@ pub const SHADER: &str = concat!(
 pub const RESIDENT_SHADER: &str = concat!(
     include_str!("shader/model.wgsl"),
     include_str!("shader/forces.wgsl"),
-    include_str!("shader/grid.wgsl"),
+    include_str!("shader/contact.wgsl"),
     include_str!("shader/check.wgsl"),
     include_str!("shader/resident.wgsl"),
 );

@@ -1,8 +1,10 @@
 //! A model as the shader reads it (see `shader/model.wgsl`): the uniform block with every body's
 //! stencil, the per-point links and flags, and the scene buffer of obstacles, field nodes,
-//! control forces, per-spring values, friction anchors, and the pins on paths with the table of
-//! their steps. Here is the only place that knows those layouts on the host.
+//! control forces, per-spring values, friction anchors, the pins on paths with the table of
+//! their steps, and the bodies' contact surfaces; and the contact buffer's layout. Here is the
+//! only place that knows those layouts on the host.
 
+use jello_core::model::contact_surface::{CORNERS, REFINE};
 use jello_core::model::lattice::STENCIL;
 use jello_core::{Control, Model, Obstacle, State, Vec3};
 
@@ -44,6 +46,11 @@ struct Header {
     field_res: [u32; 4],
     grid_cell: [f32; 4],
     pins: [u32; 4],
+    contact: [u32; 4],
+    contact_at: [u32; 4],
+    gather_at: [u32; 4],
+    grid_at: [u32; 4],
+    grid_at2: [u32; 4],
 }
 
 /// One body in the uniform block (`Body` in `model.wgsl`).
@@ -120,8 +127,9 @@ pub struct Packed {
     /// does, and the steps it has rows for, which a batch may not exceed (`None` without pins on
     /// paths).
     pub pins: Option<(usize, usize, usize)>,
-    /// Hash buckets of the contact grid (0: a model of one body).
-    pub buckets: usize,
+    /// The contact buffer's layout (`None`: no contacts between bodies, as in a model of one
+    /// body).
+    pub contacts: Option<ContactLayout>,
     /// A uniform field's force (N), added to every point's control force.
     pub uniform_field: Vec3,
     /// The shader's overrides (`ONE_BODY`, `CONTACTS`, ...): what the model has.
@@ -219,12 +227,7 @@ impl Packed {
                 record.damp[e][c] = body.material.damping[*kind as usize] as f32;
             }
             let first = body.points().start;
-            record.material = [
-                body.material.mass as f32,
-                body.contact_radius() as f32,
-                0.0,
-                0.0,
-            ];
+            record.material = [body.material.mass as f32, 0.0, 0.0, 0.0];
             let table = body.spring_table().is_some().then_some(scene.len());
             record.index = [first as u32, table.map_or(NONE, |t| t as u32), 0, 0];
             if table.is_some() {
@@ -280,25 +283,14 @@ impl Packed {
             (points_at, table_at, rows)
         });
 
-        // Contacts between bodies: as many buckets as the core's grid.
-        let buckets = if bodies.len() < 2 {
-            0
-        } else {
-            let active: usize = bodies.iter().map(|b| b.active_count()).sum();
-            let cell = 2.0
-                * bodies
-                    .iter()
-                    .map(|b| b.contact_radius())
-                    .fold(0.0, f64::max);
-            header.grid_cell = [cell as f32, (1.0 / cell) as f32, 0.0, 0.0];
-            (2 * active).next_power_of_two()
-        };
+        // Contacts between bodies: their surfaces into the scene, the grid's layout.
+        let contacts = pack_contacts(model, &mut scene, &mut header);
 
         header.counts = [
             n as u32,
             bodies.len() as u32,
             model.obstacles.len() as u32,
-            buckets as u32,
+            contacts.map_or(0, |c| c.buckets as u32),
         ];
         header.flags = [
             model.escape_margin as f32,
@@ -309,7 +301,7 @@ impl Packed {
         let flag = |on: bool| if on { 1.0 } else { 0.0 };
         let overrides = vec![
             ("ONE_BODY", flag(bodies.len() == 1)),
-            ("CONTACTS", flag(buckets > 0)),
+            ("CONTACTS", flag(contacts.is_some())),
             ("OBSTACLES", flag(!model.obstacles.is_empty())),
             ("FRICTION", flag(model.friction > 0.0)),
             ("WALL_FRICTION", flag(model.wall_friction > 0.0)),
@@ -338,11 +330,215 @@ impl Packed {
             anchors_at,
             anchor_slots,
             pins,
-            buckets,
+            contacts,
             uniform_field,
             overrides,
         }
     }
+}
+
+/// Grid cells a body's cell may overlap on average (its box, as deformed now), at most: up to
+/// three along each axis, as a cell turned or stretched to up to twice the grid's side does.
+/// More overflows the contact buffer, which the step reports (see `status` in `model.wgsl`).
+pub const ENTRIES_PER_CELL: usize = 27;
+
+/// The contact buffer's layout (see `touch.wgsl`): its parts' sizes and where each starts (in
+/// 32-bit words).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ContactLayout {
+    /// Samples (of every body), kept cells (of every body), hash buckets of the cell grid (a
+    /// power of two: as many as the core's), and room for the grid's entries.
+    pub samples: usize,
+    pub cells: usize,
+    pub buckets: usize,
+    pub entries: usize,
+}
+
+impl ContactLayout {
+    fn new(samples: usize, cells: usize) -> Self {
+        ContactLayout {
+            samples,
+            cells,
+            buckets: (2 * cells).next_power_of_two(),
+            entries: ENTRIES_PER_CELL * cells,
+        }
+    }
+
+    /// Where the parts after the buckets' counts, starts and cursors begin: the grid's entries,
+    /// the cells' boxes, the touches' counts, starts and cursors per cell, the touches sorted by
+    /// cell, the samples' records; then the end (the buffer's length).
+    pub fn offsets(&self) -> [usize; 8] {
+        let (b, c, s) = (self.buckets, self.cells, self.samples);
+        let entries = 3 * b + 1;
+        let boxes = entries + self.entries;
+        let counts = boxes + 6 * c;
+        let starts = counts + c;
+        let cursors = starts + c + 1;
+        let touches = cursors + c;
+        let records = touches + s;
+        [
+            entries,
+            boxes,
+            counts,
+            starts,
+            cursors,
+            touches,
+            records,
+            records + 8 * s,
+        ]
+    }
+
+    /// Bytes of the contact buffer.
+    pub fn bytes(&self) -> usize {
+        4 * self.offsets()[7]
+    }
+}
+
+/// The contact surfaces of `model`'s bodies (when it has two or more, and a cell to be inside)
+/// into the scene (see `contact.wgsl`), and where they are into the header; the contact
+/// buffer's layout.
+fn pack_contacts(
+    model: &Model,
+    scene: &mut Vec<[u32; 4]>,
+    header: &mut Header,
+) -> Option<ContactLayout> {
+    const _: () = assert!(
+        REFINE == 2,
+        "contact.wgsl interpolates distances on a grid twice as fine"
+    );
+    let bodies = model.bodies();
+    let samples: usize = bodies
+        .iter()
+        .map(|b| b.contact_surface().sample_count())
+        .sum();
+    let cells: usize = bodies
+        .iter()
+        .map(|b| b.contact_surface().cells().len())
+        .sum();
+    if bodies.len() < 2 || samples == 0 || cells == 0 {
+        return None;
+    }
+    let layout = ContactLayout::new(samples, cells);
+    let n = model.point_count();
+    // Per body, its cells' corners as flat offsets from the lower corner.
+    let offsets_at = scene.len();
+    for body in bodies {
+        let o = body.contact_surface().corner_offsets().map(|o| o as u32);
+        scene.extend([[o[0], o[1], o[2], o[3]], [o[4], o[5], o[6], o[7]]]);
+    }
+    // The signed distances, body after body, as f32 words; where each body's start.
+    let mut words: Vec<u32> = Vec::new();
+    let distances_at = scene.len();
+    let starts: Vec<usize> = bodies
+        .iter()
+        .map(|body| {
+            let start = 4 * distances_at + words.len();
+            let (distance, _) = body.contact_surface().distance_grid();
+            words.extend(distance.iter().map(|&d| (d as f32).to_bits()));
+            start
+        })
+        .collect();
+    push_words(scene, &words);
+    // The cells: [lower corner (model index), where its block of distances starts (word), the
+    // distance grid's points along y and z].
+    let cells_at = scene.len();
+    let mut point_cells: Vec<(u32, u32)> = Vec::new();
+    for (body, start) in bodies.iter().zip(&starts) {
+        let surface = body.contact_surface();
+        let [_, ny, nz] = body.lattice().counts;
+        let (_, [_, ry, rz]) = surface.distance_grid();
+        let first = body.points().start;
+        let offsets = surface.corner_offsets();
+        for &c in surface.cells() {
+            let c = c as usize;
+            let (ci, cj, ck) = (c / (ny * nz), c / nz % ny, c % nz);
+            let base = start + ((REFINE * ci * ry) + REFINE * cj) * rz + REFINE * ck;
+            let g = (scene.len() - cells_at) as u32;
+            for (k, o) in offsets.iter().enumerate() {
+                point_cells.push(((first + c + o) as u32, 8 * g + k as u32));
+            }
+            scene.push([(first + c) as u32, base as u32, ry as u32, rz as u32]);
+        }
+    }
+    // The samples: [lower corner of its cell (model index), its place (u, v, w)].
+    let samples_at = scene.len();
+    let mut point_samples: Vec<(u32, u32)> = Vec::new();
+    for body in bodies {
+        let surface = body.contact_surface();
+        let first = body.points().start;
+        let offsets = surface.corner_offsets();
+        for sample in surface.samples() {
+            let s = (scene.len() - samples_at) as u32;
+            let corner = first + sample.corner() as usize;
+            let local = sample.local().map(|u| u as f32);
+            // The corners the sample's force goes to: those of nonzero weight (as the shader
+            // computes it).
+            for (k, (o, [a, b, c])) in offsets.iter().zip(CORNERS).enumerate() {
+                let f = |s: usize, t: f32| if s == 1 { t } else { 1.0 - t };
+                if f(a, local[0]) * f(b, local[1]) * f(c, local[2]) != 0.0 {
+                    point_samples.push(((corner + o) as u32, 8 * s + k as u32));
+                }
+            }
+            let [u, v, w] = local.map(f32::to_bits);
+            scene.push([corner as u32, u, v, w]);
+        }
+    }
+    // Per point, its samples' corners and its cells' corners (each `8 · index + corner`) in
+    // the order they were listed: by sample (cell), then corner.
+    let mut csr = Vec::new();
+    let mut gather_at = [0u32; 4];
+    for (list, at) in [(point_samples, 0), (point_cells, 2)] {
+        let mut starts = vec![0u32; n + 1];
+        for &(p, _) in &list {
+            starts[p as usize + 1] += 1;
+        }
+        for p in 0..n {
+            starts[p + 1] += starts[p];
+        }
+        let mut entries = vec![0u32; list.len()];
+        let mut next = starts.clone();
+        for &(p, e) in &list {
+            entries[next[p as usize] as usize] = e;
+            next[p as usize] += 1;
+        }
+        let base = 4 * scene.len() + csr.len();
+        gather_at[at] = base as u32;
+        gather_at[at + 1] = (base + starts.len()) as u32;
+        csr.extend(starts);
+        csr.extend(entries);
+    }
+    push_words(scene, &csr);
+
+    let h = bodies
+        .iter()
+        .map(|b| {
+            let s = b.lattice().spacing();
+            s.x.max(s.y).max(s.z)
+        })
+        .fold(0.0, f64::max);
+    let side = if h > 0.0 { h } else { 1.0 };
+    header.grid_cell = [side as f32, (1.0 / side) as f32, 0.0, 0.0];
+    header.contact = [samples as u32, cells as u32, layout.entries as u32, 0];
+    header.contact_at = [
+        samples_at as u32,
+        cells_at as u32,
+        offsets_at as u32,
+        distances_at as u32,
+    ];
+    header.gather_at = gather_at;
+    let o = layout.offsets().map(|o| o as u32);
+    header.grid_at = [o[0], o[1], o[2], o[3]];
+    header.grid_at2 = [o[4], o[5], o[6], 0];
+    Some(layout)
+}
+
+/// 32-bit words into the scene, four to a vec4 (the last padded with zeros).
+fn push_words(scene: &mut Vec<[u32; 4]>, words: &[u32]) {
+    scene.extend(words.chunks(4).map(|c| {
+        let mut v = [0; 4];
+        v[..c.len()].copy_from_slice(c);
+        v
+    }));
 }
 
 /// The control region of the scene: per point, [its control force plus the uniform field's,

@@ -22,10 +22,10 @@ const MAX_GROUPS_X: u32 = 65_535;
 const BATCH: u64 = 512;
 
 /// The status words at the start of a submission (see `status` in the shader): sound, no point
-/// at fault, no penetration, the pin table's first row; the rest are zero. The first four are
-/// read back.
+/// at fault, no penetration, the pin table's first row; the rest are zero (the contact grid had
+/// room). The first six are read back.
 const STATUS_START: [u32; 8] = [0, u32::MAX, 0, 0, 0, 0, 0, 0];
-const STATUS_BYTES: u64 = 16;
+const STATUS_BYTES: u64 = 24;
 
 /// The status word that counts the steps left in a submission of [`Kernel::Resident`].
 const STEPS_LEFT_WORD: u64 = 4;
@@ -233,7 +233,7 @@ impl GpuSimulation {
         for (what, bytes) in [
             ("the state", n * 32),
             ("the scene", packed.scene.len() * 16),
-            ("the contact grid", grid_bytes(packed.buckets, n)),
+            ("the contact buffer", contact_bytes(&packed)),
         ] {
             let bytes = bytes as u64;
             if bytes > limits.max_storage_buffer_binding_size || bytes > limits.max_buffer_size {
@@ -290,12 +290,8 @@ impl GpuSimulation {
         let checkpoint = init("checkpoint", bytemuck::cast_slice(&state_data), storage);
         let points = init("points", bytemuck::cast_slice(&packed.points), storage);
         let scene = init("scene", bytemuck::cast_slice(&packed.scene), storage);
-        // Zeroed on creation: the grid's counts start at zero (grid_scan leaves them so).
-        let grid = empty(
-            "contact grid",
-            grid_bytes(packed.buckets, n) as u64,
-            storage,
-        );
+        // Zeroed on creation: the counts start at zero (the scans leave them so).
+        let grid = empty("contacts", contact_bytes(&packed) as u64, storage);
         let status = init("status", bytemuck::cast_slice(&STATUS_START), storage);
         let uniform = init(
             "params",
@@ -361,26 +357,23 @@ impl GpuSimulation {
             }
         };
         let per_point = groups_for(n);
-        let contacts = packed.buckets > 0;
-        // The passes that rebuild the contact grid from the stage in `input` (none for a model
-        // of one body).
-        let grid_from = |input: &wgpu::Buffer| -> Vec<Pass> {
-            if !contacts {
+        // The passes that find the touches between bodies in the stage in `input` (none
+        // without contacts between bodies: see touch.wgsl).
+        let contacts_from = |input: &wgpu::Buffer| -> Vec<Pass> {
+            let Some(layout) = packed.contacts else {
                 return Vec::new();
-            }
+            };
+            let (per_cell, per_sample) = (groups_for(layout.cells), groups_for(layout.samples));
+            let reads = [(1, input), (5, &points), (6, &scene), (9, &grid)];
             vec![
-                pass(
-                    "grid_count",
-                    &[(1, input), (5, &points), (9, &grid)],
-                    per_point,
-                ),
-                pass("grid_scan", &[(9, &grid)], (1, 1)),
-                pass(
-                    "grid_scatter",
-                    &[(1, input), (5, &points), (9, &grid)],
-                    per_point,
-                ),
-                pass("grid_sort", &[(9, &grid)], groups_for(packed.buckets)),
+                pass("cells_count", &reads, per_cell),
+                pass("cells_scan", &[(9, &grid)], (1, 1)),
+                pass("cells_scatter", &[(8, &status), (9, &grid)], per_cell),
+                pass("cells_sort", &[(9, &grid)], groups_for(layout.buckets)),
+                pass("touch", &reads, per_sample),
+                pass("touches_scan", &[(9, &grid)], (1, 1)),
+                pass("touches_scatter", &[(9, &grid)], per_sample),
+                pass("touches_sort", &[(9, &grid)], per_cell),
             ]
         };
         // A force pass: bindings 1 the stage read, 2 the step's start (base), 3 the stage
@@ -393,7 +386,7 @@ impl GpuSimulation {
                 .find(|(b, _)| *b == 1)
                 .expect("a stage read")
                 .1;
-            let mut passes = grid_from(input);
+            let mut passes = contacts_from(input);
             passes.push(pass(entry, &all, per_point));
             passes
         };
@@ -646,8 +639,18 @@ impl GpuSimulation {
             self.time += self.model.dt;
         }
         self.steps += steps;
-        let [unsound, _, deepest] = self.read_status().await?;
+        let [unsound, _, deepest, overflow] = self.read_status().await?;
         if unsound == 0 {
+            if overflow != 0 {
+                // Contacts were missed: not a result to go on from.
+                return Err(GpuError::Device(format!(
+                    "the bodies' cells were stretched over more grid cells than the contact \
+                     buffer has room for ({} per cell on average), in the {steps} steps to step \
+                     {}",
+                    packing::ENTRIES_PER_CELL,
+                    self.steps
+                )));
+            }
             self.deepest = self.deepest.max(f32::from_bits(deepest) as f64);
         }
         Ok(unsound == 0)
@@ -728,15 +731,15 @@ impl GpuSimulation {
         self.queue.submit([encoder.finish()]);
     }
 
-    /// The status words: whether a step ended unsound, the lowest point at fault, and the
-    /// deepest penetration's bits.
-    async fn read_status(&self) -> Result<[u32; 3], GpuError> {
+    /// The status words: whether a step ended unsound, the lowest point at fault, the deepest
+    /// penetration's bits, and whether the contact grid ran out of room.
+    async fn read_status(&self) -> Result<[u32; 4], GpuError> {
         let mut encoder = self.device.create_command_encoder(&Default::default());
         encoder.copy_buffer_to_buffer(&self.status, 0, &self.status_read, 0, STATUS_BYTES);
         self.queue.submit([encoder.finish()]);
         let bytes = self.read(&self.status_read, STATUS_BYTES).await?;
         let words: &[u32] = bytemuck::cast_slice(&bytes);
-        Ok([words[0], words[1], words[2]])
+        Ok([words[0], words[1], words[2], words[5]])
     }
 
     /// The report of the single step just taken, which failed (its state still in the buffers).
@@ -806,14 +809,10 @@ impl GpuSimulation {
     }
 }
 
-/// Bytes of the contact grid for `buckets` buckets and `points` points (see `grid.wgsl`); a
-/// word or four for a model of one body, which binds it but never reads it.
-fn grid_bytes(buckets: usize, points: usize) -> usize {
-    if buckets == 0 {
-        16
-    } else {
-        (3 * buckets + 1 + points) * 4
-    }
+/// Bytes of the contact buffer (see `touch.wgsl`); a word or four for a model without contacts
+/// between bodies, which binds it but never reads it.
+fn contact_bytes(packed: &Packed) -> usize {
+    packed.contacts.map_or(16, |c| c.bytes())
 }
 
 /// Fails unless `state` has a position and a velocity for each of `model`'s points.

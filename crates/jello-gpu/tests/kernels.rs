@@ -126,3 +126,72 @@ fn small_models_of_one_body_step_resident_on_a_gpu_unless_told_otherwise() {
         other => panic!("expected a refusal, got {:?}", other.map(|s| s.kernel())),
     }
 }
+
+/// Every entry point of both modules, with everything a model may have compiled in, makes a
+/// pipeline on a device of WebGPU's default limits (at most 8 storage buffers a stage, 16 KiB of
+/// workgroup memory, ...), as a browser gives the viewer: nothing leans on the native adapter's
+/// larger limits.
+#[test]
+fn every_entry_point_fits_webgpus_default_limits() {
+    let instance = wgpu::Instance::new(wgpu::InstanceDescriptor {
+        backends: wgpu::Backends::from_env().unwrap_or(wgpu::Backends::PRIMARY),
+        ..wgpu::InstanceDescriptor::new_without_display_handle()
+    });
+    let adapter = pollster::block_on(instance.request_adapter(&Default::default()))
+        .expect("an adapter (scripts/setup.sh installs lavapipe)");
+    let (device, _queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
+        required_limits: wgpu::Limits::default(),
+        ..Default::default()
+    }))
+    .unwrap();
+    let mut constants: Vec<(&str, f64)> = [
+        "CONTACTS",
+        "OBSTACLES",
+        "FRICTION",
+        "WALL_FRICTION",
+        "FIELD",
+        "CLASSIC_PLANE",
+        "SPRING_VALUES",
+        "PINS",
+    ]
+    .map(|name| (name, 1.0))
+    .to_vec();
+    constants.push(("ONE_BODY", 0.0));
+    let mut checked = 0;
+    for (source, extra) in [
+        (jello_gpu::SHADER, None),
+        (jello_gpu::RESIDENT_SHADER, Some(("INTEGRATOR", 3.0))),
+    ] {
+        let mut constants = constants.clone();
+        constants.extend(extra);
+        let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
+        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: None,
+            source: wgpu::ShaderSource::Wgsl(source.into()),
+        });
+        // The entry points: the function after each `@compute`.
+        let entries: Vec<&str> = source
+            .split("@compute")
+            .skip(1)
+            .filter_map(|rest| rest.split("fn ").nth(1)?.split('(').next())
+            .collect();
+        for entry in &entries {
+            let _ = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                label: Some(entry),
+                layout: None,
+                module: &module,
+                entry_point: Some(entry),
+                compilation_options: wgpu::PipelineCompilationOptions {
+                    constants: &constants,
+                    ..Default::default()
+                },
+                cache: None,
+            });
+            checked += 1;
+        }
+        if let Some(e) = pollster::block_on(scope.pop()) {
+            panic!("{entries:?}: {e}");
+        }
+    }
+    assert!(checked >= 19, "only {checked} entry points");
+}

@@ -67,9 +67,10 @@ fn bodies_collide_as_on_the_core() {
     // Contacts push both bodies equally and oppositely: momentum stays (to f32 rounding).
     let (p0, p1) = (momentum(&model, &state.vel), momentum(&model, &on_gpu.vel));
     let scale = p0.length();
-    assert!((p1 - p0).length() < 1e-4 * scale, "{p0:?} became {p1:?}");
+    assert!((p1 - p0).length() < 2e-5 * scale, "{p0:?} became {p1:?}");
+    // The same law in f32: a few micrometres apart (1.6e-6 m on lavapipe).
     let gap = largest_gap(&on_gpu, &reference);
-    assert!(gap < 1e-3, "{gap:.3e} m from the core");
+    assert!(gap < 2e-5, "{gap:.3e} m from the core");
 }
 
 #[test]

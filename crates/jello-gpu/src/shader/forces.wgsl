@@ -222,56 +222,6 @@ fn walls_friction_on(i: u32, p: vec3<f32>, v: vec3<f32>, m: f32) -> vec3<f32> {
     return f;
 }
 
-// The penalty force on ball A from ball B at separation d = pA − pB and relative velocity w,
-// when they overlap (|d| < reach): exactly minus the force on B from A (the core's
-// contact::pair_force).
-fn pair_force(d: vec3<f32>, w: vec3<f32>, reach: f32, c_max: f32) -> vec3<f32> {
-    let l2 = dot(d, d);
-    if (!(l2 < reach * reach && l2 > 0.0)) {
-        return vec3<f32>(0.0);
-    }
-    let l = sqrt(l2);
-    let n = d / l;
-    let normal = P.law.y * (reach - l);
-    var f = n * (normal - P.law.z * dot(w, n));
-    if (FRICTION) {
-        f = f + sliding(n, w, P.law.w * normal, c_max);
-    }
-    return f;
-}
-
-// The contacts of point i (of body b) at p moving at v with the balls of other bodies in the
-// 27 grid cells around it, in the grid's order (see grid.wgsl).
-fn contacts_on(p: vec3<f32>, v: vec3<f32>, b: u32) -> vec3<f32> {
-    let buckets = P.counts.w;
-    let mask = buckets - 1u;
-    let own = grid_cell_of(p);
-    let ra = P.bodies[b].material.y;
-    let ma = P.bodies[b].material.x;
-    var f = vec3<f32>(0.0);
-    for (var n = 0; n < 27; n = n + 1) {
-        let around = own + vec3<i32>(n / 9 - 1, n / 3 % 3 - 1, n % 3 - 1);
-        let bucket = grid_hash(around) & mask;
-        let end = grid[buckets + bucket + 1u];
-        for (var s = grid[buckets + bucket]; s < end; s = s + 1u) {
-            let e = grid[3u * buckets + 1u + s];
-            let eb = points[e].y & BODY_BITS;
-            let q = position(e);
-            if (eb == b || any(grid_cell_of(q) != around)) {
-                continue;
-            }
-            let rb = P.bodies[eb].material.y;
-            let mb = P.bodies[eb].material.x;
-            var c_max = 0.0;
-            if (FRICTION) {
-                c_max = ma * mb / ((ma + mb) * P.law.x);
-            }
-            f = f + pair_force(p - q, v - velocity(e), ra + rb, c_max);
-        }
-    }
-    return f;
-}
-
 // Everything but the springs on point i of body b, added to the springs' force f, over the mass,
 // plus gravity, in the core's order.
 fn finish(i: u32, p: vec3<f32>, v: vec3<f32>, f_springs: vec3<f32>, b: u32) -> vec3<f32> {
@@ -295,7 +245,7 @@ fn finish(i: u32, p: vec3<f32>, v: vec3<f32>, f_springs: vec3<f32>, b: u32) -> v
     f = f + control.xyz;
     let m = P.bodies[b].material.x;
     if (CONTACTS) {
-        f = f + contacts_on(p, v, b);
+        f = f + contacts_on(i);
     }
     if (OBSTACLES) {
         f = f + obstacles_on(i, p, v, m);

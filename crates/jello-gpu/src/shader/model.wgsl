@@ -1,14 +1,16 @@
 // Jello's explicit integrators on the GPU, in f32: one thread per lattice point gathers the forces
 // on it (its up to 32 springs, the field, walls, plane, obstacles, contacts with other bodies,
 // control forces and pulls, gravity) and applies one stage of its integrator. Each spring is
-// evaluated at both its ends and each contact pair at both its balls: a gather needs no atomics,
-// so a run gives the same result every time.
+// evaluated at both its ends, and a point gathers the contact forces of the touches at its cells
+// from per-sample records in a fixed order: no float atomics, so a run gives the same result
+// every time.
 //
 // The module is this file (the model as the shader sees it: uniforms, buffers, helpers), then
-// stage.wgsl (where the forces read the stage), forces.wgsl, grid.wgsl (the broad phase of
-// contacts between bodies), check.wgsl (a step's end) and step.wgsl (the entry points),
-// concatenated by the crate. A second module steps small lattices inside one workgroup: this
-// file, forces.wgsl, grid.wgsl, check.wgsl and resident.wgsl.
+// stage.wgsl (where the forces read the stage), forces.wgsl, contact.wgsl (contacts between
+// bodies: what the forces read), touch.wgsl (the passes that find the touches before every force
+// pass), check.wgsl (a step's end) and step.wgsl (the entry points), concatenated by the crate.
+// A second module steps small lattices inside one workgroup: this file, forces.wgsl,
+// contact.wgsl, check.wgsl and resident.wgsl.
 //
 // State buffers hold two vec4 per point: position (w unused), velocity (w unused).
 // Every entry point reads the stage it evaluates from `state_in` and writes its own point only,
@@ -21,7 +23,7 @@ struct Body {
     rest: array<vec4<f32>, 4>,
     stiff: array<vec4<f32>, 4>,
     damp: array<vec4<f32>, 4>,
-    // mass of a point (kg), contact radius (m), 0, 0
+    // mass of a point (kg), 0, 0, 0
     material: vec4<f32>,
     // first point, where its per-spring values start in `scene` (NONE: it has none), 0, 0
     index: vec4<u32>,
@@ -45,7 +47,7 @@ override PINS: bool = false;
 const NONE: u32 = 0xffffffffu;
 
 struct Params {
-    // points, bodies, obstacles, hash buckets of the contact grid (0: no contacts between bodies)
+    // points, bodies, obstacles, hash buckets of the cell grid (0: no contacts between bodies)
     counts: vec4<u32>,
     // dt (s), kCollision (N/m), dCollision (N·s/m), friction coefficient
     law: vec4<f32>,
@@ -65,11 +67,25 @@ struct Params {
     at: vec4<u32>,
     // field res, 0, 0, 0
     field_res: vec4<u32>,
-    // side of a contact grid cell (m), its inverse, 0, 0
+    // Contacts between bodies (CONTACTS; see contact.wgsl and touch.wgsl): the side of a cell
+    // grid's cell (m, the largest lattice spacing), its inverse, 0, 0
     grid_cell: vec4<f32>,
     // Pins on paths (PINS): where the points' paths start in `scene`, where the pin table does
     // (in vec4), a row of the table (vec4: two per path), 0
     pins: vec4<u32>,
+    // samples, kept cells, room for the cell grid's entries, 0
+    contact: vec4<u32>,
+    // where in `scene` (vec4) the samples, the cells, the bodies' corner offsets and the
+    // distances start
+    contact_at: vec4<u32>,
+    // where in `scene` (words) each point's list of sample corners starts and its entries, then
+    // the same for its cell corners
+    gather_at: vec4<u32>,
+    // where in the contact buffer (words) the cell grid's entries, the cells' boxes, the
+    // touches' counts and starts per cell; then their cursors, the touches by cell, the
+    // samples' records, 0
+    grid_at: vec4<u32>,
+    grid_at2: vec4<u32>,
     bodies: array<Body, MAX_BODIES>,
 }
 
@@ -95,17 +111,21 @@ struct Params {
 // - pins on paths (PINS), one per point: [where its path has it at offset zero (m), the index
 //   of its path] (w NONE: on no path);
 // - the pin table (PINS), rewritten before every batch of steps: a row per step of the batch,
-//   in it per path [its offset at the step's end (m), 0], [its velocity there (m/s), 0].
+//   in it per path [its offset at the step's end (m), 0], [its velocity there (m/s), 0];
+// - contacts between bodies (CONTACTS; see contact.wgsl): per body its cells' corner offsets;
+//   the signed distances; the cells; the samples; per point its sample and cell corners.
 @group(0) @binding(6) var<storage, read> scene: array<vec4<u32>>;
-// The contact grid (see grid.wgsl), read by the force passes.
+// The contact buffer (see touch.wgsl), read by the force passes.
 @group(0) @binding(7) var<storage, read> grid: array<u32>;
 // [0]: 1 once a step ended unsound; [1]: the lowest point found at fault; [2]: the deepest
 // penetration into a wall, the plane or an obstacle at a step's end (m, the bits of a
 // non-negative f32); [3]: where the current step's row starts in the pin table (vec4 from the
 // table's start; 0 at a batch's start, advanced by pins_next after every step); [4]: the steps
-// left in a submission of resident.wgsl.
+// left in a submission of resident.wgsl; [5]: 1 once the cell grid had no room for an entry
+// (see touch.wgsl).
 @group(0) @binding(8) var<storage, read_write> status: array<atomic<u32>>;
-// The contact grid as the grid passes build it, and the scene as the anchor pass updates it.
+// The contact buffer as the contact passes build it, and the scene as the anchor pass updates
+// it.
 @group(0) @binding(9) var<storage, read_write> grid_rw: array<atomic<u32>>;
 @group(0) @binding(10) var<storage, read_write> scene_rw: array<vec4<u32>>;
 

@@ -6,9 +6,9 @@
 // dispatch per stage (step.wgsl).
 //
 // The module is model.wgsl, forces.wgsl (whose `position` and `velocity` read workgroup memory
-// here, defined below), grid.wgsl (which forces.wgsl names, though a model of one body never
-// reaches it), check.wgsl and this file. The state is read from and written back to `base`. A submission's
-// steps are counted down in status[4]: each dispatch takes at most STEPS_PER_DISPATCH of them.
+// here, defined below), contact.wgsl (which forces.wgsl names, though a model of one body never
+// reaches it), check.wgsl and this file. The state is read from and written back to `base`. A
+// submission's steps are counted down in status[4]: each dispatch takes at most STEPS_PER_DISPATCH of them.
 // After a step that ends unsound the workgroup stops, with that step's state written back, as
 // the per-stage passes leave it, and zeroes the count, so later dispatches take no step.
 
