@@ -124,6 +124,20 @@ fn what_the_gpu_does_not_cover_is_refused_with_a_reason() {
         err.contains("implicit.toml") && err.contains("implicit integrator BackwardEuler"),
         "{err}"
     );
+    let out = dir.run(&[
+        "run",
+        "implicit.toml",
+        "--device",
+        "gpu",
+        "--integrator",
+        "RK4",
+        "--self-contact",
+        "--steps",
+        "5",
+    ]);
+    assert_eq!(out.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("self-contact"), "{err}");
     let world = example("jello.w");
     let out = dir.run(&[
         "run",

@@ -95,11 +95,13 @@ fn bits(v: [f32; 4]) -> [u32; 4] {
 }
 
 /// What in `model` (with `control`) the shader does not cover, if anything: more than
-/// [`MAX_BODIES`] bodies, or an implicit integrator.
+/// [`MAX_BODIES`] bodies, an implicit integrator, or self-contact.
 pub fn unsupported(model: &Model, _control: &Control) -> Option<String> {
     let bodies = model.bodies().len();
     if bodies > MAX_BODIES {
         Some(format!("{bodies} bodies (it steps at most {MAX_BODIES})"))
+    } else if model.self_contact {
+        Some("self-contact (the GPU's contacts are between different bodies)".to_string())
     } else if model.integrator.is_implicit() {
         Some(format!(
             "the implicit integrator {} (the GPU steps Euler, SymplecticEuler, RK2 and RK4)",

@@ -280,6 +280,16 @@ fn steps_for(time: f64, dt: f64) -> u64 {
     }
 }
 
+/// The bodies' names: a scene's, else `body1`, `body2`, ...
+pub(crate) fn body_names(source: &Source, model: &jello_core::Model) -> Vec<String> {
+    match source {
+        Source::Scene(scene) => scene.body_names(),
+        Source::World(_) => (1..=model.bodies().len())
+            .map(|b| format!("body{b}"))
+            .collect(),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::steps_for;
@@ -289,15 +299,5 @@ mod tests {
         assert_eq!(steps_for(1.0, 0.0005), 2000);
         assert_eq!(steps_for(0.3, 0.1), 3);
         assert_eq!(steps_for(0.35, 0.1), 4);
-    }
-}
-
-/// The bodies' names: a scene's, else `body1`, `body2`, ...
-pub(crate) fn body_names(source: &Source, model: &jello_core::Model) -> Vec<String> {
-    match source {
-        Source::Scene(scene) => scene.body_names(),
-        Source::World(_) => (1..=model.bodies().len())
-            .map(|b| format!("body{b}"))
-            .collect(),
     }
 }

@@ -25,6 +25,9 @@ pub struct ShapeArgs {
     /// Smoothness: 4·DETAIL segments around the z axis and 2·DETAIL rings (or tube segments).
     #[arg(long, default_value_t = 12, value_parser = clap::value_parser!(u32).range(3..=200))]
     pub detail: u32,
+    /// Scale (the shapes are about 1 m across at 1).
+    #[arg(long, default_value_t = 1.0, value_parser = super::parse_positive)]
+    pub size: f64,
     /// Overwrite OUT if it exists.
     #[arg(long)]
     pub force: bool,
@@ -34,10 +37,20 @@ pub struct ShapeArgs {
 pub fn shape(args: ShapeArgs) -> Result<(), CliError> {
     let out = &args.out;
     check_new_output(out, args.force)?;
-    let mesh = TriMesh::shape(&args.name, args.detail as usize)
+    let mut mesh = TriMesh::shape(&args.name, args.detail as usize)
         .expect("clap only lets known shape names through");
+    if args.size != 1.0 {
+        for v in &mut mesh.vertices {
+            *v = *v * args.size;
+        }
+    }
+    let size = if args.size == 1.0 {
+        String::new()
+    } else {
+        format!(" --size {}", args.size)
+    };
     let comment = format!(
-        "{} made by `jello shape {} --detail {}`: {} vertices, {} triangles, volume {:.6} m³",
+        "{} made by `jello shape {} --detail {}{size}`: {} vertices, {} triangles, volume {:.6} m³",
         args.name,
         args.name,
         args.detail,

@@ -259,7 +259,7 @@ impl Contacts {
                     } else {
                         (-(phi.max(0.0) + far), offset / far)
                     };
-                    if !normal.is_finite() || !(depth > -margin) {
+                    if !normal.is_finite() || depth.is_nan() || depth <= -margin {
                         found = Some((far, None));
                         return inside;
                     }
@@ -305,7 +305,7 @@ fn apart(a: [usize; 3], b: [usize; 3]) -> bool {
 /// The other body feels exactly the opposite.
 #[inline]
 pub fn touch_force(n: Vec3, w: Vec3, depth: f64, [kc, dc, mu, c_max]: [f64; 4]) -> Vec3 {
-    if !(depth > 0.0) {
+    if depth.is_nan() || depth <= 0.0 {
         return Vec3::ZERO;
     }
     let normal = kc * depth;

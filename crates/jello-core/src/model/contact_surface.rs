@@ -206,7 +206,7 @@ impl ContactSurface {
                             }
                             let (u, v) = (i as f64 / parts as f64, j as f64 / parts as f64);
                             let p = a + (b - a) * u + (c - a) * v;
-                            samples.extend(embed(&lattice, p, &kept));
+                            samples.extend(embed(lattice, p, &kept));
                         }
                     }
                 }
@@ -222,13 +222,13 @@ impl ContactSurface {
                 }
                 let samples = (0..lattice.len())
                     .filter(|&p| on_surface[p])
-                    .filter_map(|p| cage_sample(&lattice, p, &kept))
+                    .filter_map(|p| cage_sample(lattice, p, &kept))
                     .collect();
                 (rest.clone(), triangles, samples)
             }
         };
         let reach = 2.0 * lattice.spacing().length();
-        let (refined, distance) = signed_distances(&lattice, &cells, &vertices, &triangles, reach);
+        let (refined, distance) = signed_distances(lattice, &cells, &vertices, &triangles, reach);
         ContactSurface {
             samples,
             distance,
@@ -312,7 +312,7 @@ fn signed_distances(
     triangles: &[[u32; 3]],
     reach: f64,
 ) -> ([usize; 3], Vec<f64>) {
-    let refined = lattice.counts.map(|n| REFINE * (n - 1).max(0) + 1);
+    let refined = lattice.counts.map(|n| REFINE * n.saturating_sub(1) + 1);
     let [rx, ry, rz] = refined;
     let index = |i: usize, j: usize, k: usize| (i * ry + j) * rz + k;
     let h = lattice.spacing() * (1.0 / REFINE as f64);
@@ -504,7 +504,7 @@ const MAX_LOCATE: usize = 16;
 fn inverse_columns(c: [Vec3; 3]) -> Option<[Vec3; 3]> {
     let (r0, r1, r2) = (c[1].cross(c[2]), c[2].cross(c[0]), c[0].cross(c[1]));
     let det = c[0].dot(r0);
-    if !(det.abs() > 1e-300) || !det.is_finite() {
+    if !det.is_finite() || det.abs() <= 1e-300 {
         return None;
     }
     Some([r0 / det, r1 / det, r2 / det])

@@ -407,7 +407,9 @@ fn touch(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups)
         let gradient = at.r0 * d.x + at.r1 * d.y + at.r2 * d.z;
         let l = length(gradient);
         if (d.w < 0.0 && l > 0.0) {
-            let depth = -d.w / l;
+            // The core's contact::bodies::MIN_GRADIENT: at a sharp edge the gradient vanishes
+            // with the distance.
+            let depth = -d.w / max(l, 0.5);
             let n = gradient / l;
             // The velocity relative to the other body's cell there.
             for (var k = 0u; k < 8u; k = k + 1u) {
