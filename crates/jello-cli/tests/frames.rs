@@ -84,10 +84,19 @@ fn read_ply(text: &str) -> Mesh {
 /// A Wavefront OBJ frame: `v x y z` and `f a b c` (1-based).
 fn read_obj(text: &str) -> Mesh {
     let (mut vertices, mut triangles) = (Vec::new(), Vec::new());
+    let mut objects = Vec::new();
     for line in text.lines() {
         let w: Vec<&str> = line.split(' ').collect();
         match w[0] {
             "v" => vertices.push(vec3(&w[1..])),
+            "o" => {
+                // Each body's faces under its name, after all the vertices.
+                assert!(
+                    !vertices.is_empty(),
+                    "{line}: an object before the vertices"
+                );
+                objects.push(w[1..].join(" "));
+            }
             "f" => {
                 assert_eq!(w.len(), 4, "{line}");
                 let i = |s: &str| -> usize {
@@ -101,6 +110,10 @@ fn read_obj(text: &str) -> Mesh {
             _ => panic!("unexpected OBJ line {line:?}"),
         }
     }
+    assert!(
+        !objects.is_empty() || triangles.is_empty(),
+        "faces without an object"
+    );
     Mesh {
         vertices,
         triangles,

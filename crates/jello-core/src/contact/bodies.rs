@@ -129,6 +129,10 @@ impl Contacts {
         for (a, body) in bodies.iter().enumerate() {
             let surface = body.contact_surface();
             let first = body.points().start;
+            let neighbours = grid.neighbours(a);
+            if neighbours.is_empty() {
+                continue;
+            }
             for sample in &surface.samples {
                 let base = first + sample.corner as usize;
                 let wa = weights(sample.local);
@@ -138,6 +142,9 @@ impl Contacts {
                 for (k, (&o, &wk)) in surface.offsets.iter().zip(&wa).enumerate() {
                     (points[k], w[k]) = ((base + o) as u32, wk);
                     ps += at(base + o) * wk;
+                }
+                if !neighbours.iter().any(|&b| grid.in_body_box(b as usize, ps)) {
+                    continue;
                 }
                 let own = body.lattice().coords(sample.corner as usize);
                 grid.find_near(ps, |g| {
@@ -208,6 +215,10 @@ impl Contacts {
         for (a, body) in bodies.iter().enumerate() {
             let surface = body.contact_surface();
             let first = body.points().start;
+            let neighbours = grid.neighbours(a);
+            if neighbours.is_empty() {
+                continue;
+            }
             for sample in &surface.samples {
                 let base = first + sample.corner as usize;
                 let wa = weights(sample.local);
@@ -217,6 +228,9 @@ impl Contacts {
                 for (k, (&o, &wk)) in surface.offsets.iter().zip(&wa).enumerate() {
                     (points[k], w[k]) = ((base + o) as u32, wk);
                     ps += at(base + o) * wk;
+                }
+                if !neighbours.iter().any(|&b| grid.in_body_box(b as usize, ps)) {
+                    continue;
                 }
                 // The cell that holds the sample, else the first near enough.
                 // The cell that holds the sample, else the nearest: the one whose nearest

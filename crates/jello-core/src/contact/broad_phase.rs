@@ -30,6 +30,10 @@ pub(crate) struct BroadPhase {
     entry_keys: Vec<[i32; 3]>,
     /// Side of a grid cell (m).
     side: f64,
+    /// Per body: the box of its points at the last sort (grown), and the bodies whose boxes
+    /// meet it (each list sorted; itself too under self-contact).
+    body_boxes: Vec<[Vec3; 2]>,
+    neighbours: Vec<Vec<u32>>,
 }
 
 impl BroadPhase {
@@ -59,41 +63,77 @@ impl BroadPhase {
             entries: Vec::with_capacity(ROOM_PER_CELL * cells),
             entry_keys: Vec::with_capacity(ROOM_PER_CELL * cells),
             side: if side > 0.0 { side } else { 1.0 },
+            body_boxes: vec![EMPTY; model.bodies().len()],
+            neighbours: model
+                .bodies()
+                .iter()
+                .map(|_| Vec::with_capacity(model.bodies().len()))
+                .collect(),
         }
     }
 
     /// Sorts the cells, at positions `[px, py, pz]`, into the grid, each by its box grown by
-    /// `margin` (m) on every side.
+    /// `margin` (m) on every side: those of them that may hold a sample of another body (or of
+    /// their own under self-contact), as the bodies' boxes tell.
     pub(crate) fn sort(&mut self, model: &Model, [px, py, pz]: [&[f64]; 3], margin: f64) {
         let inv = 1.0 / self.side;
         let grid = |c: Vec3| (c * inv).to_array().map(|x| x.floor() as i32);
         let mask = self.starts.len() - 2;
         let bodies = model.bodies();
-        // Each cell's box and span, and how many entries each bucket gets.
+        let grow = Vec3::new(margin, margin, margin);
+        // Each body's box (of all its points, so that it holds its cells' boxes), and which
+        // bodies' boxes meet.
+        for (body, bounds) in bodies.iter().zip(&mut self.body_boxes) {
+            *bounds = EMPTY;
+            let [lo, hi] = bounds;
+            for q in body.points() {
+                let p = Vec3::new(px[q], py[q], pz[q]);
+                (*lo, *hi) = (lo.min(p), hi.max(p));
+            }
+            (*lo, *hi) = (*lo - grow, *hi + grow);
+        }
+        for (a, list) in self.neighbours.iter_mut().enumerate() {
+            list.clear();
+            for b in 0..bodies.len() {
+                if (b != a || model.self_contact) && meets(self.body_boxes[a], self.body_boxes[b]) {
+                    list.push(b as u32);
+                }
+            }
+        }
+        // Each cell's box and span, and how many entries each bucket gets: only cells that
+        // meet a box a sample may come from.
         self.starts.fill(0);
         let mut total = 0;
         for (g, (&b, &corner)) in self.cell_body.iter().zip(&self.cell_corner).enumerate() {
-            let offsets = &bodies[b as usize].contact_surface().offsets;
-            let (inf, minf) = (f64::INFINITY, f64::NEG_INFINITY);
-            let (mut lo, mut hi) = (Vec3::new(inf, inf, inf), Vec3::new(minf, minf, minf));
+            let (b, empty) = (b as usize, [[0; 3], [-1; 3]]);
+            (self.spans[g], self.boxes[g]) = (empty, EMPTY);
+            // The bodies whose samples may be in body b's cells are its neighbours too.
+            if self.neighbours[b].is_empty() {
+                continue;
+            }
+            let offsets = &bodies[b].contact_surface().offsets;
+            let (mut lo, mut hi) = (EMPTY[0], EMPTY[1]);
             for &o in offsets {
                 let q = corner as usize + o;
                 let p = Vec3::new(px[q], py[q], pz[q]);
                 (lo, hi) = (lo.min(p), hi.max(p));
             }
-            let grow = Vec3::new(margin, margin, margin);
             let (lo, hi) = (lo - grow, hi + grow);
-            self.boxes[g] = [lo, hi];
-            let mut span = [grid(lo), grid(hi)];
+            let span = [grid(lo), grid(hi)];
             // A cell torn across the box (a step blowing up, which the step then rejects) is
             // left out rather than entered in thousands of buckets.
             if !(lo.is_finite() && hi.is_finite())
                 || (0..3).any(|a| span[1][a] - span[0][a] > MAX_SPAN)
             {
-                span = [[0; 3], [-1; 3]];
-                self.boxes[g] = [Vec3::ZERO, Vec3::new(-1.0, -1.0, -1.0)];
+                continue;
             }
-            self.spans[g] = span;
+            let cell = [lo, hi];
+            let wanted =
+                (self.neighbours[b].iter()).any(|&a| meets(cell, self.body_boxes[a as usize]));
+            if !wanted {
+                continue;
+            }
+            (self.spans[g], self.boxes[g]) = (span, cell);
             for_each_key(span, |key| {
                 self.starts[hash(key) & mask] += 1;
                 total += 1;
@@ -123,6 +163,20 @@ impl BroadPhase {
         self.starts[0] = 0;
     }
 
+    /// The bodies whose box (of their points, grown) at the last sort meets body `a`'s (itself
+    /// too under self-contact), in order: the only ones its samples may touch, and the only
+    /// ones whose samples may be in its cells.
+    pub(crate) fn neighbours(&self, a: usize) -> &[u32] {
+        &self.neighbours[a]
+    }
+
+    /// True when `p` is inside body `b`'s box at the last sort (see [`Self::neighbours`]).
+    #[inline]
+    pub(crate) fn in_body_box(&self, b: usize, p: Vec3) -> bool {
+        let [lo, hi] = self.body_boxes[b];
+        p.x >= lo.x && p.x <= hi.x && p.y >= lo.y && p.y <= hi.y && p.z >= lo.z && p.z <= hi.z
+    }
+
     /// Calls `near(cell)` for every cell whose box (grown) at the last sort holds `p`, in a fixed
     /// order (the cells' order), until it returns true.
     #[inline]
@@ -144,6 +198,23 @@ impl BroadPhase {
             }
         }
     }
+}
+
+/// A box holding nothing.
+const EMPTY: [Vec3; 2] = [
+    Vec3::new(f64::INFINITY, f64::INFINITY, f64::INFINITY),
+    Vec3::new(f64::NEG_INFINITY, f64::NEG_INFINITY, f64::NEG_INFINITY),
+];
+
+/// True when boxes `a` and `b` (each `[lo, hi]`) overlap; an empty box meets nothing.
+#[inline]
+fn meets([alo, ahi]: [Vec3; 2], [blo, bhi]: [Vec3; 2]) -> bool {
+    alo.x <= bhi.x
+        && blo.x <= ahi.x
+        && alo.y <= bhi.y
+        && blo.y <= ahi.y
+        && alo.z <= bhi.z
+        && blo.z <= ahi.z
 }
 
 /// Calls `f` with every grid cell of `span` (inclusive), x outermost.

@@ -253,7 +253,22 @@ fn add_friction(
 ) {
     let [fx, fy, fz] = force;
     let len = fx.len();
+    // A wall touches only points past it along its axis: a test of one coordinate, first.
+    let past = |t: usize| match surface {
+        Surface::Wall(w) => {
+            let (axis, c) = (w / 2, point.pos[w / 2][t]);
+            if w % 2 == 1 {
+                c > model.bounds.max.to_array()[axis]
+            } else {
+                c < model.bounds.min.to_array()[axis]
+            }
+        }
+        _ => true,
+    };
     for t in 0..len {
+        if !past(t) {
+            continue;
+        }
         let p = Vec3::new(point.pos[0][t], point.pos[1][t], point.pos[2][t]);
         let Some(contact) = surface.contact(model, p) else {
             continue;

@@ -189,22 +189,33 @@ impl ContactSurface {
                 let mut samples: Vec<Sample> = (skin.corner.iter().zip(&skin.local))
                     .map(|(&corner, &local)| Sample { corner, local })
                     .collect();
-                // Triangles larger than half a cell get points inside too, so that another
-                // body's corner cannot slip through a face between its vertices.
+                // Edges and triangles longer than a cell get points along and inside them too,
+                // a cell apart at most, so that another body's edge cannot cross a face between
+                // its vertices unseen. Each edge once (it is shared by two triangles).
                 let h = lattice.spacing();
-                let spacing = 0.5 * h.x.min(h.y).min(h.z);
+                let spacing = h.x.min(h.y).min(h.z);
+                let parts = |longest: f64| (longest / spacing).ceil().max(1.0) as usize;
+                let mut edges: Vec<[u32; 2]> = (skin.triangles.iter())
+                    .flat_map(|&[a, b, c]| [[a, b], [b, c], [c, a]])
+                    .map(|[a, b]| [a.min(b), a.max(b)])
+                    .collect();
+                edges.sort_unstable();
+                edges.dedup();
+                for [a, b] in edges {
+                    let (a, b) = (vertices[a as usize], vertices[b as usize]);
+                    let n = parts((b - a).length());
+                    for m in 1..n {
+                        let p = a + (b - a) * (m as f64 / n as f64);
+                        samples.extend(embed(lattice, p, &kept));
+                    }
+                }
                 for t in &skin.triangles {
                     let [a, b, c] = t.map(|v| vertices[v as usize]);
-                    let longest = (b - a).length().max((c - b).length()).max((a - c).length());
-                    let parts = (longest / spacing).ceil() as usize;
-                    for i in 0..=parts {
-                        for j in 0..=parts - i {
-                            let k = parts - i - j;
-                            // The vertices themselves (a part of 1) are samples already.
-                            if i == parts || j == parts || k == parts {
-                                continue;
-                            }
-                            let (u, v) = (i as f64 / parts as f64, j as f64 / parts as f64);
+                    let n = parts((b - a).length().max((c - b).length()).max((a - c).length()));
+                    // Strictly inside: the vertices and edges have theirs.
+                    for i in 1..n {
+                        for j in 1..n - i {
+                            let (u, v) = (i as f64 / n as f64, j as f64 / n as f64);
                             let p = a + (b - a) * u + (c - a) * v;
                             samples.extend(embed(lattice, p, &kept));
                         }
