@@ -63,6 +63,33 @@ create "$out/stack.toml" "${scene[@]}" --sphere 0,0,-1.5,0.45 \
   --cube 5 --size 0.5 --centre 0.15,0.05,0 --rotation 0,0,20 --name middle "${jelly[@]}" \
   --cube 5 --size 0.5 --centre 0.1,0.1,0.75 --rotation 0,0,40 --name top "${jelly[@]}"
 
+# Five firm cubes stacked on the floor: a tower that stands (a softer jelly, modulus 2e5 Pa,
+# buckles under its own weight at this height, as a column would).
+tower=()
+for i in 1 2 3 4 5; do
+  tower+=(--cube 5 --size 0.3 --centre "0,0,$(( 30 * i - 215 ))e-2" --name "cube$i" --density 1000 --modulus 2e6 --viscosity 40)
+done
+create "$out/tower.toml" --dt 0.0005 --collision-stiffness 2e6 --collision-damping 200 "${tower[@]}"
+# Twenty shapes dropped into a box, four to a layer.
+for shape in sphere torus ell capsule; do
+  "$jello" shape "$shape" "$meshes/small-$shape.obj" --detail 6 --size 0.4 >/dev/null
+done
+shapes=(sphere torus ell capsule)
+pile=()
+for n in $(seq 0 19); do
+  layer=$(( n / 4 )); k=$(( n % 4 ))
+  shape=${shapes[$(( (layer + k) % 4 ))]}
+  x=$(( k % 2 * 90 - 45 )); y=$(( k / 2 * 90 - 45 )); z=$(( 55 * layer - 70 ))
+  pile+=(--mesh "$meshes/small-$shape.obj" --cells 6 --centre "${x}e-2,${y}e-2,${z}e-2"
+    --rotation "$(( 17 * n % 90 )),$(( 31 * n % 90 )),$(( 47 * n % 90 ))" --name "$shape$(( n + 1 ))" "${jelly[@]}")
+done
+create "$out/pile.toml" --bounds=-1,-1,-1,1,1,2.5 --dt 0.0005 --collision-stiffness 2e5 --collision-damping 50 "${pile[@]}"
+# A soft ring squashed flat under a heavy block, with self-contact on.
+"$jello" shape torus "$meshes/ring.obj" --detail 8 --size 0.8 >/dev/null
+create "$out/ring.toml" "${scene[@]}" --self-contact \
+  --mesh "$meshes/ring.obj" --cells 12 --centre 0,0,-1.8 --name ring --density 1000 --modulus 3e4 --viscosity 40 \
+  --cube 5 --size 0.9 --centre 0,0,-1.2 --name weight --total-mass 400 --modulus 2e6 --viscosity 40
+
 if $check; then
   if ! diff -r -q "$out" examples; then
     echo "examples/ is out of date: run scripts/make-examples.sh" >&2

@@ -45,6 +45,20 @@ pub struct Contacts {
     mass: Vec<f64>,
     /// The samples that touched another body in the last [`Contacts::compute`].
     touches: Vec<Touch>,
+    /// The samples cut into chunks of one body's, searched on the team's threads; each chunk's
+    /// touches are summed in order after, so the forces do not depend on the thread count.
+    chunks: Vec<SampleChunk>,
+}
+
+/// Samples a chunk holds at most.
+const CHUNK: usize = 256;
+
+/// A run of one body's samples and the touches found for them, with their forces.
+#[derive(Clone, Debug)]
+struct SampleChunk {
+    body: usize,
+    samples: std::ops::Range<usize>,
+    found: Vec<(Touch, Vec3)>,
 }
 
 /// A sample of one body inside another: the points its force goes to and their weights (those
@@ -83,12 +97,26 @@ impl Contacts {
             .iter()
             .map(|b| b.contact_surface().samples.len())
             .sum();
+        let mut chunks = Vec::new();
+        for (body, b) in bodies.iter().enumerate() {
+            let count = b.contact_surface().samples.len();
+            for start in (0..count).step_by(CHUNK) {
+                let samples = start..(start + CHUNK).min(count);
+                // Room for every sample to touch, so that stepping does not allocate.
+                let found = Vec::with_capacity(samples.len());
+                chunks.push(SampleChunk {
+                    body,
+                    samples,
+                    found,
+                });
+            }
+        }
         Contacts {
             forces: Soa::zeros(model.point_count()),
             grid: BroadPhase::new(model),
             mass: bodies.iter().map(|b| b.material.mass).collect(),
-            // Room for every sample to touch, so that stepping does not allocate.
             touches: Vec::with_capacity(samples),
+            chunks,
         }
     }
 
@@ -112,86 +140,29 @@ impl Contacts {
             grid,
             mass,
             touches,
+            chunks,
         } = self;
         forces.fill_zero();
         touches.clear();
-        let bodies = model.bodies();
         if !model.surfaces_touch() {
             return;
         }
         let (px, py, pz) = (p.x(), p.y(), p.z());
         grid.sort(model, [px, py, pz], 0.0);
-        let (vx, vy, vz) = (v.x(), v.y(), v.z());
-        let at = |q: usize| Vec3::new(px[q], py[q], pz[q]);
-        let speed = |q: usize| Vec3::new(vx[q], vy[q], vz[q]);
-        let (kc, dc, mu) = (model.k_collision, model.d_collision, model.friction);
+        let (grid, mass) = (&*grid, &*mass);
+        crate::compute::team::for_each_mut(chunks, &|_, chunk| {
+            chunk.found.clear();
+            find_touches(model, grid, mass, p, v, chunk);
+        });
+        // The forces summed in the samples' order, whichever thread found them.
         let [fx, fy, fz] = forces.parts_mut();
-        for (a, body) in bodies.iter().enumerate() {
-            let surface = body.contact_surface();
-            let first = body.points().start;
-            let neighbours = grid.neighbours(a);
-            if neighbours.is_empty() {
-                continue;
-            }
-            for sample in &surface.samples {
-                let base = first + sample.corner as usize;
-                let wa = weights(sample.local);
-                let mut points = [0u32; 16];
-                let mut w = [0.0; 16];
-                let mut ps = Vec3::ZERO;
-                for (k, (&o, &wk)) in surface.offsets.iter().zip(&wa).enumerate() {
-                    (points[k], w[k]) = ((base + o) as u32, wk);
-                    ps += at(base + o) * wk;
+        for chunk in chunks.iter() {
+            for (touch, f) in &chunk.found {
+                for (&q, &wq) in touch.points.iter().zip(&touch.weights) {
+                    let q = q as usize;
+                    (fx[q], fy[q], fz[q]) = (fx[q] + f.x * wq, fy[q] + f.y * wq, fz[q] + f.z * wq);
                 }
-                if !neighbours.iter().any(|&b| grid.in_body_box(b as usize, ps)) {
-                    continue;
-                }
-                let own = body.lattice().coords(sample.corner as usize);
-                grid.find_near(ps, |g| {
-                    let b = grid.cell_body[g] as usize;
-                    let corner = grid.cell_corner[g] as usize;
-                    let cell = bodies[b]
-                        .lattice()
-                        .coords(corner - bodies[b].points().start);
-                    if b == a && !(model.self_contact && apart(own, cell)) {
-                        return false;
-                    }
-                    let other = bodies[b].contact_surface();
-                    let corners = other.offsets.map(|o| at(corner + o));
-                    let Some((uvw, rows)) = locate(&corners, ps) else {
-                        return false;
-                    };
-                    // The first cell that holds the sample decides (cells only share faces,
-                    // where their distances agree).
-                    let (phi, gu) = other.distance_in(cell, uvw);
-                    let gradient = in_space(gu, &rows);
-                    let length = gradient.length();
-                    if !(phi < 0.0 && length > 0.0) {
-                        return true;
-                    }
-                    let (depth, n) = (-phi / length.max(MIN_GRADIENT), gradient / length);
-                    for (k, (&o, wb)) in other.offsets.iter().zip(weights(uvw)).enumerate() {
-                        (points[8 + k], w[8 + k]) = ((corner + o) as u32, -wb);
-                    }
-                    let (ma, mb) = (mass[a], mass[b]);
-                    let reduced = ma * mb / (ma + mb);
-                    let touch = Touch {
-                        points,
-                        weights: w,
-                        depth,
-                        normal: n,
-                        reduced,
-                    };
-                    let c_max = if mu > 0.0 { reduced / model.dt } else { 0.0 };
-                    let f = touch_force(n, touch.relative(speed), depth, [kc, dc, mu, c_max]);
-                    for (&q, &wq) in touch.points.iter().zip(&touch.weights) {
-                        let q = q as usize;
-                        (fx[q], fy[q], fz[q]) =
-                            (fx[q] + f.x * wq, fy[q] + f.y * wq, fz[q] + f.z * wq);
-                    }
-                    touches.push(touch);
-                    true
-                });
+                touches.push(*touch);
             }
         }
     }
@@ -305,6 +276,86 @@ impl Contacts {
 /// their ratio would be noise.
 const MIN_GRADIENT: f64 = 0.5;
 
+/// The touches of `chunk`'s samples at positions `p` and velocities `v`, with their forces, into
+/// its `found`, in the samples' order.
+fn find_touches(
+    model: &Model,
+    grid: &BroadPhase,
+    mass: &[f64],
+    p: &Soa,
+    v: &Soa,
+    chunk: &mut SampleChunk,
+) {
+    let bodies = model.bodies();
+    let (a, body) = (chunk.body, &model.bodies()[chunk.body]);
+    let neighbours = grid.neighbours(a);
+    if neighbours.is_empty() {
+        return;
+    }
+    let (px, py, pz) = (p.x(), p.y(), p.z());
+    let (vx, vy, vz) = (v.x(), v.y(), v.z());
+    let at = |q: usize| Vec3::new(px[q], py[q], pz[q]);
+    let speed = |q: usize| Vec3::new(vx[q], vy[q], vz[q]);
+    let (kc, dc, mu) = (model.k_collision, model.d_collision, model.friction);
+    let surface = body.contact_surface();
+    let first = body.points().start;
+    for sample in &surface.samples[chunk.samples.clone()] {
+        let base = first + sample.corner as usize;
+        let wa = weights(sample.local);
+        let mut points = [0u32; 16];
+        let mut w = [0.0; 16];
+        let mut ps = Vec3::ZERO;
+        for (k, (&o, &wk)) in surface.offsets.iter().zip(&wa).enumerate() {
+            (points[k], w[k]) = ((base + o) as u32, wk);
+            ps += at(base + o) * wk;
+        }
+        if !neighbours.iter().any(|&b| grid.in_body_box(b as usize, ps)) {
+            continue;
+        }
+        let own = body.lattice().coords(sample.corner as usize);
+        grid.find_near(ps, |g| {
+            let b = grid.cell_body[g] as usize;
+            let corner = grid.cell_corner[g] as usize;
+            let cell = bodies[b]
+                .lattice()
+                .coords(corner - bodies[b].points().start);
+            if b == a && !(model.self_contact && apart(own, cell)) {
+                return false;
+            }
+            let other = bodies[b].contact_surface();
+            let corners = other.offsets.map(|o| at(corner + o));
+            let Some((uvw, rows)) = locate(&corners, ps) else {
+                return false;
+            };
+            // The first cell that holds the sample decides (cells only share faces, where their
+            // distances agree).
+            let (phi, gu) = other.distance_in(cell, uvw);
+            let gradient = in_space(gu, &rows);
+            let length = gradient.length();
+            if !(phi < 0.0 && length > 0.0) {
+                return true;
+            }
+            let (depth, n) = (-phi / length.max(MIN_GRADIENT), gradient / length);
+            for (k, (&o, wb)) in other.offsets.iter().zip(weights(uvw)).enumerate() {
+                (points[8 + k], w[8 + k]) = ((corner + o) as u32, -wb);
+            }
+            let (ma, mb) = (mass[a], mass[b]);
+            let reduced = ma * mb / (ma + mb);
+            let touch = Touch {
+                points,
+                weights: w,
+                depth,
+                normal: n,
+                reduced,
+            };
+            let c_max = if mu > 0.0 { reduced / model.dt } else { 0.0 };
+            let f = touch_force(n, touch.relative(speed), depth, [kc, dc, mu, c_max]);
+            chunk.found.push((touch, f));
+            true
+        });
+    }
+}
+
 /// True when cells at lattice coordinates `a` and `b` of one body share no corner: a sample in
 /// the one may touch the other under self-contact (neighbouring cells are one surface).
 #[inline]
@@ -364,7 +415,7 @@ pub struct Closest {
 
 /// The pairs of bodies at positions `pos` whose surfaces come within a cell of each other (the
 /// larger cell of the model), each once, in order, with how deep they overlap or how far apart
-/// they are (see [`Closest`]).
+/// they are (see [`Closest`]); under self-contact, a body inside itself too.
 pub fn closest(model: &Model, pos: &[Vec3]) -> Vec<Closest> {
     if !model.surfaces_touch() {
         return Vec::new();
@@ -383,6 +434,10 @@ pub fn closest(model: &Model, pos: &[Vec3]) -> Vec<Closest> {
             model.locate(t.points[0] as usize).0,
             model.locate(t.points[8] as usize).0,
         );
+        // A body near its own far cells is only news when it is inside them.
+        if a == b && t.depth <= 0.0 {
+            continue;
+        }
         let bodies = [a.min(b), a.max(b)];
         match pairs.iter_mut().find(|c| c.bodies == bodies) {
             Some(c) => c.depth = c.depth.max(t.depth),

@@ -597,12 +597,6 @@ impl Body {
             .filter(|&s| s > 0.0)
             .fold(f64::INFINITY, f64::min)
     }
-
-    /// Radius of the ball around each point that other bodies' balls may not enter (m): half the
-    /// smallest spacing, so that another body's point cannot slip between four neighbours.
-    pub fn contact_radius(&self) -> f64 {
-        0.5 * self.min_spacing()
-    }
 }
 
 /// Per point, whether it is a corner of a kept cell.
