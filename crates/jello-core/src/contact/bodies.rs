@@ -208,7 +208,8 @@ impl Contacts {
                 // point is closest to it.
                 let mut found: Option<(f64, Option<Touch>)> = None;
                 let own = body.lattice().coords(sample.corner as usize);
-                grid.find_near(ps, |g| {
+                let skip = (!model.self_contact).then_some(a as u32);
+                grid.find_near(ps, skip, |g| {
                     let b = grid.cell_body[g] as usize;
                     let corner = grid.cell_corner[g] as usize;
                     let cell = bodies[b]
@@ -313,7 +314,8 @@ fn find_touches(
             continue;
         }
         let own = body.lattice().coords(sample.corner as usize);
-        grid.find_near(ps, |g| {
+        let skip = (!model.self_contact).then_some(a as u32);
+        grid.find_near(ps, skip, |g| {
             let b = grid.cell_body[g] as usize;
             let corner = grid.cell_corner[g] as usize;
             let cell = bodies[b]

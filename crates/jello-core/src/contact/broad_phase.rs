@@ -20,14 +20,16 @@ pub(crate) struct BroadPhase {
     /// Per cell (all bodies', in order): its body and the flat model index of its lower corner.
     pub cell_body: Vec<u32>,
     pub cell_corner: Vec<u32>,
-    /// Per cell: its bounding box at the last sort, and the grid cells it overlaps.
-    boxes: Vec<[Vec3; 2]>,
-    spans: Vec<[[i32; 3]; 2]>,
+    /// Per cell: the grid cells it overlaps and its bounding box at the last sort (none, and
+    /// empty, for a cell no other surface can reach).
+    placed: Vec<([[i32; 3]; 2], [Vec3; 2])>,
     /// Bucket starts of the hashed grid (`buckets + 1` entries).
     starts: Vec<u32>,
     /// Cells sorted by bucket (as indices of `cell_body`), with the grid cell each entry is for.
     entries: Vec<u32>,
     entry_keys: Vec<[i32; 3]>,
+    /// Each entry's cell's body, beside it, so that a body's own cells are passed over unread.
+    entry_bodies: Vec<u32>,
     /// Side of a grid cell (m).
     side: f64,
     /// Per body: the box of its points at the last sort (grown), and the bodies whose boxes
@@ -57,11 +59,11 @@ impl BroadPhase {
         BroadPhase {
             cell_body,
             cell_corner,
-            boxes: vec![[Vec3::ZERO; 2]; cells],
-            spans: vec![[[0; 3]; 2]; cells],
+            placed: vec![([[0; 3], [-1; 3]], EMPTY); cells],
             starts: vec![0; buckets + 1],
             entries: Vec::with_capacity(ROOM_PER_CELL * cells),
             entry_keys: Vec::with_capacity(ROOM_PER_CELL * cells),
+            entry_bodies: Vec::with_capacity(ROOM_PER_CELL * cells),
             side: if side > 0.0 { side } else { 1.0 },
             body_boxes: vec![EMPTY; model.bodies().len()],
             neighbours: model
@@ -100,21 +102,20 @@ impl BroadPhase {
                 }
             }
         }
-        // Each cell's box and span, and how many entries each bucket gets: only cells that
-        // meet a box a sample may come from.
-        self.starts.fill(0);
-        let mut total = 0;
-        for (g, (&b, &corner)) in self.cell_body.iter().zip(&self.cell_corner).enumerate() {
-            let (b, empty) = (b as usize, [[0; 3], [-1; 3]]);
-            (self.spans[g], self.boxes[g]) = (empty, EMPTY);
+        // Each cell's box and span (on the team's threads: cells are independent), only for
+        // cells that meet a box a sample may come from; then how many entries each bucket gets.
+        let (cell_body, cell_corner) = (&self.cell_body, &self.cell_corner);
+        let (neighbours, body_boxes) = (&self.neighbours, &self.body_boxes);
+        let size = crate::compute::team::chunk_size(cell_body.len(), 512);
+        let place = |g: usize| -> Option<([[i32; 3]; 2], [Vec3; 2])> {
+            let b = cell_body[g] as usize;
             // The bodies whose samples may be in body b's cells are its neighbours too.
-            if self.neighbours[b].is_empty() {
-                continue;
+            if neighbours[b].is_empty() {
+                return None;
             }
-            let offsets = &bodies[b].contact_surface().offsets;
             let (mut lo, mut hi) = (EMPTY[0], EMPTY[1]);
-            for &o in offsets {
-                let q = corner as usize + o;
+            for &o in &bodies[b].contact_surface().offsets {
+                let q = cell_corner[g] as usize + o;
                 let p = Vec3::new(px[q], py[q], pz[q]);
                 (lo, hi) = (lo.min(p), hi.max(p));
             }
@@ -125,15 +126,21 @@ impl BroadPhase {
             if !(lo.is_finite() && hi.is_finite())
                 || (0..3).any(|a| span[1][a] - span[0][a] > MAX_SPAN)
             {
-                continue;
+                return None;
             }
             let cell = [lo, hi];
-            let wanted =
-                (self.neighbours[b].iter()).any(|&a| meets(cell, self.body_boxes[a as usize]));
-            if !wanted {
-                continue;
+            (neighbours[b].iter())
+                .any(|&a| meets(cell, body_boxes[a as usize]))
+                .then_some((span, cell))
+        };
+        crate::compute::team::for_each_chunk([&mut self.placed[..]], size, &|i, [part]| {
+            for (k, placed) in part.iter_mut().enumerate() {
+                *placed = place(i * size + k).unwrap_or(([[0; 3], [-1; 3]], EMPTY));
             }
-            (self.spans[g], self.boxes[g]) = (span, cell);
+        });
+        self.starts.fill(0);
+        let mut total = 0;
+        for &(span, _) in &self.placed {
             for_each_key(span, |key| {
                 self.starts[hash(key) & mask] += 1;
                 total += 1;
@@ -148,11 +155,13 @@ impl BroadPhase {
         }
         self.entries.resize(total, 0);
         self.entry_keys.resize(total, [0; 3]);
-        for (g, &span) in self.spans.iter().enumerate() {
+        self.entry_bodies.resize(total, 0);
+        for (g, &(span, _)) in self.placed.iter().enumerate() {
             for_each_key(span, |key| {
                 let slot = &mut self.starts[hash(key) & mask];
                 let e = *slot as usize;
                 (self.entries[e], self.entry_keys[e]) = (g as u32, key);
+                self.entry_bodies[e] = self.cell_body[g];
                 *slot += 1;
             });
         }
@@ -178,17 +187,26 @@ impl BroadPhase {
     }
 
     /// Calls `near(cell)` for every cell whose box (grown) at the last sort holds `p`, in a fixed
-    /// order (the cells' order), until it returns true.
+    /// order (the cells' order), until it returns true; cells of body `skip` are passed over.
     #[inline]
-    pub(crate) fn find_near(&self, p: Vec3, mut near: impl FnMut(usize) -> bool) {
+    pub(crate) fn find_near(
+        &self,
+        p: Vec3,
+        skip: Option<u32>,
+        mut near: impl FnMut(usize) -> bool,
+    ) {
         let key = (p * (1.0 / self.side)).to_array().map(|x| x.floor() as i32);
         let bucket = hash(key) & (self.starts.len() - 2);
         let range = self.starts[bucket] as usize..self.starts[bucket + 1] as usize;
-        for (&g, &k) in self.entries[range.clone()]
-            .iter()
-            .zip(&self.entry_keys[range])
+        let skip = skip.unwrap_or(u32::MAX);
+        for ((&g, &k), &b) in (self.entries[range.clone()].iter())
+            .zip(&self.entry_keys[range.clone()])
+            .zip(&self.entry_bodies[range])
         {
-            let [lo, hi] = self.boxes[g as usize];
+            if b == skip {
+                continue;
+            }
+            let [lo, hi] = self.placed[g as usize].1;
             let inside = p.x >= lo.x && p.x <= hi.x && p.y >= lo.y && p.y <= hi.y;
             if k != key || !(inside && p.z >= lo.z && p.z <= hi.z) {
                 continue;
