@@ -1,9 +1,12 @@
-//! The broad phase of contacts between bodies: every kept cell of every body, as it is deformed
-//! now, sorted into a hashed uniform grid by the grid cells its bounding box overlaps (a counting
-//! sort, in the order of the bodies and their cells), so that a point finds the few cells it may
-//! be inside by looking in its own grid cell. Buffers are sized once (and grow only for a cell
-//! stretched over more grid cells than was room for); the sort and the visits run in a fixed
-//! order, so the forces summed over them are bit for bit the same whatever the thread count.
+//! The broad phase of contacts between bodies, in two levels. First each body's box (of its
+//! points as they are now) and which bodies' boxes meet: a body near no other is passed over
+//! whole, and a surface point outside every neighbour's box is not looked up. Then the kept
+//! cells that meet a neighbour's box, as they are deformed now, sorted into a hashed uniform grid
+//! by the grid cells their bounding boxes overlap (a counting sort, in the order of the bodies
+//! and their cells), so that a point finds the few cells it may be inside by looking in its own
+//! grid cell. Buffers are sized once (and grow only for a cell stretched over more grid cells
+//! than was room for); the sort and the visits run in a fixed order, so the forces summed over
+//! them are bit for bit the same whatever the thread count.
 
 use crate::model::Model;
 use crate::vec3::Vec3;
