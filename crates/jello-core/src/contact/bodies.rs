@@ -5,7 +5,8 @@
 //! (samples), and the signed distance at rest of its lattice points to its surface,
 //! interpolated over each cell as the cell deforms. A sample of body A that lies inside a kept
 //! cell of another body B where B's interpolated distance `φ` is negative touches B: it is
-//! `depth = −φ/max(|∇φ|, ½)` inside B's surface (see [`MIN_GRADIENT`]), whose outward normal there is `n = ∇φ/|∇φ|`. It is
+//! `depth = −φ/max(|∇φ|, ½)` inside B's surface (see `MIN_GRADIENT`), whose outward normal
+//! there is `n = ∇φ/|∇φ|`. It is
 //! pushed out by a penalty spring with the model's collision stiffness and damped with its
 //! collision damping, `(kCollision·depth − dCollision (vA − vB)·n)·n`, with `vA − vB` the
 //! velocity of the sample relative to the point of B's cell it is at; across `n` acts Coulomb

@@ -22,7 +22,7 @@ use crate::vec3::Vec3;
 /// point in its middle, below its surface.
 pub const REFINE: usize = 2;
 
-/// The eight corners of a cell as offsets `(a, b, c)`, in the order of [`weights`].
+/// The eight corners of a cell as offsets `(a, b, c)`, in the order of `weights`.
 pub const CORNERS: [[usize; 3]; 8] = [
     [0, 0, 0],
     [0, 0, 1],
