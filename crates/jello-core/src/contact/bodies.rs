@@ -88,7 +88,8 @@ impl Touch {
 }
 
 impl Contacts {
-    /// Buffers for `model`; empty (and never used) for a model of one body.
+    /// Buffers for `model`; empty (and never used) when its surfaces cannot touch (one body
+    /// without self-contact).
     pub fn new(model: &Model) -> Self {
         let bodies = model.bodies();
         if !model.surfaces_touch() {

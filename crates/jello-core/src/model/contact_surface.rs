@@ -1,8 +1,10 @@
 //! The surfaces bodies touch each other with. Per body:
 //!
 //! - its **samples**: the points of its surface that press on other bodies, each embedded in one
-//!   of its cells by its place there (the skin's vertices, for a body made from a mesh; else the
-//!   lattice points on its cage's surface), so that it moves with the cell's eight corners;
+//!   of its cells by its place there, so that it moves with the cell's eight corners: for a body
+//!   made from a mesh, the skin's vertices and points along its edges and inside its triangles,
+//!   at most a cell apart; else the lattice points on its cage's surface (every lattice point of
+//!   a body without cells, which has no inside);
 //! - the **signed distance** at rest from each of its lattice points to its surface (its skin,
 //!   else its cage's surface): negative inside, interpolated trilinearly over a cell as the cell
 //!   deforms, so that "how deep is this point inside that body, and which way is out" is a
