@@ -191,4 +191,17 @@ fn the_closest_pairs_report_their_gap_and_overlap() {
         assert_eq!(pairs[0].bodies, [0, 1]);
         assert!((pairs[0].depth - want).abs() < 1e-9, "{pairs:?}");
     }
+    // Two cubes in the same place: their surfaces coincide (no surface point is inside the
+    // other), but the middles of their cells are: the deepest, half a cell from the faces
+    // (0.1 m cells, inside 0.2 m from the nearest face at the middle cells: 0.15 m).
+    let model = ModelBuilder::new()
+        .bodies(vec![
+            box_at([5; 3], side, Vec3::ZERO),
+            box_at([5; 3], side, Vec3::ZERO),
+        ])
+        .build()
+        .unwrap();
+    let pairs = jello_core::contact::closest(&model, &State::at_rest(&model).pos);
+    assert_eq!(pairs.len(), 1, "{pairs:?}");
+    assert!((pairs[0].depth - 0.15).abs() < 1e-9, "{pairs:?}");
 }

@@ -418,8 +418,9 @@ pub struct Closest {
 }
 
 /// The pairs of bodies at positions `pos` whose surfaces come within a cell of each other (the
-/// larger cell of the model), each once, in order, with how deep they overlap or how far apart
-/// they are (see [`Closest`]); under self-contact, a body inside itself too.
+/// larger cell of the model), or where the middle of a cell of one is inside the other, each
+/// once, in order, with how deep they overlap or how far apart they are (see [`Closest`]);
+/// under self-contact, a body inside itself too.
 pub fn closest(model: &Model, pos: &[Vec3]) -> Vec<Closest> {
     if !model.surfaces_touch() {
         return Vec::new();
@@ -449,6 +450,44 @@ pub fn closest(model: &Model, pos: &[Vec3]) -> Vec<Closest> {
                 bodies,
                 depth: t.depth,
             }),
+        }
+    }
+    // Bodies sunk into each other further than their surfaces show (one inside the other, or
+    // the two in the same place): the middles of each body's cells inside another body.
+    let bodies = model.bodies();
+    let grid = &contacts.grid;
+    let at = |q: usize| pos[q];
+    for (a, body) in bodies.iter().enumerate() {
+        let surface = body.contact_surface();
+        for &c in &surface.cells {
+            let corner = body.points().start + c as usize;
+            let middle = surface
+                .offsets
+                .iter()
+                .fold(Vec3::ZERO, |s, &o| s + at(corner + o) * 0.125);
+            grid.find_near(middle, Some(a as u32), |g| {
+                let b = grid.cell_body[g] as usize;
+                let other_corner = grid.cell_corner[g] as usize;
+                let other = bodies[b].contact_surface();
+                let corners = other.offsets.map(|o| at(other_corner + o));
+                let Some((uvw, _)) = locate(&corners, middle) else {
+                    return false;
+                };
+                let cell = (bodies[b].lattice()).coords(other_corner - bodies[b].points().start);
+                // Deep inside, the distance at rest (its gradient has kinks there).
+                let depth = -other.distance_in(cell, uvw).0;
+                if depth > 0.0 {
+                    let pair = [a.min(b), a.max(b)];
+                    match pairs.iter_mut().find(|c| c.bodies == pair) {
+                        Some(c) => c.depth = c.depth.max(depth),
+                        None => pairs.push(Closest {
+                            bodies: pair,
+                            depth,
+                        }),
+                    }
+                }
+                true
+            });
         }
     }
     pairs.sort_by_key(|c| c.bodies);

@@ -252,10 +252,7 @@ fn check_start(model: &Model, state: &State, names: &[String]) -> Result<(), Str
         } else {
             format!("{a} and {b} start inside each other")
         };
-        return Err(format!(
-            "{what} (a point of one surface {:.3e} m inside the other); move them apart",
-            c.depth
-        ));
+        return Err(format!("{what} (by {:.3e} m); move them apart", c.depth));
     }
     Ok(())
 }
