@@ -31,7 +31,9 @@
 
 use super::broad_phase::BroadPhase;
 use crate::compute::soa::Soa;
-use crate::model::contact_surface::{cell_map, in_space, locate, locate_near, weights};
+use crate::model::contact_surface::{
+    cell_map, in_space, locate, locate_near, weights, ContactSurface, Sample,
+};
 use crate::model::Model;
 use crate::vec3::Vec3;
 
@@ -193,33 +195,19 @@ impl Contacts {
                 continue;
             }
             for sample in &surface.samples {
-                let base = first + sample.corner as usize;
-                let wa = weights(sample.local);
-                let mut points = [0u32; 16];
-                let mut w = [0.0; 16];
-                let mut ps = Vec3::ZERO;
-                for (k, (&o, &wk)) in surface.offsets.iter().zip(&wa).enumerate() {
-                    (points[k], w[k]) = ((base + o) as u32, wk);
-                    ps += at(base + o) * wk;
-                }
+                let (points, w, ps) = sample_place(surface, first, sample, at);
                 if !neighbours.iter().any(|&b| grid.in_body_box(b as usize, ps)) {
                     continue;
                 }
-                // The cell that holds the sample, else the first near enough.
                 // The cell that holds the sample, else the nearest: the one whose nearest
                 // point is closest to it.
                 let mut found: Option<(f64, Option<Touch>)> = None;
                 let own = body.lattice().coords(sample.corner as usize);
                 let skip = (!model.self_contact).then_some(a as u32);
                 grid.find_near(ps, skip, |g| {
-                    let b = grid.cell_body[g] as usize;
-                    let corner = grid.cell_corner[g] as usize;
-                    let cell = bodies[b]
-                        .lattice()
-                        .coords(corner - bodies[b].points().start);
-                    if b == a && !(model.self_contact && apart(own, cell)) {
+                    let Some((b, corner, cell)) = candidate(model, grid, a, own, g) else {
                         return false;
-                    }
+                    };
                     let other = bodies[b].contact_surface();
                     let h = bodies[b].min_spacing();
                     let corners = other.offsets.map(|o| at(corner + o));
@@ -303,29 +291,16 @@ fn find_touches(
     let surface = body.contact_surface();
     let first = body.points().start;
     for sample in &surface.samples[chunk.samples.clone()] {
-        let base = first + sample.corner as usize;
-        let wa = weights(sample.local);
-        let mut points = [0u32; 16];
-        let mut w = [0.0; 16];
-        let mut ps = Vec3::ZERO;
-        for (k, (&o, &wk)) in surface.offsets.iter().zip(&wa).enumerate() {
-            (points[k], w[k]) = ((base + o) as u32, wk);
-            ps += at(base + o) * wk;
-        }
+        let (mut points, mut w, ps) = sample_place(surface, first, sample, at);
         if !neighbours.iter().any(|&b| grid.in_body_box(b as usize, ps)) {
             continue;
         }
         let own = body.lattice().coords(sample.corner as usize);
         let skip = (!model.self_contact).then_some(a as u32);
         grid.find_near(ps, skip, |g| {
-            let b = grid.cell_body[g] as usize;
-            let corner = grid.cell_corner[g] as usize;
-            let cell = bodies[b]
-                .lattice()
-                .coords(corner - bodies[b].points().start);
-            if b == a && !(model.self_contact && apart(own, cell)) {
+            let Some((b, corner, cell)) = candidate(model, grid, a, own, g) else {
                 return false;
-            }
+            };
             let other = bodies[b].contact_surface();
             let corners = other.offsets.map(|o| at(corner + o));
             let Some((uvw, rows)) = locate(&corners, ps) else {
@@ -358,6 +333,50 @@ fn find_touches(
             true
         });
     }
+}
+
+/// Where `sample` of a body (its surface, its first point `first`) is, by `at(point)`: its
+/// cell's corners with their weights (the first 8 of 16; the other body's go after), and the
+/// place.
+#[inline]
+fn sample_place(
+    surface: &ContactSurface,
+    first: usize,
+    sample: &Sample,
+    at: impl Fn(usize) -> Vec3,
+) -> ([u32; 16], [f64; 16], Vec3) {
+    let base = first + sample.corner as usize;
+    let mut points = [0u32; 16];
+    let mut w = [0.0; 16];
+    let mut ps = Vec3::ZERO;
+    for (k, (&o, wk)) in surface
+        .offsets
+        .iter()
+        .zip(weights(sample.local))
+        .enumerate()
+    {
+        (points[k], w[k]) = ((base + o) as u32, wk);
+        ps += at(base + o) * wk;
+    }
+    (points, w, ps)
+}
+
+/// Cell `g` of the broad phase as a candidate for a sample of body `a` in its cell at lattice
+/// coordinates `own`: its body, its lower corner (flat model index) and its lattice coordinates,
+/// or `None` for a cell of body `a` itself unless self-contact lets the sample touch it.
+#[inline]
+fn candidate(
+    model: &Model,
+    grid: &BroadPhase,
+    a: usize,
+    own: [usize; 3],
+    g: usize,
+) -> Option<(usize, usize, [usize; 3])> {
+    let b = grid.cell_body[g] as usize;
+    let corner = grid.cell_corner[g] as usize;
+    let body = &model.bodies()[b];
+    let cell = body.lattice().coords(corner - body.points().start);
+    (b != a || (model.self_contact && apart(own, cell))).then_some((b, corner, cell))
 }
 
 /// True when cells at lattice coordinates `a` and `b` of one body share no corner: a sample in
