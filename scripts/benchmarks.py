@@ -16,6 +16,9 @@ import subprocess
 import sys
 import time
 
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from bench_sections import kept_sections  # noqa: E402
+
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 PEERS_DIR = os.path.join(ROOT, "bench", "peers")
 JELLO = os.path.join(ROOT, "target", "release", "jello")
@@ -512,17 +515,12 @@ def write_md(args, seconds, configs, peers, info, versions, jello_missing, insta
             for p in peers)
         w("| %d | %s | %d | %s | %s |" % (cfg["size"], cfg["integrator"], cfg["threads"], js, ps))
     w("")
-    # The section scripts/frame-rate.sh writes (Jello's implicit methods against Rapier) is a
-    # separate run: keep it.
+    # The sections scripts/frame-rate.sh and scripts/pile-bench.sh write (Jello against Rapier)
+    # are separate runs, and the measurements kept by hand each have their date and machine:
+    # keep them.
     old = open(args.out).read() if os.path.exists(args.out) else ""
-    begin, end = "<!-- frame-rate: begin", "<!-- frame-rate: end -->"
-    if begin in old and end in old:
-        L.append(old[old.index(begin):old.index(end) + len(end)])
-        w("")
-    # So is the section of measurements kept by hand, each with its date and machine.
-    begin, end = "<!-- by hand: begin", "<!-- by hand: end -->"
-    if begin in old and end in old:
-        L.append(old[old.index(begin):old.index(end) + len(end)])
+    for kept in kept_sections(old):
+        L.append(kept)
         w("")
     tmp = args.out + ".tmp"
     with open(tmp, "w") as f:

@@ -20,6 +20,7 @@ import tempfile
 import time
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from bench_sections import failure, fmt_rt, rapier_version, write_section  # noqa: E402
 from benchmarks import JELLO, ROOT, machine, wait_quiet  # noqa: E402
 
 PEER = os.path.join(ROOT, "bench", "peers", "rapier_peer.py")
@@ -69,12 +70,6 @@ def outcome(path):
             float(depth.group(1)) if depth else None)
 
 
-def failure(p):
-    """The message of a failed command: its first line that says error, else its last line."""
-    lines = (p.stderr or p.stdout).strip().splitlines() or ["exit code %d" % p.returncode]
-    return next((ln for ln in lines if "error" in ln.lower()), lines[-1])
-
-
 def run_jello(tmp, path, integrator, dt, threads, sim_time, max_wall):
     """Steps `path` with `jello run`; returns a result dict (or one with "error")."""
     env = dict(os.environ, RAYON_NUM_THREADS=str(threads))
@@ -117,14 +112,6 @@ def run_rapier(n, job, solver, sim_time, max_wall):
     if p.returncode != 0:
         return {"error": failure(p)}
     return json.loads(p.stdout.strip().splitlines()[-1])
-
-
-def fmt_rt(r):
-    if "error" in r:
-        return "failed"
-    x = r["realtime"]
-    s = ("%.3g" % x) if x >= 0.01 else ("%.2g" % x)
-    return s + "×" + (" ¹" if r.get("capped") else "")
 
 
 def main():
@@ -170,7 +157,7 @@ def main():
 
     info = machine()
     section = render(args, columns, rows, info)
-    write_section(args.out, section)
+    write_section(args.out, section, BEGIN, END)
     log("wrote the frame-rate section of " + args.out)
 
 
@@ -195,7 +182,8 @@ def render(args, columns, rows, info):
     w("- **Rapier** (PyPI `rapier3d`, %s): `SoftBody.cuboid` with N particles per side, "
       "mass 1 kg, the default material, sleeping off, a half-space floor, dt 1/60 s, its "
       "default solver iterations, one thread (`bench/peers/rapier_peer.py`). Its particles "
-      "have a radius, so its cube rests higher." % rapier_version(rows))
+      "have a radius, so its cube rests higher."
+      % rapier_version([c for r in rows for c in r["cells"]]))
     w("- Simulated time per run: %s; ¹ marks a run cut to about %g s of wall clock (the factor "
       "is measured over the steps done: at least 0.6 s simulated where that takes under three times "
       "the cap, else at least 5 steps)."
@@ -240,29 +228,6 @@ def render(args, columns, rows, info):
     w("")
     w(END)
     return "\n".join(L) + "\n"
-
-
-def rapier_version(rows):
-    for row in rows:
-        for c in row["cells"]:
-            if c.get("peer") == "rapier":
-                return c.get("version", "?")
-    return "not run"
-
-
-def write_section(out, section):
-    """Replaces the frame-rate section of `out` (or appends it), atomically."""
-    text = open(out).read() if os.path.exists(out) else ""
-    if BEGIN in text and END in text:
-        head, rest = text.split(BEGIN, 1)
-        tail = rest.split(END, 1)[1].lstrip("\n")
-        text = head + section + ("\n" + tail if tail else "")
-    else:
-        text = text.rstrip("\n") + ("\n\n" if text else "") + section
-    tmp = out + ".tmp"
-    with open(tmp, "w") as f:
-        f.write(text)
-    os.replace(tmp, out)
 
 
 if __name__ == "__main__":
