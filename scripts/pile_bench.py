@@ -28,7 +28,7 @@ import time
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from bench_sections import failure, fmt_rt, rapier_version, write_section  # noqa: E402
-from benchmarks import JELLO, ROOT, machine, wait_quiet  # noqa: E402
+from benchmarks import JELLO, QUIET, ROOT, machine, wait_quiet  # noqa: E402
 
 PEER = os.path.join(ROOT, "bench", "peers", "rapier_pile.py")
 SCENE = os.path.join(ROOT, "examples", "pile.toml")
@@ -184,14 +184,22 @@ def main():
             order = COLUMNS if rep % 2 == 0 else COLUMNS[::-1]
             for label, engine, threads in order:
                 log("repetition %d/%d: %s" % (rep + 1, args.reps, label))
+                load = os.getloadavg()[0]
                 if engine == "jello":
                     steps, wanted = plan[label]
                     r = run_jello(jello, scene_path, tmp, threads, steps, wanted, dt)
                 else:
                     r = run_rapier(scene_path, masses, threads, args.time, args.max_wall)
+                r["load_before"] = load
                 log("  " + json.dumps(r))
                 results[label].append(r)
 
+    info["load average at end"] = " ".join("%.2f" % x for x in os.getloadavg())
+    info["outside load"] = (
+        "before each run the script waited (at most 20 s per run, 180 s in all) for the CPUs to "
+        "be idle (< 25 %% busy over 0.5 s); %d of %d runs had to start on a busy machine; %.0f s "
+        "spent waiting; each run's 1-minute load average before it is in the raw results"
+        % (QUIET["busy_starts"], QUIET["runs"], QUIET["waited_s"]))
     section = render(args, scene, bodies, results, info, version)
     write_section(args.out, section, BEGIN, END)
     log("wrote the pile section of " + args.out)
@@ -259,8 +267,16 @@ def render(args, scene, bodies, results, info, version):
       "steps done, the start of the drop)." % args.max_wall)
     w("- Machine: %s." % "; ".join("%s: %s" % (k, v) for k, v in info.items()
                                     if k in ("CPU", "AVX-512", "cores (logical CPUs available)",
-                                             "OS", "load average at start", "git commit")))
+                                             "OS", "load average at start",
+                                             "load average at end", "outside load",
+                                             "git commit")))
     w("")
+    if QUIET["runs"] and QUIET["busy_starts"] > 0.25 * QUIET["runs"]:
+        w("> **Outside load:** %d of %d runs started while other processes kept the CPUs busy "
+          "(see *outside load* under Machine): the factors, the 2-thread ones most, are "
+          "disturbed; rerun on an idle machine before quoting them."
+          % (QUIET["busy_starts"], QUIET["runs"]))
+        w("")
     w("| | " + " | ".join(label for label, _, _ in COLUMNS) + " |")
     w("| --- |" + " ---: |" * len(COLUMNS))
     w("| real-time factor (median) | " + " | ".join(
