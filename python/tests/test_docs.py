@@ -152,6 +152,34 @@ def test_the_pages_with_rust_blocks_are_doctests() -> None:
     )
 
 
+LINK = re.compile(r"!?\[[^\]]*\]\(<?([^)\s>]+)>?(?:\s+\"[^\"]*\")?\)")
+CODE_SPAN = re.compile(r"`+[^`]*`+")
+
+
+def test_every_link_and_image_to_a_file_of_the_repository_finds_it() -> None:
+    """Relative links and images (`[…](path)`, `![…](path)`, outside code) name files that exist."""
+    missing: list[str] = []
+    for page in PAGES:
+        fence: str | None = None
+        for number, line in enumerate(page.read_text(encoding="utf-8").splitlines(), 1):
+            m = FENCE.match(line)
+            if m:
+                if fence is None:
+                    fence = m.group("fence")
+                elif m.group("fence").startswith(fence) and not m.group("info").strip():
+                    fence = None
+                continue
+            if fence is not None:
+                continue
+            for target in LINK.findall(CODE_SPAN.sub("", line)):
+                path = target.split("#")[0]
+                if not path or re.match(r"^[a-z][a-z0-9+.-]*:", target):
+                    continue
+                if not (page.parent / path).exists():
+                    missing.append(f"{page.relative_to(REPO)}:{number}: {target}")
+    assert not missing, "links to files that are not there:\n" + "\n".join(missing)
+
+
 @pytest.fixture(scope="session")
 def path_env(cli: Path, tmp_path_factory: pytest.TempPathFactory) -> dict[str, str]:
     """The environment blocks run in: `jello` (the release binary) and this Python first."""

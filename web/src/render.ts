@@ -41,8 +41,20 @@ const BODY_COLOURS = [0xe0405a, 0x43a047, 0xffb300, 0x1e88e5, 0x8e24aa, 0x00acc1
 const OBSTACLE_COLOUR = 0x78909c;
 const BACKGROUND = 0x16181d;
 
-/** The camera the original program starts with, and `e` returns to (z is up). */
+/** Body `b`'s colour: the palette's in turn, then a hue of its own for each further body (the
+ *  golden angle apart, light and dark by turns), so bodies in a pile of many do not share one. */
+export function bodyColour(b: number, colour = new THREE.Color()): THREE.Color {
+  if (b < BODY_COLOURS.length) return colour.setHex(BODY_COLOURS[b]);
+  const n = b - BODY_COLOURS.length;
+  return colour.setHSL((0.13 + n * 0.381966) % 1, 0.7, n % 2 === 0 ? 0.42 : 0.6, THREE.SRGBColorSpace);
+}
+
+/** The camera the original program starts with, and `e` returns to (z is up), for its box of
+ *  4 m a side centred on the origin; another box is framed alike (see [`Viewer.frameBox`]). */
 const HOME = { radius: 11, azimuth: Math.PI / 5, elevation: Math.PI / 7 };
+/** Half the diagonal of the original program's box: at HOME.radius, a box of this half diagonal
+ *  fills the view as that one did. */
+const HOME_HALF_DIAGONAL = 2 * Math.sqrt(3);
 
 export class Viewer {
   readonly renderer: THREE.WebGLRenderer;
@@ -60,6 +72,8 @@ export class Viewer {
   private pinPoints!: THREE.Points;
   private wireSprings: THREE.LineSegments[] = [];
   private fieldArrows: THREE.LineSegments | undefined;
+  /** The current world's box, which the home camera frames. */
+  private box: number[] = [-2, -2, -2, 2, 2, 2];
 
   mode: RenderMode = 'lit';
   readonly showKind = [true, true, true];
@@ -74,8 +88,6 @@ export class Viewer {
     this.camera.up.set(0, 0, 1); // the simulation's z is up
     this.controls = new OrbitControls(this.camera, canvas);
     this.controls.enableDamping = false;
-    this.controls.minDistance = 1;
-    this.controls.maxDistance = 40;
     this.resetCamera();
 
     this.addLights();
@@ -104,6 +116,12 @@ export class Viewer {
 
   /** Builds the objects of a newly loaded world. */
   setScene(data: SceneData): void {
+    // A world in another box: the camera goes home to frame it (the same box keeps the camera).
+    const box = Array.from(data.box);
+    if (box.some((x, i) => x !== this.box[i])) {
+      this.box = box;
+      this.resetCamera();
+    }
     for (const child of [...this.world.children]) {
       this.world.remove(child);
       disposeObject(child);
@@ -124,7 +142,7 @@ export class Viewer {
     const colours = new Float32Array(3 * data.surfaceVertexCount);
     const colour = new THREE.Color();
     data.surfaceBodies.forEach((b, v) => {
-      colour.setHex(BODY_COLOURS[b % BODY_COLOURS.length]);
+      bodyColour(b, colour);
       colours.set([colour.r, colour.g, colour.b], 3 * v);
     });
     surfaceGeometry.setAttribute('color', new THREE.BufferAttribute(colours, 3));
@@ -226,14 +244,33 @@ export class Viewer {
     this.renderer.render(this.scene, this.camera);
   }
 
+  /** The home camera: the current world's box seen from the home direction. */
   resetCamera(): void {
-    const { radius, azimuth, elevation } = HOME;
+    this.frameBox(this.box);
+  }
+
+  /** Looks from the home direction at the centre of `[minx, miny, minz, maxx, maxy, maxz]`, from
+   *  as far as frames it as the home camera frames the original 4 m box (11 m from its centre). */
+  frameBox(box: ArrayLike<number>): void {
+    const [x0, y0, z0, x1, y1, z1] = Array.from(box);
+    const centre = new THREE.Vector3((x0 + x1) / 2, (y0 + y1) / 2, (z0 + z1) / 2);
+    const halfDiagonal = Math.hypot(x1 - x0, y1 - y0, z1 - z0) / 2;
+    const radius = Math.max(HOME.radius * (halfDiagonal / HOME_HALF_DIAGONAL), 0.05);
+    const { azimuth, elevation } = HOME;
+    // The original box's zoom limits (1 m to 40 m) and clipping planes, widened in proportion
+    // for a much smaller or larger box.
+    const scale = radius / HOME.radius;
+    this.controls.minDistance = Math.min(1, scale);
+    this.controls.maxDistance = 40 * Math.max(1, scale);
+    this.camera.near = 0.05 * Math.min(1, scale);
+    this.camera.far = 100 * Math.max(1, scale);
+    this.camera.updateProjectionMatrix();
     this.camera.position.set(
-      radius * Math.cos(elevation) * Math.cos(azimuth),
-      radius * Math.cos(elevation) * Math.sin(azimuth),
-      radius * Math.sin(elevation),
+      centre.x + radius * Math.cos(elevation) * Math.cos(azimuth),
+      centre.y + radius * Math.cos(elevation) * Math.sin(azimuth),
+      centre.z + radius * Math.sin(elevation),
     );
-    this.controls.target.set(0, 0, 0);
+    this.controls.target.copy(centre);
     this.controls.update();
   }
 

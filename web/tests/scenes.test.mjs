@@ -1,7 +1,8 @@
 // Scenes in the viewer, as a user meets them: `jello view` started on a scene file, the example
-// scenes in the list, a scene loaded by the picker and by drag and drop, skins lit and cages in
-// wireframe, obstacles drawn, pulling and pushing one body of several, saving the state as a scene
-// that loads again, and a bad scene's error. Run by scripts/web-test.sh after a build.
+// scenes in the list, the home camera on a scene's own box, a colour for each of many bodies, a
+// scene loaded by the picker and by drag and drop, skins lit and cages in wireframe, obstacles
+// drawn, pulling and pushing one body of several, saving the state as a scene that loads again,
+// and a bad scene's error. Run by scripts/web-test.sh after a build.
 import assert from 'node:assert/strict';
 import { readFileSync } from 'node:fs';
 import { join } from 'node:path';
@@ -89,6 +90,83 @@ describe('scenes in the viewer', () => {
     }));
     // `jello shape torus --detail 8`: 32 × 16 vertices.
     assert.deepEqual(counts, { vertices: 512, triangles: 1024 });
+    await done();
+  });
+
+  test("the home camera frames each scene's box: the original's as the original did, another alike", async () => {
+    const { page, done } = await open();
+    /** Where the camera is and looks, and the world's box on the canvas: its centre and its
+     *  corners' extent in normalised device coordinates. */
+    const view = () =>
+      page.evaluate(async () => {
+        await new Promise(requestAnimationFrame);
+        const { camera, controls } = window.jello.viewer;
+        const [x0, y0, z0, x1, y1, z1] = window.jello.sim.copy.boundingBox();
+        const ndc = (x, y, z) => camera.position.clone().set(x, y, z).project(camera);
+        const corners = [];
+        for (const x of [x0, x1]) for (const y of [y0, y1]) for (const z of [z0, z1]) corners.push(ndc(x, y, z));
+        const xs = corners.map((c) => c.x);
+        const ys = corners.map((c) => c.y);
+        const centre = ndc((x0 + x1) / 2, (y0 + y1) / 2, (z0 + z1) / 2);
+        return {
+          position: camera.position.toArray(),
+          target: controls.target.toArray(),
+          centre: [centre.x, centre.y],
+          min: [Math.min(...xs), Math.min(...ys)],
+          max: [Math.max(...xs), Math.max(...ys)],
+        };
+      });
+    const near = (a, b, what) => a.forEach((x, i) => assert.ok(Math.abs(x - b[i]) < 1e-6, `${what}: ${a} against ${b}`));
+    // stack.toml's box is the original's, 4 m a side about the origin: the original camera.
+    const [c, s] = [Math.cos(Math.PI / 7), Math.sin(Math.PI / 7)];
+    const original = await view();
+    near(original.position, [11 * c * Math.cos(Math.PI / 5), 11 * c * Math.sin(Math.PI / 5), 11 * s], 'the original camera');
+    near(original.target, [0, 0, 0], 'the original target');
+
+    // pile.toml's box is 2 × 2 × 3.5 m from z = -1: centred, and as large on the canvas.
+    await page.evaluate(() => window.jello.loadUrl('examples/pile.toml', 'pile.toml'));
+    await loaded(page, 'pile.toml');
+    const pile = await view();
+    near(pile.target, [0, 0, 0.75], "the pile box's centre");
+    for (const x of pile.centre) assert.ok(Math.abs(x) < 0.02, `the box is centred on the canvas: ${pile.centre}`);
+    for (const x of [...pile.min, ...pile.max]) assert.ok(Math.abs(x) < 1, `the box is all on the canvas: ${pile.min} to ${pile.max}`);
+    const height = (v) => v.max[1] - v.min[1];
+    const ratio = height(pile) / height(original);
+    assert.ok(ratio > 0.85 && ratio < 1.25, `the box as tall on the canvas as the original's: ${ratio.toFixed(2)} as tall`);
+
+    // Zoomed and orbited, `e` brings it back; the original box again, the original camera.
+    await page.keyboard.press('z');
+    await page.keyboard.press('z');
+    assert.ok(height(await view()) > 1.1 * height(pile), 'z zooms in');
+    await page.keyboard.press('e');
+    near((await view()).position, pile.position, 'e: the home camera of the pile');
+    await page.evaluate(() => window.jello.loadUrl('examples/stack.toml', 'stack.toml'));
+    await loaded(page, 'stack.toml');
+    near((await view()).position, original.position, 'the original camera again');
+    await done();
+  });
+
+  test('each body of a scene of many has a colour of its own, on every vertex of its skin', async () => {
+    const { page, done } = await open();
+    await page.keyboard.press('p');
+    await page.evaluate(() => window.jello.loadUrl('examples/pile.toml', 'pile.toml'));
+    await loaded(page, 'pile.toml');
+    const { bodies, colours, mixed } = await page.evaluate(() => {
+      const app = window.jello;
+      const owner = app.sim.copy.surfaceBodies();
+      const colour = app.viewer.surface.geometry.getAttribute('color');
+      const byBody = new Map();
+      let mixed = 0;
+      owner.forEach((b, v) => {
+        const c = [colour.getX(v), colour.getY(v), colour.getZ(v)].map((x) => Math.round(x * 255)).join(',');
+        if (byBody.has(b) && byBody.get(b) !== c) mixed++;
+        byBody.set(b, c);
+      });
+      return { bodies: app.sim.bodyNames().length, colours: new Set(byBody.values()).size, mixed };
+    });
+    assert.ok(bodies > 7, `more bodies than the palette has colours: ${bodies}`);
+    assert.equal(mixed, 0, 'one colour a body');
+    assert.equal(colours, bodies, 'as many colours as bodies');
     await done();
   });
 
