@@ -41,7 +41,29 @@ pub const CORNERS: [[usize; 3]; 8] = [
 #[inline]
 pub(crate) fn weights([u, v, w]: [f64; 3]) -> [f64; 8] {
     let f = |s: usize, t: f64| if s == 1 { t } else { 1.0 - t };
-    CORNERS.map(|[a, b, c]| f(a, u) * f(b, v) * f(c, w))
+    map8(CORNERS, |[a, b, c]| f(a, u) * f(b, v) * f(c, w))
+}
+
+/// `array.map(f)` for 8 entries, written out: `map` may be left a call with its arrays copied
+/// through memory, and these run for every contact.
+#[inline(always)]
+pub(crate) fn map8<T: Copy, U>(a: [T; 8], mut f: impl FnMut(T) -> U) -> [U; 8] {
+    [
+        f(a[0]),
+        f(a[1]),
+        f(a[2]),
+        f(a[3]),
+        f(a[4]),
+        f(a[5]),
+        f(a[6]),
+        f(a[7]),
+    ]
+}
+
+/// [`map8`] for 3 entries.
+#[inline(always)]
+pub(crate) fn map3<T: Copy, U>(a: [T; 3], mut f: impl FnMut(T) -> U) -> [U; 3] {
+    [f(a[0]), f(a[1]), f(a[2])]
 }
 
 /// The derivatives of the trilinear weights along u, v and w, per corner.
@@ -49,7 +71,7 @@ pub(crate) fn weights([u, v, w]: [f64; 3]) -> [f64; 8] {
 fn weight_derivatives([u, v, w]: [f64; 3]) -> [[f64; 3]; 8] {
     let f = |s: usize, t: f64| if s == 1 { t } else { 1.0 - t };
     let d = |s: usize| if s == 1 { 1.0 } else { -1.0 };
-    CORNERS.map(|[a, b, c]| {
+    map8(CORNERS, |[a, b, c]| {
         [
             d(a) * f(b, v) * f(c, w),
             f(a, u) * d(b) * f(c, w),
@@ -129,11 +151,13 @@ impl ContactSurface {
     #[inline]
     pub(crate) fn distance_in(&self, [ci, cj, ck]: [usize; 3], uvw: [f64; 3]) -> (f64, [f64; 3]) {
         let r = REFINE as f64;
-        let sub = uvw.map(|u| ((u * r).floor() as usize).min(REFINE - 1));
-        let t = [0, 1, 2].map(|a| uvw[a] * r - sub[a] as f64);
+        let sub = map3(uvw, |u| ((u * r).floor() as usize).min(REFINE - 1));
+        let t = map3([0, 1, 2], |a| uvw[a] * r - sub[a] as f64);
         let [_, ry, rz] = self.refined;
         let base = ((REFINE * ci + sub[0]) * ry + REFINE * cj + sub[1]) * rz + REFINE * ck + sub[2];
-        let d = CORNERS.map(|[a, b, c]| self.distance[base + (a * ry + b) * rz + c]);
+        let d = map8(CORNERS, |[a, b, c]| {
+            self.distance[base + (a * ry + b) * rz + c]
+        });
         let w = weights(t);
         let phi = d.iter().zip(w).map(|(d, w)| d * w).sum();
         let mut g = [0.0; 3];
@@ -443,6 +467,16 @@ fn point_triangle_distance_squared(p: Vec3, a: Vec3, b: Vec3, c: Vec3) -> f64 {
 /// derivative there (to turn gradients over `(u, v, w)` into gradients in space). `None` when it
 /// is not in the cell (by more than a rounding) or the cell is degenerate there.
 pub(crate) fn locate(corners: &[Vec3; 8], p: Vec3) -> Option<([f64; 3], [Vec3; 3])> {
+    // Most points asked about are outside the cell's box (grown by far more than any place
+    // Newton's method accepts), and cost 24 comparisons instead of its iterations.
+    let (lo, hi) = (corners.iter()).fold((corners[0], corners[0]), |(lo, hi), &c| {
+        (lo.min(c), hi.max(c))
+    });
+    let grow = (hi - lo) * 1e-6;
+    let (lo, hi) = (lo - grow, hi + grow);
+    if !(p.x >= lo.x && p.x <= hi.x && p.y >= lo.y && p.y <= hi.y && p.z >= lo.z && p.z <= hi.z) {
+        return None;
+    }
     locate_near(corners, p, 0.0)
 }
 
@@ -467,14 +501,18 @@ pub(crate) fn locate_near(
         }
         let inverse = inverse_columns(jacobian(uvw))?;
         // Δ = J⁻¹ r, with the rows of J⁻¹ as `inverse`.
-        let delta = inverse.map(|row| row.dot(r));
+        let delta = map3(inverse, |row| row.dot(r));
         for (u, d) in uvw.iter_mut().zip(delta) {
             *u += d;
         }
-        // Far outside the cell: not in it (Newton's method may wander off there).
+        // Far outside the cell: not in it (Newton's method may wander off there). Or outside
+        // by far more than the last step, once steps are short: Newton's method converges
+        // quadratically, and what is left of the error is about the step squared.
+        let step = delta.iter().fold(0.0f64, |m, d| m.max(d.abs()));
+        let out = if step <= NEAR_STEP { 4.0 * step } else { 1.0 };
         if uvw
             .iter()
-            .any(|u| !(-1.0 - slack..=2.0 + slack).contains(u))
+            .any(|u| !(-out - slack..=1.0 + out + slack).contains(u))
         {
             return None;
         }
@@ -483,7 +521,7 @@ pub(crate) fn locate_near(
     if !converged || uvw.iter().any(|&u| !(-slack..=1.0 + slack).contains(&u)) {
         return None;
     }
-    let uvw = uvw.map(|u| u.clamp(-slack, 1.0 + slack));
+    let uvw = map3(uvw, |u| u.clamp(-slack, 1.0 + slack));
     // J⁻ᵀ: its columns are the rows of J⁻¹.
     let rows = inverse_columns(jacobian(uvw))?;
     Some((uvw, rows))
@@ -509,6 +547,10 @@ fn cell_jacobian(corners: &[Vec3; 8], uvw: [f64; 3]) -> [Vec3; 3] {
     }
     j
 }
+
+/// A Newton step of [`locate`] (in the cell's `(u, v, w)`) short enough that what is left of
+/// the error is far smaller.
+const NEAR_STEP: f64 = 0.05;
 
 /// Newton iterations of [`locate`] at most (a point in a cell is found in four or five).
 const MAX_LOCATE: usize = 16;
