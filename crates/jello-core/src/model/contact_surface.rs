@@ -367,15 +367,21 @@ fn signed_distances(
             }
         }
     }
-    // Unsigned distance, through a grid of the triangles' boxes with cells of side `reach`.
+    // Unsigned distance, through a grid of the triangles' boxes with cells of side `reach`;
+    // each triangle's box kept to pass over those further than the nearest found so far.
     let mut distance = vec![0.0; rx * ry * rz];
     let inv = 1.0 / reach;
     let cell_of = |p: Vec3| (p * inv).to_array().map(|c| c.floor() as i64);
+    let corners: Vec<[Vec3; 3]> = (triangles.iter())
+        .map(|t| t.map(|v| vertices[v as usize]))
+        .collect();
+    let boxes: Vec<[Vec3; 2]> = (corners.iter())
+        .map(|&[a, b, c]| [a.min(b).min(c), a.max(b).max(c)])
+        .collect();
     let mut buckets: std::collections::HashMap<[i64; 3], Vec<u32>> =
         std::collections::HashMap::new();
-    for (t, tri) in triangles.iter().enumerate() {
-        let [a, b, c] = tri.map(|v| vertices[v as usize]);
-        let (lo, hi) = (cell_of(a.min(b).min(c)), cell_of(a.max(b).max(c)));
+    for (t, [lo, hi]) in boxes.iter().enumerate() {
+        let (lo, hi) = (cell_of(*lo), cell_of(*hi));
         for x in lo[0]..=hi[0] {
             for y in lo[1]..=hi[1] {
                 for z in lo[2]..=hi[2] {
@@ -384,17 +390,39 @@ fn signed_distances(
             }
         }
     }
+    // The triangles each row of the grid along x may cross (by their boxes, a row wider on
+    // each side: the crossing test itself decides).
+    let mut rows: Vec<Vec<u32>> = vec![Vec::new(); ry * rz];
+    for (t, [lo, hi]) in boxes.iter().enumerate() {
+        let span = |lo: f64, hi: f64, h: f64, n: usize| {
+            let first = ((lo / h).floor() as i64 - 1).clamp(0, n as i64 - 1) as usize;
+            let last = ((hi / h).ceil() as i64 + 1).clamp(0, n as i64 - 1) as usize;
+            first..=last
+        };
+        for j in span(lo.y, hi.y, h.y, ry) {
+            for k in span(lo.z, hi.z, h.z, rz) {
+                rows[j * rz + k].push(t as u32);
+            }
+        }
+    }
+    // Nearer buckets first, so that the nearest triangle is found early.
+    let mut around: Vec<[i64; 3]> = (-1..=1)
+        .flat_map(|x| (-1..=1).flat_map(move |y| (-1..=1).map(move |z| [x, y, z])))
+        .collect();
+    around.sort_by_key(|d| d[0].abs() + d[1].abs() + d[2].abs());
     let mut crossings: Vec<(f64, i32)> = Vec::new();
     for j in 0..ry {
         for k in 0..rz {
+            if !(0..rx).any(|i| used[index(i, j, k)]) {
+                continue;
+            }
             // Sign: a ray along +x through the row, counting the crossings past each point (a
             // point exactly on the surface has distance 0, whatever its sign).
             let (y, z) = (j as f64 * h.y, k as f64 * h.z);
             crossings.clear();
             crossings.extend(
-                triangles
-                    .iter()
-                    .filter_map(|&t| ray_crossing(vertices, t, y, z)),
+                (rows[j * rz + k].iter())
+                    .filter_map(|&t| ray_crossing(vertices, triangles[t as usize], y, z)),
             );
             for i in 0..rx {
                 let p = index(i, j, k);
@@ -404,15 +432,16 @@ fn signed_distances(
                 let q = at(i, j, k);
                 let c = cell_of(q);
                 let mut best = f64::INFINITY;
-                for dx in -1..=1 {
-                    for dy in -1..=1 {
-                        for dz in -1..=1 {
-                            let key = [c[0] + dx, c[1] + dy, c[2] + dz];
-                            for &t in buckets.get(&key).map_or(&[][..], |l| &l[..]) {
-                                let [a, b, c] = triangles[t as usize].map(|v| vertices[v as usize]);
-                                best = best.min(point_triangle_distance_squared(q, a, b, c));
-                            }
+                for d in &around {
+                    let key = [c[0] + d[0], c[1] + d[1], c[2] + d[2]];
+                    for &t in buckets.get(&key).map_or(&[][..], |l| &l[..]) {
+                        let [lo, hi] = boxes[t as usize];
+                        let outside = (lo - q).max(q - hi).max(Vec3::ZERO);
+                        if outside.length_squared() >= best {
+                            continue;
                         }
+                        let [a, b, c] = corners[t as usize];
+                        best = best.min(point_triangle_distance_squared(q, a, b, c));
                     }
                 }
                 let unsigned = best.sqrt().min(reach);
