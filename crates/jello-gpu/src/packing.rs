@@ -405,8 +405,8 @@ fn pack_contacts(
     header: &mut Header,
 ) -> Option<ContactLayout> {
     const _: () = assert!(
-        REFINE == 2,
-        "contact.wgsl interpolates distances on a grid twice as fine"
+        REFINE == 4,
+        "contact.wgsl's REFINE: the distance grids are that many times as fine as the lattices"
     );
     let bodies = model.bodies();
     let samples: usize = bodies

@@ -121,6 +121,12 @@ impl Contacts {
         if !model.surfaces_touch() {
             return Contacts::default();
         }
+        // The bodies' surfaces (built once, when first asked for), on the team's threads.
+        crate::compute::team::run(|| {
+            crate::compute::team::for_each(bodies.len(), &|b| {
+                bodies[b].contact_surface();
+            })
+        });
         let samples: usize = bodies
             .iter()
             .map(|b| b.contact_surface().samples.len())

@@ -3,8 +3,8 @@
 //
 // - per body, its cells' eight corners as flat offsets from the lower corner (two vec4, in the
 //   order of the core's CORNERS: corner k is (k >> 2, k >> 1 & 1, k & 1));
-// - the signed distances at rest (f32 words), body after body, on grids twice as fine as the
-//   lattices (the core's REFINE);
+// - the signed distances at rest (f32 words), body after body, on grids REFINE times as fine
+//   as the lattices;
 // - the kept cells of every body in order, one vec4 each: [lower corner (model index), where its
 //   block of distances starts (word), the distance grid's points along y, along z];
 // - the samples of every body in order, one vec4 each: [lower corner of its cell (model index),
@@ -17,6 +17,10 @@
 // sample in the contact buffer (`grid`): [its force (N), the cell of the other body it is in
 // (NONE: it touches nothing)], [its place (u, v, w) in that cell, 0]; and list the touches in each
 // cell, in the samples' order. A point's contact force is then a gather (`contacts_on`).
+
+// How many times as fine as a lattice its distance grid is (the core's REFINE; jello-gpu checks
+// that they agree).
+const REFINE: f32 = 4.0;
 
 // Word `w` of the scene.
 fn scene_word(w: u32) -> u32 {

@@ -310,14 +310,14 @@ fn locate(c: array<vec3<f32>, 8>, p: vec3<f32>) -> Located {
 }
 
 // The interpolated signed distance of cell g at its place uvw (w), and its gradient over (u, v,
-// w) (xyz): trilinear on the sub-cell of the grid twice as fine that holds uvw (the core's
-// `distance_in`).
+// w) (xyz): trilinear on the sub-cell of the grid REFINE times as fine that holds uvw (the
+// core's `distance_in`).
 fn distance_in(g: u32, uvw: vec3<f32>) -> vec4<f32> {
     let record = scene[P.contact_at.y + g];
     let ry = record.z;
     let rz = record.w;
-    let sub = clamp(floor(uvw * 2.0), vec3<f32>(0.0), vec3<f32>(1.0));
-    let t = uvw * 2.0 - sub;
+    let sub = clamp(floor(uvw * REFINE), vec3<f32>(0.0), vec3<f32>(REFINE - 1.0));
+    let t = uvw * REFINE - sub;
     let s = vec3<u32>(sub);
     let base = record.y + (s.x * ry + s.y) * rz + s.z;
     var phi = 0.0;
@@ -325,7 +325,7 @@ fn distance_in(g: u32, uvw: vec3<f32>) -> vec4<f32> {
     for (var k = 0u; k < 8u; k = k + 1u) {
         let d = bitcast<f32>(scene_word(base + ((k >> 2u) * ry + ((k >> 1u) & 1u)) * rz + (k & 1u)));
         phi = phi + d * corner_weight(k, t);
-        gradient = gradient + d * corner_weight_derivative(k, t) * 2.0;
+        gradient = gradient + d * corner_weight_derivative(k, t) * REFINE;
     }
     return vec4<f32>(gradient, phi);
 }
