@@ -4,13 +4,27 @@
 
 For the last frame (or the one given), for every pair of bodies whose skins come within NEAR
 metres of each other: how deep a vertex of one skin is inside the other (the overlap), or, when
-none is, how far apart the skins are (the gap). With --drift, how far each body's centre (the
-mean of its skin's vertices) moved horizontally from the first frame, as a fraction of its size.
+none is, how far apart the skins are (the gap). For each body, how its skin passes through
+itself: the pairs of its triangles that share no vertex and cross (a triangle–triangle test on
+the pairs whose boxes overlap in a uniform grid), the length of the curve they cross along, the
+longest one pair's segment of it, and the deepest pair (the farthest a corner of either triangle
+is behind the other's plane, the lesser of the two); 0 pairs when no face is through another.
+Faces pressed together by a penalty contact cross a little (as deep as the contact gives); faces
+gone through each other cross as deep as a triangle is wide. With --apart M, the same again of
+only the pairs whose triangles were more than M apart in the first frame (a run's start): parts
+of the skin that came together, not a crease where neighbours fold into each other (which
+self-contact, acting only between cells that share no corner, leaves alone). With --all-frames,
+also each measure's largest over all frames, the frame with the most pairs and how many frames
+have any. With --drift, how far each body's centre (the mean of its skin's vertices) moved
+horizontally from the first frame, as a fraction of its size.
 
-    scripts/contact_report.py DIR [--near M] [--frame N] [--drift] [--json]
+    scripts/contact_report.py DIR [--near M] [--frame N] [--apart M] [--all-frames] [--drift] [--json]
 
 Needs numpy. Prints a table, or with --json one object: {"frame", "pairs": [{"bodies", "overlap",
-"gap"}], "deepest_overlap", "largest_gap", "drift": {name: fraction}}.
+"gap"}], "deepest_overlap", "largest_gap", "self": {name: {"pairs", "length", "longest",
+"deepest", "apart": {the same four}}}, "self_crossing_pairs", "self_worst": {name: {"frame",
+"pairs", "length", "longest", "deepest", "apart", "frames_crossed"}}, "drift": {name:
+fraction}}.
 """
 
 import argparse
@@ -73,6 +87,114 @@ def distance(points, tri):
     return best.min(axis=1)
 
 
+def weld(vertices, faces):
+    """The faces renumbered so that vertices at exactly the same place are one (a skin written
+    with its seams split would otherwise have neighbours that share no vertex)."""
+    _, first, inverse = np.unique(vertices, axis=0, return_index=True, return_inverse=True)
+    return first[inverse.reshape(-1)][faces]
+
+
+def candidate_pairs(tri):
+    """Pairs (i < j) of triangles of `tri` (t, 3, 3) whose boxes overlap: a uniform grid of cells
+    about as large as the median triangle's box, each triangle in every cell its box meets."""
+    lo, hi = tri.min(axis=1), tri.max(axis=1)
+    extent = (hi - lo).max(axis=1)
+    origin = lo.min(axis=0)
+    # At most 128 cells along the box's longest side, so that a few huge triangles stay cheap.
+    size = max(float(np.median(extent)), float((hi.max(axis=0) - origin).max()) / 128, 1e-12)
+    c0 = np.floor((lo - origin) / size).astype(np.int64)
+    c1 = np.floor((hi - origin) / size).astype(np.int64)
+    span = c1 - c0 + 1
+    count = span.prod(axis=1)
+    owner = np.repeat(np.arange(len(tri)), count)
+    k = np.arange(count.sum()) - np.repeat(np.cumsum(count) - count, count)
+    sx, sy = span[owner, 0], span[owner, 1]
+    cell = c0[owner] + np.stack([k % sx, k // sx % sy, k // (sx * sy)], axis=1)
+    dims = c1.max(axis=0) + 1
+    key = (cell[:, 2] * dims[1] + cell[:, 1]) * dims[0] + cell[:, 0]
+    order = np.argsort(key, kind="stable")
+    key, owner = key[order], owner[order]
+    # Each entry with every later one in its cell.
+    end = np.searchsorted(key, key, side="right")
+    later = end - np.arange(len(key)) - 1
+    a = np.repeat(np.arange(len(key)), later)
+    b = a + 1 + np.arange(later.sum()) - np.repeat(np.cumsum(later) - later, later)
+    i, j = owner[a], owner[b]
+    i, j = np.minimum(i, j), np.maximum(i, j)
+    pairs = np.unique(np.stack([i, j], axis=1), axis=0)
+    i, j = pairs[:, 0], pairs[:, 1]
+    keep = (i != j) & np.all(lo[i] <= hi[j], axis=1) & np.all(lo[j] <= hi[i], axis=1)
+    return i[keep], j[keep]
+
+
+def crossings(ta, tb):
+    """Where triangles ta[k] and tb[k] (each (m, 3, 3), outward: counter-clockwise seen from
+    outside) cross: whether they do, the length of the segment they cross along, and how deep:
+    the lesser of the two triangles' depths, each the farthest of its corners behind the other's
+    plane (against its outward normal). The segment's ends are where an edge of one passes
+    through the other (strictly: an edge that only touches the other's plane, and coplanar
+    triangles, do not cross)."""
+    points = []
+    for tri, other in ((ta, tb), (tb, ta)):
+        a, b, c = other[:, 0], other[:, 1], other[:, 2]
+        n = np.cross(b - a, c - a)
+        for e in range(3):
+            p, q = tri[:, e], tri[:, (e + 1) % 3]
+            dp = np.einsum("ij,ij->i", p - a, n)
+            dq = np.einsum("ij,ij->i", q - a, n)
+            through = dp * dq < 0
+            x = p + (dp / np.where(through, dp - dq, 1.0))[:, None] * (q - p)
+            # x inside the triangle: on the inner side of its three edges.
+            for u, v in ((a, b), (b, c), (c, a)):
+                through &= np.einsum("ij,ij->i", np.cross(v - u, x - u), n) >= 0
+            points.append(np.where(through[:, None], x, np.nan))
+    points = np.stack(points, axis=1)  # (m, 6, 3)
+    crossed = ~np.isnan(points[:, :, 0])
+    hit = crossed.any(axis=1)
+    # The longest distance between two of a pair's ends (a missing end stands in as its first).
+    first = points[np.arange(len(points)), crossed.argmax(axis=1)]
+    ends = np.where(crossed[..., None], points, first[:, None, :])[hit]
+    length = np.zeros(len(hit))
+    length[hit] = np.linalg.norm(ends[:, :, None, :] - ends[:, None, :, :], axis=3).max(axis=(1, 2))
+    depth = np.zeros(len(hit))
+    behind = []
+    for tri, other in ((ta[hit], tb[hit]), (tb[hit], ta[hit])):
+        n = np.cross(other[:, 1] - other[:, 0], other[:, 2] - other[:, 0])
+        n /= np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-300)
+        behind.append(np.maximum(-np.einsum("ikj,ij->ik", tri - other[:, :1], n), 0).max(axis=1))
+    depth[hit] = np.minimum(*behind)
+    return hit, length, depth
+
+
+def self_crossings(vertices, faces, rest=None, apart=0.0):
+    """How a closed skin passes through itself: the pairs of its triangles that cross while sharing
+    no vertex, the length of the curve they cross along (the sum of their segments), the longest
+    segment, and the deepest pair (see crossings). With `rest` (the same vertices elsewhere, as in
+    the first frame), also the same of only the pairs whose triangles' centres were more than
+    `apart` from each other there, under "apart"."""
+    welded = weld(vertices, faces)
+    tri = vertices[welded]
+    i, j = candidate_pairs(tri)
+    share = (welded[i][:, :, None] == welded[j][:, None, :]).any(axis=(1, 2))
+    i, j = i[~share], j[~share]
+    found = []
+    for k in range(0, len(i), 65536):
+        hit, segment, depth = crossings(tri[i[k:k + 65536]], tri[j[k:k + 65536]])
+        found.append((i[k:k + 65536][hit], j[k:k + 65536][hit], segment[hit], depth[hit]))
+    i, j, segment, depth = (np.concatenate(x) for x in zip(*found)) if found else (np.zeros(0, int),) * 4
+
+    def summary(keep):
+        return {"pairs": int(keep.sum()), "length": float(segment[keep].sum()),
+                "longest": float(segment[keep].max(initial=0.0)),
+                "deepest": float(depth[keep].max(initial=0.0))}
+
+    out = summary(np.ones(len(i), dtype=bool))
+    if rest is not None:
+        centre = rest[faces].mean(axis=1)
+        out["apart"] = summary(np.linalg.norm(centre[i] - centre[j], axis=1) > apart)
+    return out
+
+
 def touch(skin_a, tri_b):
     """How deep the deepest vertex of skin A is inside the mesh B (0 if none is), and the least
     distance from a vertex of A outside B to B's surface."""
@@ -81,6 +203,15 @@ def touch(skin_a, tri_b):
     overlap = d[inside].max() if inside.any() else 0.0
     gap = d[~inside].min() if (~inside).any() else 0.0
     return float(overlap), float(gap)
+
+
+def self_report(frame, rest=None, apart=0.0):
+    """Each body's self_crossings in the frame, by name (with `rest`, the first frame's vertices,
+    also those of triangles more than `apart` from each other there)."""
+    v, objects = read_obj(frame)
+    if rest is not None and len(rest) != len(v):
+        sys.exit(f"{frame}: {len(v)} vertices, the first frame {len(rest)}: not the same skins")
+    return {name: self_crossings(v, faces, rest, apart) for name, faces in objects}
 
 
 def report(frame, near):
@@ -112,12 +243,35 @@ def centres(frame):
     return out
 
 
+def largest(a, b):
+    """Each number of b, or of a where larger (a new dict: neither is changed)."""
+    return {k: largest(a[k], v) if isinstance(v, dict) else max(a[k], v) for k, v in b.items()}
+
+
+def crossed(s, apart=None):
+    if not s["pairs"]:
+        return "no faces cross"
+    text = (f"{s['pairs']} pair(s) of faces cross, along {s['length']:.3e} m "
+            f"(longest {s['longest']:.3e} m), {s['deepest']:.3e} m deep")
+    if "apart" in s:
+        a = s["apart"]
+        text += f"; of them {a['pairs']} more than {apart} m apart at first"
+        if a["pairs"]:
+            text += f", {a['deepest']:.3e} m deep"
+    return text
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("frames", type=Path, help="folder of frame_*.obj")
     parser.add_argument("--near", type=float, default=0.05,
                         help="pairs of skins closer than this are reported (m; default 0.05)")
     parser.add_argument("--frame", type=int, help="the frame to judge (default: the last)")
+    parser.add_argument("--apart", type=float, metavar="M",
+                        help="also count self-crossings only between triangles more than M apart in "
+                             "the first frame (a run's first frame is its start)")
+    parser.add_argument("--all-frames", action="store_true",
+                        help="also the largest of each self-crossing measure over all frames")
     parser.add_argument("--drift", action="store_true",
                         help="also each body's horizontal drift from the first frame, over its size")
     parser.add_argument("--json", action="store_true", help="print JSON")
@@ -129,12 +283,26 @@ def main():
         sys.exit(f"--frame {args.frame}: {args.frames} has frames 0 to {len(frames) - 1}")
     frame = frames[-1 if args.frame is None else args.frame]
     pairs = report(frame, args.near)
+    rest = read_obj(frames[0])[0] if args.apart is not None else None
+    selves = self_report(frame, rest, args.apart or 0.0)
     result = {
         "frame": frame.name,
         "pairs": pairs,
         "deepest_overlap": max((p["overlap"] for p in pairs), default=0.0),
         "largest_gap": max((p["gap"] for p in pairs), default=0.0),
+        "self": selves,
+        "self_crossing_pairs": sum(s["pairs"] for s in selves.values()),
     }
+    if args.all_frames:
+        worst = {}
+        for f in frames:
+            for name, s in (selves if f == frame else self_report(f, rest, args.apart or 0.0)).items():
+                w = worst.setdefault(name, {"frame": f.name, **s, "frames_crossed": 0})
+                w["frames_crossed"] += s["pairs"] > 0
+                if s["pairs"] > w["pairs"]:
+                    w["frame"] = f.name
+                w.update(largest(w, s))
+        result["self_worst"] = worst
     if args.drift:
         first, last = centres(frames[0]), centres(frame)
         result["drift"] = {
@@ -150,6 +318,11 @@ def main():
         what = f"overlap {p['overlap']:.3e} m" if p["overlap"] > 0 else f"gap {p['gap']:.3e} m"
         print(f"  {a} and {b}: {what}")
     print(f"deepest overlap {result['deepest_overlap']:.3e} m, largest gap {result['largest_gap']:.3e} m")
+    for name, s in selves.items():
+        print(f"  {name} through itself: {crossed(s, args.apart)}")
+    for name, w in result.get("self_worst", {}).items():
+        print(f"  {name} through itself at worst (most pairs in {w['frame']}, {w['frames_crossed']} "
+              f"of {len(frames)} frames crossed): {crossed(w, args.apart)}")
     for name, d in result.get("drift", {}).items():
         print(f"  {name} drifted {100 * d:.2f} % of its size horizontally")
 

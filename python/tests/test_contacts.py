@@ -46,3 +46,87 @@ def test_the_report_finds_cubes_resting_skin_to_skin(cli: Path, tmp_path: Path) 
     assert report["deepest_overlap"] < 0.02 * cell, report
     assert report["largest_gap"] < 0.02 * cell, report
     assert all(d < 0.01 for d in report["drift"].values()), report
+
+
+def cube_skin(corner: tuple[float, float, float]) -> tuple[list[list[float]], list[list[int]]]:
+    """A unit cube's twelve outward triangles, its corner at `corner`."""
+    v = [[corner[0] + x, corner[1] + y, corner[2] + z] for z in (0, 1) for y in (0, 1) for x in (0, 1)]
+    f = [[0, 2, 3], [0, 3, 1], [4, 5, 7], [4, 7, 6], [0, 1, 5], [0, 5, 4],
+         [2, 6, 7], [2, 7, 3], [0, 4, 6], [0, 6, 2], [1, 3, 7], [1, 7, 5]]
+    return v, f
+
+
+def torus_skin(squash: float) -> tuple[list[list[float]], list[list[int]]]:
+    """A ring standing on its edge (radius 0.3, tube 0.1, 24 × 12 quads, welded), its upper half
+    moved down by `squash` (m): by more than 0.4 its top passes through its bottom."""
+    import math
+
+    big, small, n, m = 0.3, 0.1, 24, 12
+    v, f = [], []
+    for i in range(n):
+        for j in range(m):
+            u, w = 2 * math.pi * i / n, 2 * math.pi * j / m
+            r = big + small * math.cos(w)
+            z = r * math.sin(u)
+            v.append([r * math.cos(u), small * math.sin(w), z - squash if z > 0 else z])
+            a, b = i * m + j, i * m + (j + 1) % m
+            c, d = (i + 1) % n * m + j, (i + 1) % n * m + (j + 1) % m
+            f += [[a, c, d], [a, d, b]]
+    return v, f
+
+
+def write_frame(path: Path, bodies: dict[str, tuple[list[list[float]], list[list[int]]]]) -> None:
+    """An OBJ frame as `jello run --format obj` writes one: every vertex, then each body's faces
+    under `o NAME`."""
+    lines, base, faces = [], 0, []
+    for name, (v, f) in bodies.items():
+        lines += [f"v {x} {y} {z}" for x, y, z in v]
+        faces += [f"o {name}"] + [f"f {a + base + 1} {b + base + 1} {c + base + 1}" for a, b, c in f]
+        base += len(v)
+    path.write_text("\n".join(lines + faces) + "\n", encoding="utf-8")
+
+
+def report_on(frames: Path, *flags: str) -> dict:
+    out = subprocess.run(
+        [sys.executable, REPO / "scripts" / "contact_report.py", frames, "--json", *flags],
+        check=True, capture_output=True, text=True,
+    )
+    return json.loads(out.stdout)
+
+
+def test_the_report_finds_a_skin_through_itself(tmp_path: Path) -> None:
+    """Hand-made skins: two unit cubes as one body, the second's corner at (0.5, 0.4, 0.3), cross
+    along six segments 3.6 m long in all (12 pairs of triangles), a corner of each pair up to
+    0.6 m behind the other's face; the same cubes apart, and a ring, do not cross themselves,
+    however close their neighbouring triangles; the ring with its top pushed through its bottom
+    (in the second frame) does, between triangles that were 0.3 m apart and more in the first."""
+    a, faces = cube_skin((0, 0, 0))
+    b, _ = cube_skin((0.5, 0.4, 0.3))
+    c, _ = cube_skin((1.5, 0.4, 0.3))
+    two = faces + [[i + 8 for i in t] for t in faces]
+    for n, squash in enumerate((0.0, 0.45)):
+        ring, ring_faces = torus_skin(squash)
+        write_frame(tmp_path / f"frame_00000{n}.obj", {
+            "through": (a + b, two),
+            "apart": ([[x + 5, y, z] for x, y, z in a + c], two),
+            "ring": ([[x - 5, y, z] for x, y, z in ring], ring_faces),
+        })
+    first = report_on(tmp_path, "--frame", "0")
+    through = first["self"]["through"]
+    assert through["pairs"] == 12, first
+    assert abs(through["length"] - 3.6) < 1e-9, first
+    assert abs(through["deepest"] - 0.6) < 1e-9, first
+    assert first["self"]["apart"]["pairs"] == 0, first
+    assert first["self"]["ring"]["pairs"] == 0, first
+    assert first["self_crossing_pairs"] == 12
+    last = report_on(tmp_path, "--apart", "0.3", "--all-frames")
+    assert last["frame"] == "frame_000001.obj"
+    ring = last["self"]["ring"]
+    assert 0 < ring["apart"]["pairs"] <= ring["pairs"], last
+    worst = last["self_worst"]
+    assert worst["ring"]["frame"] == "frame_000001.obj" and worst["ring"]["frames_crossed"] == 1, last
+    assert worst["through"]["frames_crossed"] == 2, last
+    nothing = {"pairs": 0, "length": 0.0, "longest": 0.0, "deepest": 0.0}
+    assert worst["apart"] == {"frame": "frame_000000.obj", **nothing, "apart": nothing, "frames_crossed": 0}
+    # No two of the ring's triangles were a metre apart.
+    assert report_on(tmp_path, "--apart", "1")["self"]["ring"]["apart"] == nothing
