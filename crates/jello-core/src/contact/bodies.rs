@@ -665,6 +665,62 @@ mod tests {
         force
     }
 
+    /// Two boxes far apart thrown at each other, a long way a step while apart (bodies near
+    /// none may move up to half their distance before the grid is sorted again), then pressed
+    /// into each other: the reused grid finds every touch the search over every cell finds.
+    #[test]
+    fn bodies_thrown_from_afar_are_found_when_they_meet() {
+        let lattice = Lattice::new([4, 4, 4], Vec3::new(0.3, 0.3, 0.3));
+        let bodies = [-1.5, 1.5].map(|x| {
+            Body::lattice_box(lattice.clone(), Material::classic())
+                .placed(Vec3::new(x, 0.05 * x, 0.0), IDENTITY)
+        });
+        let model = ModelBuilder::new()
+            .bodies(bodies.to_vec())
+            .bounds(Aabb::new(Vec3::new(-9.0, -9.0, -9.0), Vec3::new(9.0, 9.0, 9.0)).unwrap())
+            .collision(400.0, 0.3)
+            .build()
+            .unwrap();
+        let mut pos = State::at_rest(&model).pos;
+        let vel = vec![Vec3::ZERO; pos.len()];
+        let mut contacts = Contacts::new(&model);
+        let (mut touching, mut rounds) = (0, 0);
+        // Each round, each body moves 0.3 of the way to the other's middle.
+        while rounds < 40 {
+            let middle = |b: usize| {
+                let points = model.bodies()[b].points();
+                let n = points.len() as f64;
+                points.fold(Vec3::ZERO, |s, q| s + pos[q]) * (1.0 / n)
+            };
+            let (a, b) = (middle(0), middle(1));
+            let step = ((b - a) * 0.3)
+                .max(Vec3::new(0.02, -0.02, -0.02))
+                .min(Vec3::new(9.0, 9.0, 9.0));
+            for (body, d) in model.bodies().iter().zip([step, step * -1.0]) {
+                for q in body.points() {
+                    pos[q] += d;
+                }
+            }
+            let want = by_every_cell(&model, &pos, &vel);
+            contacts.compute(&model, &Soa::from_aos(&pos), &Soa::from_aos(&vel));
+            for (p, w) in want.iter().enumerate() {
+                let g = contacts.forces().get(p);
+                assert!(
+                    (g - *w).max_abs() <= 1e-12 * (1.0 + w.max_abs()),
+                    "round {rounds}, point {p}: grid {g:?}, every cell {w:?}"
+                );
+                touching += usize::from(w.max_abs() > 0.0);
+            }
+            rounds += 1;
+        }
+        assert!(touching > 100, "only {touching} points pushed");
+        assert!(
+            contacts.grid.sorts() < rounds,
+            "{} sorts in {rounds} rounds",
+            contacts.grid.sorts()
+        );
+    }
+
     /// Heaps of 3 to 5 bodies, boxes and lattices with holes of different spacings, deformed
     /// and moving at random, some with self-contact: the grid finds every touch the search over
     /// every cell finds, sorted afresh or reused after small moves.

@@ -10,7 +10,8 @@
 //!
 //! **Reuse.** A sort is kept while no point has moved further than a slack `d` (a tenth of the
 //! longest cell side) along any axis since it ([`BroadPhase::refresh`]); its boxes are grown by
-//! `2d`. Then every cell's box now lies inside its box as sorted, and a surface point that is
+//! `2d`. (A body near no other may move `d` and half its distance to the nearest: two bodies
+//! apart stay apart while neither moves further, so bodies falling free do not sort the rest.) Then every cell's box now lies inside its box as sorted, and a surface point that is
 //! in a cell now was, at the sort, in that cell's box as sorted (it and the cell each moved at
 //! most `d`). So the contact pass lists, at each sort, the surface points that are in some
 //! box and the cells whose boxes they are in, and until the next sort looks only at those
@@ -69,6 +70,9 @@ pub(crate) struct BroadPhase {
     sorted_margin: Option<f64>,
     /// How many sorts there have been.
     sorts: usize,
+    /// Per body: how far (along any axis) each of its points may move before the grid is
+    /// sorted again.
+    allowed: Vec<f64>,
 }
 
 impl BroadPhase {
@@ -108,6 +112,7 @@ impl BroadPhase {
             sorted_at: [0; 3].map(|_| vec![0.0; model.point_count()]),
             sorted_margin: None,
             sorts: 0,
+            allowed: vec![0.0; model.bodies().len()],
         }
     }
 
@@ -120,12 +125,19 @@ impl BroadPhase {
         let slack = SLACK * self.cell;
         if let Some(sorted) = self.sorted_margin {
             // A position that is not a number sorts again (and is left out).
-            let moved = |axis: usize| {
-                (p[axis].iter().zip(&self.sorted_at[axis]))
-                    .map(|(x, x0)| (x - x0).abs())
-                    .any(|d| d > slack || d.is_nan())
+            let moved = |body: &crate::model::body::Body, allowed: f64| {
+                let points = body.points();
+                (0..3).any(|axis| {
+                    (p[axis][points.clone()].iter())
+                        .zip(&self.sorted_at[axis][points.clone()])
+                        .map(|(x, x0)| (x - x0).abs())
+                        .any(|d| d > allowed || d.is_nan())
+                })
             };
-            if sorted >= margin + 2.0 * slack && !(0..3).any(moved) {
+            let bodies = model.bodies();
+            if sorted >= margin + 2.0 * slack
+                && !(bodies.iter().zip(&self.allowed)).any(|(body, &allowed)| moved(body, allowed))
+            {
                 return false;
             }
         }
@@ -133,6 +145,19 @@ impl BroadPhase {
         self.sort(model, p, grown);
         for (at, now) in self.sorted_at.iter_mut().zip(p) {
             at.copy_from_slice(now);
+        }
+        // A body near others may move the slack; one near none, half its distance to the
+        // nearest more: two bodies apart stay apart while neither moves further.
+        for (a, allowed) in self.allowed.iter_mut().enumerate() {
+            *allowed = if self.neighbours[a].is_empty() {
+                let gap = (0..self.body_boxes.len())
+                    .filter(|&b| b != a)
+                    .map(|b| separation(self.body_boxes[a], self.body_boxes[b]))
+                    .fold(f64::INFINITY, f64::min);
+                slack + 0.5 * gap
+            } else {
+                slack
+            };
         }
         self.sorted_margin = Some(grown);
         self.sorts += 1;
@@ -341,6 +366,14 @@ fn meets([alo, ahi]: [Vec3; 2], [blo, bhi]: [Vec3; 2]) -> bool {
         && blo.y <= ahi.y
         && alo.z <= bhi.z
         && blo.z <= ahi.z
+}
+
+/// How far apart boxes `a` and `b` are along the axis they are furthest apart on (0 when they
+/// meet).
+#[inline]
+fn separation([alo, ahi]: [Vec3; 2], [blo, bhi]: [Vec3; 2]) -> f64 {
+    let apart = (alo - bhi).max(blo - ahi).max(Vec3::ZERO);
+    apart.x.max(apart.y).max(apart.z)
 }
 
 /// Calls `f` with every grid cell of `span` (inclusive), x outermost.
