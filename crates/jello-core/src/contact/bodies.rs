@@ -547,7 +547,9 @@ pub fn closest(model: &Model, pos: &[Vec3]) -> Vec<Closest> {
         }
     }
     // Bodies sunk into each other further than their surfaces show (one inside the other, or
-    // the two in the same place): the middles of each body's cells inside another body.
+    // the two in the same place): the middles of each body's cells inside another body, as
+    // deep as they are inside both (a cell on the surface has its middle outside its own skin
+    // as often as not, and that is no overlap).
     let bodies = model.bodies();
     let grid = &contacts.grid;
     let at = |q: usize| pos[q];
@@ -559,6 +561,12 @@ pub fn closest(model: &Model, pos: &[Vec3]) -> Vec<Closest> {
                 .offsets
                 .iter()
                 .fold(Vec3::ZERO, |s, &o| s + at(corner + o) * 0.125);
+            let own = -surface
+                .distance_in(body.lattice().coords(c as usize), [0.5; 3])
+                .0;
+            if own <= 0.0 {
+                continue;
+            }
             grid.find_near(middle, Some(a as u32), |g| {
                 let b = grid.cell_body[g] as usize;
                 let other_corner = grid.cell_corner[g] as usize;
@@ -569,7 +577,7 @@ pub fn closest(model: &Model, pos: &[Vec3]) -> Vec<Closest> {
                 };
                 let cell = (bodies[b].lattice()).coords(other_corner - bodies[b].points().start);
                 // Deep inside, the distance at rest (its gradient has kinks there).
-                let depth = -other.distance_in(cell, uvw).0;
+                let depth = (-other.distance_in(cell, uvw).0).min(own);
                 if depth > 0.0 {
                     let pair = [a.min(b), a.max(b)];
                     match pairs.iter_mut().find(|c| c.bodies == pair) {
