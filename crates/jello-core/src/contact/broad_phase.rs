@@ -9,7 +9,7 @@
 //! them are bit for bit the same whatever the thread count.
 //!
 //! **Reuse.** A sort is kept while no point has moved further than a slack `d` (a tenth of the
-//! longest cell side) along any axis since it ([`BroadPhase::refresh`]); its boxes are grown by
+//! longest cell side) along any axis since it (`BroadPhase::refresh`); its boxes are grown by
 //! `2d`. (A body near no other may move `d` and half its distance to the nearest: two bodies
 //! apart stay apart while neither moves further, so bodies falling free do not sort the rest.) Then every cell's box now lies inside its box as sorted, and a surface point that is
 //! in a cell now was, at the sort, in that cell's box as sorted (it and the cell each moved at
@@ -275,7 +275,7 @@ impl BroadPhase {
     }
 
     /// Cell `g` with its box (grown) at the last sort, to keep in a list of cells a point may be
-    /// in until the next sort (see [`visit`]).
+    /// in until the next sort (see `visit`).
     #[inline]
     pub(crate) fn near_cell(&self, g: usize) -> NearCell {
         NearCell {
