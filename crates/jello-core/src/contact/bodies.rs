@@ -673,6 +673,30 @@ mod tests {
         force
     }
 
+    /// Computes the contacts at `pos`, `vel` with `contacts` (its grid as it stands, reused or
+    /// sorted again) and asserts each point's force is the search over every cell's; returns
+    /// how many points that search pushes. `label` names the case in a failure.
+    fn grid_matches_every_cell(
+        model: &Model,
+        contacts: &mut Contacts,
+        pos: &[Vec3],
+        vel: &[Vec3],
+        label: &str,
+    ) -> usize {
+        let want = by_every_cell(model, pos, vel);
+        contacts.compute(model, &Soa::from_aos(pos), &Soa::from_aos(vel));
+        let mut touching = 0;
+        for (p, w) in want.iter().enumerate() {
+            let g = contacts.forces().get(p);
+            assert!(
+                (g - *w).max_abs() <= 1e-12 * (1.0 + w.max_abs()),
+                "{label}, point {p}: grid {g:?}, every cell {w:?}"
+            );
+            touching += usize::from(w.max_abs() > 0.0);
+        }
+        touching
+    }
+
     /// Two boxes far apart thrown at each other, a long way a step while apart (bodies near
     /// none may move up to half their distance before the grid is sorted again), then pressed
     /// into each other: the reused grid finds every touch the search over every cell finds.
@@ -709,16 +733,13 @@ mod tests {
                     pos[q] += d;
                 }
             }
-            let want = by_every_cell(&model, &pos, &vel);
-            contacts.compute(&model, &Soa::from_aos(&pos), &Soa::from_aos(&vel));
-            for (p, w) in want.iter().enumerate() {
-                let g = contacts.forces().get(p);
-                assert!(
-                    (g - *w).max_abs() <= 1e-12 * (1.0 + w.max_abs()),
-                    "round {rounds}, point {p}: grid {g:?}, every cell {w:?}"
-                );
-                touching += usize::from(w.max_abs() > 0.0);
-            }
+            touching += grid_matches_every_cell(
+                &model,
+                &mut contacts,
+                &pos,
+                &vel,
+                &format!("round {rounds}"),
+            );
             rounds += 1;
         }
         assert!(touching > 100, "only {touching} points pushed");
@@ -788,16 +809,13 @@ mod tests {
                         pos[q] += step + Vec3::new(next(), next(), next()) * 0.001;
                     }
                 }
-                let want = by_every_cell(&model, &pos, &vel);
-                contacts.compute(&model, &Soa::from_aos(&pos), &Soa::from_aos(&vel));
-                for (p, w) in want.iter().enumerate() {
-                    let g = contacts.forces().get(p);
-                    assert!(
-                        (g - *w).max_abs() <= 1e-12 * (1.0 + w.max_abs()),
-                        "scene {scene}, round {round}, point {p}: grid {g:?}, every cell {w:?}"
-                    );
-                    touching += usize::from(w.max_abs() > 0.0);
-                }
+                touching += grid_matches_every_cell(
+                    &model,
+                    &mut contacts,
+                    &pos,
+                    &vel,
+                    &format!("scene {scene}, round {round}"),
+                );
             }
             sorts += contacts.grid.sorts();
         }
