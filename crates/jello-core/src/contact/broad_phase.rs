@@ -8,15 +8,21 @@
 //! than was room for); the sort and the visits run in a fixed order, so the forces summed over
 //! them are bit for bit the same whatever the thread count.
 //!
-//! **Reuse.** A sort is kept while no point has moved further than a slack `d` (a tenth of the
-//! longest cell side) along any axis since it (`BroadPhase::refresh`); its boxes are grown by
-//! `2d`. (A body near no other may move `d` and half its distance to the nearest: two bodies
-//! apart stay apart while neither moves further, so bodies falling free do not sort the rest.) Then every cell's box now lies inside its box as sorted, and a surface point that is
-//! in a cell now was, at the sort, in that cell's box as sorted (it and the cell each moved at
-//! most `d`). So the contact pass lists, at each sort, the surface points that are in some
-//! box and the cells whose boxes they are in, and until the next sort looks only at those
-//! (see [`crate::contact::bodies`]): a step's stages and the next few steps share one sort and
-//! one list. The cells looked at for a point are a superset of those a fresh sort gives, in the
+//! **Reuse.** A sort is kept while no point of a body `b` has moved further than its reach
+//! `d_b` along any axis since it (`BroadPhase::refresh`). A cell of body `B` is sorted with its
+//! box grown by `d_B`, and a point of body `A` is looked up in it grown by `d_A` more. (A body
+//! near no other may move `d_b` and half its distance to the nearest: two bodies apart stay
+//! apart while neither moves further, so bodies falling free do not sort the rest.) Then a
+//! surface point of `A` that is in a cell of `B` now was, at the sort, in that cell's box grown
+//! by `d_A + d_B` (it moved at most `d_A`, the cell's corners at most `d_B`). So the contact
+//! pass lists, at each sort, the surface points that are in some box and the cells whose boxes
+//! they are in, and until the next sort looks only at those (see [`crate::contact::bodies`]): a
+//! step's stages and the next few steps share one sort and one list.
+//!
+//! Each body's reach is set at each sort from how far it moved since the one before: a tenth of
+//! the longest cell side (the slack) for a body at rest or slow, up to four times that for a
+//! body moving fast, which would otherwise call for a sort every step or two while the rest of
+//! a pile lies still. Larger boxes cost visits only for the pairs of bodies the fast ones are in. The cells looked at for a point are a superset of those a fresh sort gives, in the
 //! same order, and a point's contact is decided by the first of them (in that order) that holds
 //! it: the forces do not depend on when the grid was sorted.
 
@@ -30,11 +36,21 @@ const ROOM_PER_CELL: usize = 8;
 /// The most grid cells along an axis one cell may overlap: a cell stretched further is torn.
 const MAX_SPAN: i32 = 16;
 
-/// The distance any point may move before the sort is redone, as a fraction of the longest side
-/// of the bodies' cells (boxes are sorted grown by twice it). Larger slack sorts less often but
-/// visits more cells (0.1 was the quickest on a pile of 50 shapes; 0.05 and 0.2 were 10–15 %
-/// slower in contact).
-const SLACK: f64 = 0.1;
+/// The least reach of a body (how far its points may move before the sort is redone), as a
+/// fraction of the longest side of the bodies' cells: that of a body at rest. A larger reach
+/// sorts less often but visits more cells. On fifty shapes of 8–12 cells dropped into a box
+/// (AMD EPYC, 1 thread, `perf`), one reach of 0.1 for every body (0.05 and 0.2 were 10–15 %
+/// slower in contact) against reaches from 0.03 to 0.2 growing 1.5 times, together with the
+/// cheaper [`crate::model::contact_surface`] placing: contact 49.5 → 42.4 % of a step as the
+/// shapes settle (2.5–2.6 s), 44.5 → 42.3 % as they fall (0.5–0.6 s).
+const MIN_REACH: f64 = 0.03;
+
+/// The most reach of a body, as a fraction of the longest cell side.
+const MAX_REACH: f64 = 0.2;
+
+/// A body's reach at a sort, times how far it moved since the sort before (within
+/// [`MIN_REACH`]`..`[`MAX_REACH`]): one that set off the sort reaches further the next time.
+const REACH_PER_MOVE: f64 = 1.5;
 
 /// The side of a grid cell, times the longest side of the bodies' cells: so that a cell's box,
 /// grown by twice the slack, overlaps two grid cells along an axis, seldom three.
@@ -46,8 +62,8 @@ pub(crate) struct BroadPhase {
     /// Per cell (all bodies', in order): its body and the flat model index of its lower corner.
     pub cell_body: Vec<u32>,
     pub cell_corner: Vec<u32>,
-    /// Per cell: the grid cells it overlaps and its bounding box at the last sort (none, and
-    /// empty, for a cell no other surface can reach).
+    /// Per cell: the grid cells it overlaps and its bounding box at the last sort, grown by its
+    /// body's reach and the margin (none, and empty, for a cell no other surface can reach).
     placed: Vec<([[i32; 3]; 2], [Vec3; 2])>,
     /// Bucket starts of the hashed grid (`buckets + 1` entries).
     starts: Vec<u32>,
@@ -60,8 +76,9 @@ pub(crate) struct BroadPhase {
     side: f64,
     /// The longest side of the bodies' cells (m).
     cell: f64,
-    /// Per body: the box of its points at the last sort (grown), and the bodies whose boxes
-    /// meet it (each list sorted; itself too under self-contact).
+    /// Per body: the box of its points at the last sort (grown by the margin, its reach and
+    /// the largest reach), and the bodies whose boxes meet it (each list sorted; itself too under
+    /// self-contact).
     body_boxes: Vec<[Vec3; 2]>,
     neighbours: Vec<Vec<u32>>,
     /// The points' positions at the last sort and the margin its boxes were grown by (none
@@ -70,8 +87,10 @@ pub(crate) struct BroadPhase {
     sorted_margin: Option<f64>,
     /// How many sorts there have been.
     sorts: usize,
+    /// Per body: its reach (m; see the module's notes) at the last sort.
+    reach: Vec<f64>,
     /// Per body: how far (along any axis) each of its points may move before the grid is
-    /// sorted again.
+    /// sorted again (its reach, or more for a body near no other).
     allowed: Vec<f64>,
 }
 
@@ -112,41 +131,43 @@ impl BroadPhase {
             sorted_at: [0; 3].map(|_| vec![0.0; model.point_count()]),
             sorted_margin: None,
             sorts: 0,
+            reach: vec![0.0; model.bodies().len()],
             allowed: vec![0.0; model.bodies().len()],
         }
     }
 
     /// Makes the grid hold, for positions `p`, every cell whose box grown by `margin` (m) may
     /// hold a point, and every such cell whose box at the last sort may have held it then (see
-    /// the module's notes): sorts again, with boxes grown by `margin` and twice the slack,
-    /// unless every point has moved less than the slack along every axis since the last sort
+    /// the module's notes): sorts again, with boxes grown by `margin` and the bodies' reaches,
+    /// unless every point has moved less than its body may along every axis since the last sort
     /// (that sort's margin at least `margin`). True when it sorted.
     pub(crate) fn refresh(&mut self, model: &Model, p: [&[f64]; 3], margin: f64) -> bool {
-        let slack = SLACK * self.cell;
-        if let Some(sorted) = self.sorted_margin {
-            // A position that is not a number sorts again (and is left out).
-            let moved = |body: &crate::model::body::Body, allowed: f64| {
-                let points = body.points();
-                (0..3).any(|axis| {
-                    (p[axis][points.clone()].iter())
-                        .zip(&self.sorted_at[axis][points.clone()])
-                        .map(|(x, x0)| (x - x0).abs())
-                        .any(|d| d > allowed || d.is_nan())
-                })
-            };
-            let bodies = model.bodies();
-            if sorted >= margin + 2.0 * slack
-                && !(bodies.iter().zip(&self.allowed)).any(|(body, &allowed)| moved(body, allowed))
+        let bodies = model.bodies();
+        let at = &self.sorted_at;
+        match self.sorted_margin {
+            Some(sorted)
+                if sorted >= margin
+                    && !(bodies.iter().zip(&self.allowed))
+                        .any(|(body, &allowed)| moved_beyond(p, at, body.points(), allowed)) =>
             {
-                return false;
+                return false
             }
+            // The reaches from how far each body moved since the last sort.
+            Some(_) => {
+                for (body, reach) in bodies.iter().zip(&mut self.reach) {
+                    let most = most_moved(p, at, body.points());
+                    *reach = (REACH_PER_MOVE * most)
+                        .min(MAX_REACH * self.cell)
+                        .max(MIN_REACH * self.cell);
+                }
+            }
+            None => self.reach.fill(MIN_REACH * self.cell),
         }
-        let grown = margin + 2.0 * slack;
-        self.sort(model, p, grown);
+        self.sort(model, p, margin);
         for (at, now) in self.sorted_at.iter_mut().zip(p) {
             at.copy_from_slice(now);
         }
-        // A body near others may move the slack; one near none, half its distance to the
+        // A body near others may move its reach; one near none, half its distance to the
         // nearest more: two bodies apart stay apart while neither moves further.
         for (a, allowed) in self.allowed.iter_mut().enumerate() {
             *allowed = if self.neighbours[a].is_empty() {
@@ -154,34 +175,38 @@ impl BroadPhase {
                     .filter(|&b| b != a)
                     .map(|b| separation(self.body_boxes[a], self.body_boxes[b]))
                     .fold(f64::INFINITY, f64::min);
-                slack + 0.5 * gap
+                self.reach[a] + 0.5 * gap
             } else {
-                slack
+                self.reach[a]
             };
         }
-        self.sorted_margin = Some(grown);
+        self.sorted_margin = Some(margin);
         self.sorts += 1;
         true
     }
 
-    /// Sorts the cells, at positions `[px, py, pz]`, into the grid, each by its box grown by
-    /// `margin` (m) on every side: those of them that may hold a sample of another body (or of
-    /// their own under self-contact), as the bodies' boxes tell.
+    /// Sorts the cells, at positions `[px, py, pz]`, into the grid: those of them that may hold
+    /// a sample of another body (or of their own under self-contact), as the bodies' boxes
+    /// tell, each with its box grown by `margin` (m) and its body's reach, entered in the grid
+    /// cells that box overlaps grown by the largest reach of the bodies whose samples may come.
     fn sort(&mut self, model: &Model, [px, py, pz]: [&[f64]; 3], margin: f64) {
         let inv = 1.0 / self.side;
         let grid = |c: Vec3| map3((c * inv).to_array(), |x| x.floor() as i32);
         let mask = self.starts.len() - 2;
         let bodies = model.bodies();
-        let grow = Vec3::new(margin, margin, margin);
-        // Each body's box (of all its points, so that it holds its cells' boxes), and which
-        // bodies' boxes meet.
-        for (body, bounds) in bodies.iter().zip(&mut self.body_boxes) {
+        let even = |d: f64| Vec3::new(d, d, d);
+        // Each body's box (of all its points, so that it holds its cells' boxes), grown by its
+        // reach and the largest (a point of any body that may come into its cells is in it),
+        // and which bodies' boxes meet.
+        let largest = self.reach.iter().fold(0.0, |m: f64, &r| m.max(r));
+        for ((body, bounds), &reach) in bodies.iter().zip(&mut self.body_boxes).zip(&self.reach) {
             *bounds = EMPTY;
             let [lo, hi] = bounds;
             for q in body.points() {
                 let p = Vec3::new(px[q], py[q], pz[q]);
                 (*lo, *hi) = (lo.min(p), hi.max(p));
             }
+            let grow = even(margin + reach + largest);
             (*lo, *hi) = (*lo - grow, *hi + grow);
         }
         for (a, list) in self.neighbours.iter_mut().enumerate() {
@@ -195,7 +220,11 @@ impl BroadPhase {
         // Each cell's box and span (on the team's threads: cells are independent), only for
         // cells that meet a box a sample may come from; then how many entries each bucket gets.
         let (cell_body, cell_corner) = (&self.cell_body, &self.cell_corner);
-        let (neighbours, body_boxes) = (&self.neighbours, &self.body_boxes);
+        let (neighbours, body_boxes, reach) = (&self.neighbours, &self.body_boxes, &self.reach);
+        // Per body: the largest reach of the bodies whose samples may be in its cells.
+        let farthest: Vec<f64> = (neighbours.iter())
+            .map(|list| list.iter().map(|&a| reach[a as usize]).fold(0.0, f64::max))
+            .collect();
         let size = crate::compute::team::chunk_size(cell_body.len(), 512);
         let place = |g: usize| -> Option<([[i32; 3]; 2], [Vec3; 2])> {
             let b = cell_body[g] as usize;
@@ -209,8 +238,9 @@ impl BroadPhase {
                 let p = Vec3::new(px[q], py[q], pz[q]);
                 (lo, hi) = (lo.min(p), hi.max(p));
             }
+            let grow = even(margin + reach[b]);
             let (lo, hi) = (lo - grow, hi + grow);
-            let span = [grid(lo), grid(hi)];
+            let span = [grid(lo - even(farthest[b])), grid(hi + even(farthest[b]))];
             // A cell torn across the box (a step blowing up, which the step then rejects) is
             // left out rather than entered in thousands of buckets.
             if !(lo.is_finite() && hi.is_finite())
@@ -274,14 +304,23 @@ impl BroadPhase {
         (self.cell_body[g] as usize, self.cell_corner[g] as usize)
     }
 
-    /// Cell `g` with its box (grown) at the last sort, to keep in a list of cells a point may be
-    /// in until the next sort (see `visit`).
+    /// Cell `g` with its box (grown) at the last sort, grown by `reach` (m) more (that of the
+    /// body of the point that may come), to keep in a list of cells a point may be in until the
+    /// next sort (see `visit`).
     #[inline]
-    pub(crate) fn near_cell(&self, g: usize) -> NearCell {
+    pub(crate) fn near_cell(&self, g: usize, reach: f64) -> NearCell {
+        let [lo, hi] = self.placed[g].1;
+        let grow = Vec3::new(reach, reach, reach);
         NearCell {
             cell: g as u32,
-            bounds: self.placed[g].1,
+            bounds: [lo - grow, hi + grow],
         }
+    }
+
+    /// Body `a`'s reach at the last sort (m; see the module's notes).
+    #[inline]
+    pub(crate) fn reach(&self, a: usize) -> f64 {
+        self.reach[a]
     }
 
     /// The bodies whose box (of their points, grown) at the last sort meets body `a`'s (itself
@@ -298,19 +337,27 @@ impl BroadPhase {
         p.x >= lo.x && p.x <= hi.x && p.y >= lo.y && p.y <= hi.y && p.z >= lo.z && p.z <= hi.z
     }
 
-    /// Calls `near(cell)` for every cell whose box (grown) at the last sort holds `p`, in a fixed
-    /// order (the cells' order), until it returns true; cells of body `skip` are passed over.
+    /// Calls `near(cell)` for every cell whose box (grown) at the last sort, grown by `reach`
+    /// (m) more, holds `p`, in a fixed order (the cells' order), until it returns true; cells of
+    /// body `skip` are passed over. `reach` is at most that of a body whose samples may come
+    /// into the cells looked for (the grid holds each cell that far around its box).
     #[inline]
     pub(crate) fn find_near(
         &self,
         p: Vec3,
         skip: Option<u32>,
+        reach: f64,
         mut near: impl FnMut(usize) -> bool,
     ) {
         let key = map3((p * (1.0 / self.side)).to_array(), |x| x.floor() as i32);
         let bucket = hash(key) & (self.starts.len() - 2);
         let range = self.starts[bucket] as usize..self.starts[bucket + 1] as usize;
         let skip = skip.unwrap_or(u32::MAX);
+        // The boxes grown by `reach` hold `p` where they meet the box around `p` of that size.
+        let (p_lo, p_hi) = (
+            p - Vec3::new(reach, reach, reach),
+            p + Vec3::new(reach, reach, reach),
+        );
         for ((&g, &k), &b) in (self.entries[range.clone()].iter())
             .zip(&self.entry_keys[range.clone()])
             .zip(&self.entry_bodies[range])
@@ -319,8 +366,8 @@ impl BroadPhase {
                 continue;
             }
             let [lo, hi] = self.placed[g as usize].1;
-            let inside = p.x >= lo.x && p.x <= hi.x && p.y >= lo.y && p.y <= hi.y;
-            if k != key || !(inside && p.z >= lo.z && p.z <= hi.z) {
+            let inside = p_hi.x >= lo.x && p_lo.x <= hi.x && p_hi.y >= lo.y && p_lo.y <= hi.y;
+            if k != key || !(inside && p_hi.z >= lo.z && p_lo.z <= hi.z) {
                 continue;
             }
             if near(g as usize) {
@@ -348,6 +395,42 @@ pub(crate) fn visit(cells: &[NearCell], p: Vec3, mut near: impl FnMut(usize) -> 
         if inside && p.z >= lo.z && p.z <= hi.z && near(c.cell as usize) {
             return;
         }
+    }
+}
+
+/// True when one of `points` is at `p` further than `allowed` (along any axis) from where it was
+/// at `at`, or is not a number. (Asked at every contact pass: written so that it vectorises.)
+fn moved_beyond(
+    p: [&[f64]; 3],
+    at: &[Vec<f64>; 3],
+    points: std::ops::Range<usize>,
+    allowed: f64,
+) -> bool {
+    let mut beyond = false;
+    for (now, then) in p.iter().zip(at) {
+        for (x, x0) in now[points.clone()].iter().zip(&then[points.clone()]) {
+            let d = (x - x0).abs();
+            beyond |= d > allowed || d.is_nan();
+        }
+    }
+    beyond
+}
+
+/// How far (along any axis) the farthest of `points` is at `p` from where it was at `at`
+/// (infinite when a position is not a number).
+fn most_moved(p: [&[f64]; 3], at: &[Vec<f64>; 3], points: std::ops::Range<usize>) -> f64 {
+    let (mut most, mut not_a_number) = (0.0f64, false);
+    for (now, then) in p.iter().zip(at) {
+        for (x, x0) in now[points.clone()].iter().zip(&then[points.clone()]) {
+            let d = (x - x0).abs();
+            most = most.max(d);
+            not_a_number |= d.is_nan();
+        }
+    }
+    if not_a_number {
+        f64::INFINITY
+    } else {
+        most
     }
 }
 
@@ -394,4 +477,86 @@ fn hash(c: [i32; 3]) -> usize {
     ((c[0] as u32).wrapping_mul(73_856_093)
         ^ (c[1] as u32).wrapping_mul(19_349_663)
         ^ (c[2] as u32).wrapping_mul(83_492_791)) as usize
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::body::{Body, Material, IDENTITY};
+    use crate::model::lattice::Lattice;
+    use crate::model::{Aabb, ModelBuilder};
+    use crate::state::State;
+
+    /// Two boxes side by side, the first moved far between sorts and the second still, so that
+    /// their reaches differ: a point of the first finds every cell of the second whose box, grown
+    /// by the two reaches, holds it (whichever grid cell it falls in), and no other.
+    #[test]
+    fn a_fast_body_finds_a_still_ones_cells_as_far_as_the_two_reach() {
+        let lattice = Lattice::new([4, 4, 4], Vec3::new(0.3, 0.3, 0.3));
+        let bodies = [-0.35, 0.01].map(|x| {
+            Body::lattice_box(lattice.clone(), Material::classic())
+                .placed(Vec3::new(x, 0.0, 0.0), IDENTITY)
+        });
+        let model = ModelBuilder::new()
+            .bodies(bodies.to_vec())
+            .bounds(Aabb::new(Vec3::new(-9.0, -9.0, -9.0), Vec3::new(9.0, 9.0, 9.0)).unwrap())
+            .build()
+            .unwrap();
+        let mut pos = State::at_rest(&model).pos;
+        let mut grid = BroadPhase::new(&model);
+        let axes = |pos: &[Vec3]| {
+            [0, 1, 2].map(|a| pos.iter().map(|p| p.to_array()[a]).collect::<Vec<f64>>())
+        };
+        let sorted = |grid: &mut BroadPhase, pos: &[Vec3]| {
+            let [x, y, z] = axes(pos);
+            grid.refresh(&model, [&x, &y, &z], 0.0)
+        };
+        assert!(sorted(&mut grid, &pos));
+        // The first box moves 0.05 (half a cell) towards the second: sorted again, with the
+        // first reaching the most (0.02) and the second the least (0.003).
+        for q in model.bodies()[0].points() {
+            pos[q] += Vec3::new(0.05, 0.0, 0.0);
+        }
+        assert!(sorted(&mut grid, &pos));
+        let (fast, still) = (grid.reach(0), grid.reach(1));
+        assert!(
+            (fast - MAX_REACH * 0.1).abs() < 1e-12 && (still - MIN_REACH * 0.1).abs() < 1e-12,
+            "reaches {fast}, {still}"
+        );
+        let second = &model.bodies()[1];
+        let offsets = second.contact_surface().offsets;
+        let mut found_some = 0;
+        for i in 0..=50 {
+            for j in 0..=16 {
+                // Points where the first box's may be until the next sort (it ends at x = 0,
+                // the second starts at 0.01), across the second's edge at y = 0.3.
+                let p = Vec3::new(-0.03 + i as f64 * 0.001, 0.25 + j as f64 * 0.005, 0.12);
+                let mut want = Vec::new();
+                for g in 0..grid.cell_body.len() {
+                    let (b, corner) = grid.cell(g);
+                    if b != 1 {
+                        continue;
+                    }
+                    let [mut lo, mut hi] = EMPTY;
+                    for &o in &offsets {
+                        (lo, hi) = (lo.min(pos[corner + o]), hi.max(pos[corner + o]));
+                    }
+                    let grow = Vec3::new(fast + still, fast + still, fast + still);
+                    if meets([lo - grow, hi + grow], [p, p]) {
+                        want.push(g);
+                    }
+                }
+                let mut got = Vec::new();
+                grid.find_near(p, Some(0), fast, |g| {
+                    got.push(g);
+                    false
+                });
+                assert_eq!(got, want, "at {p:?}");
+                // And the still body's box holds it, so that the point is looked up at all.
+                assert!(want.is_empty() || grid.in_body_box(1, p), "at {p:?}");
+                found_some += usize::from(!got.is_empty());
+            }
+        }
+        assert!(found_some > 200, "{found_some} points near a cell");
+    }
 }

@@ -555,23 +555,29 @@ pub(crate) fn locate_near(
     p: Vec3,
     slack: f64,
 ) -> Option<([f64; 3], [Vec3; 3])> {
-    let map = |uvw: [f64; 3]| cell_map(corners, uvw);
-    let jacobian = |uvw: [f64; 3]| cell_jacobian(corners, uvw);
+    let cell = Trilinear::new(corners);
     // The cell's size, to judge the residual by.
     let size = (corners[7] - corners[0]).length() + (corners[6] - corners[1]).length();
     let mut uvw = [0.5; 3];
     let mut converged = false;
-    for _ in 0..MAX_LOCATE {
-        let r = p - map(uvw);
+    for iteration in 0..MAX_LOCATE {
+        let r = p - cell.at(uvw);
         if r.length() <= 1e-12 * size {
             converged = true;
             break;
         }
-        let inverse = inverse_columns(jacobian(uvw))?;
+        let inverse = inverse_columns(cell.jacobian(uvw))?;
         // Δ = J⁻¹ r, with the rows of J⁻¹ as `inverse`.
         let delta = map3(inverse, |row| row.dot(r));
         for (u, d) in uvw.iter_mut().zip(delta) {
             *u += d;
+        }
+        // The cell lies in the hull of its corners (its points are their weighted means), so
+        // a point outside the hull is outside the cell: told, after the first step, along the
+        // rows of that step's (affine) inverse, which most points near a cell but not in it
+        // are, one step before the test below tells.
+        if iteration == 0 && slack == 0.0 && !in_hull(corners, &inverse, p) {
+            return None;
         }
         // Far outside the cell: not in it (Newton's method may wander off there). Or outside
         // by far more than the last step, once steps are short: Newton's method converges
@@ -591,8 +597,81 @@ pub(crate) fn locate_near(
     }
     let uvw = map3(uvw, |u| u.clamp(-slack, 1.0 + slack));
     // J⁻ᵀ: its columns are the rows of J⁻¹.
-    let rows = inverse_columns(jacobian(uvw))?;
+    let rows = inverse_columns(cell.jacobian(uvw))?;
     Some((uvw, rows))
+}
+
+/// False when `p` is outside the hull of `corners` along one of the directions `rows`: beyond
+/// every corner (by more than a rounding of the corners' spread along it).
+#[inline]
+fn in_hull(corners: &[Vec3; 8], rows: &[Vec3; 3], p: Vec3) -> bool {
+    rows.iter().all(|row| {
+        let (lo, hi) = corners
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), c| {
+                let x = row.dot(*c);
+                (lo.min(x), hi.max(x))
+            });
+        let x = row.dot(p);
+        let rounding = (hi - lo) * 1e-9;
+        x >= lo - rounding && x <= hi + rounding
+    })
+}
+
+/// A deformed cell's trilinear map as a polynomial,
+/// `x = a + b·u + c·v + d·w + e·uv + f·uw + g·vw + h·uvw`: its point and derivative at a place
+/// in fewer operations than by the corners' weights (Newton's method in [`locate`] takes
+/// several of each for every point it places).
+struct Trilinear {
+    a: Vec3,
+    b: Vec3,
+    c: Vec3,
+    d: Vec3,
+    e: Vec3,
+    f: Vec3,
+    g: Vec3,
+    h: Vec3,
+}
+
+impl Trilinear {
+    /// The map of the cell with `corners` in the order of [`CORNERS`] (`4·u + 2·v + w`).
+    #[inline]
+    fn new(x: &[Vec3; 8]) -> Self {
+        let (e, f, g) = (
+            x[6] - x[4] - x[2] + x[0],
+            x[5] - x[4] - x[1] + x[0],
+            x[3] - x[2] - x[1] + x[0],
+        );
+        Trilinear {
+            a: x[0],
+            b: x[4] - x[0],
+            c: x[2] - x[0],
+            d: x[1] - x[0],
+            e,
+            f,
+            g,
+            h: x[7] - x[6] - x[5] - x[3] + x[4] + x[2] + x[1] - x[0],
+        }
+    }
+
+    /// The point at `(u, v, w)`.
+    #[inline]
+    fn at(&self, [u, v, w]: [f64; 3]) -> Vec3 {
+        self.a
+            + (self.b + self.e * v) * u
+            + (self.c + self.g * w) * v
+            + (self.d + (self.f + self.h * v) * u) * w
+    }
+
+    /// The derivative at `(u, v, w)`, as columns `∂x/∂u, ∂x/∂v, ∂x/∂w`.
+    #[inline]
+    fn jacobian(&self, [u, v, w]: [f64; 3]) -> [Vec3; 3] {
+        [
+            self.b + self.e * v + (self.f + self.h * v) * w,
+            self.c + self.e * u + (self.g + self.h * u) * w,
+            self.d + self.f * u + (self.g + self.h * u) * v,
+        ]
+    }
 }
 
 /// The point of a deformed cell (its corners in the order of [`CORNERS`]) at its place `uvw`.
@@ -602,18 +681,6 @@ pub(crate) fn cell_map(corners: &[Vec3; 8], uvw: [f64; 3]) -> Vec3 {
         .iter()
         .zip(weights(uvw))
         .fold(Vec3::ZERO, |s, (&c, w)| s + c * w)
-}
-
-/// The derivative of a deformed cell's map at `uvw`, as columns `∂x/∂u, ∂x/∂v, ∂x/∂w`.
-#[inline]
-fn cell_jacobian(corners: &[Vec3; 8], uvw: [f64; 3]) -> [Vec3; 3] {
-    let mut j = [Vec3::ZERO; 3];
-    for (c, d) in corners.iter().zip(weight_derivatives(uvw)) {
-        for (col, dk) in j.iter_mut().zip(d) {
-            *col += *c * dk;
-        }
-    }
-    j
 }
 
 /// A Newton step of [`locate`] (in the cell's `(u, v, w)`) short enough that what is left of
@@ -726,5 +793,49 @@ mod tests {
         let g = in_space(gu, &rows);
         assert!((g - a).max_abs() < 1e-9, "{g:?}");
         assert!(locate(&corners, Vec3::new(5.0, 0.0, 0.0)).is_none());
+    }
+
+    /// The cell map as a polynomial is the corners' weighted mean, its derivative that of the
+    /// weights, and every point of the cell is in its corners' hull along any directions, on
+    /// cells twisted and stretched at random; points a little outside a cell, but in its box,
+    /// are not placed in it.
+    #[test]
+    fn the_polynomial_map_and_the_hull_agree_with_the_corners() {
+        let mut x = 7u64;
+        let mut next = move || {
+            x = x
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (x >> 11) as f64 / (1u64 << 52) as f64 - 1.0
+        };
+        for _ in 0..200 {
+            let corners = CORNERS.map(|[a, b, c]| {
+                Vec3::new(a as f64, b as f64, c as f64) * 0.1
+                    + Vec3::new(next(), next(), next()) * 0.02
+            });
+            let cell = Trilinear::new(&corners);
+            let rows = [0; 3].map(|_| Vec3::new(next(), next(), next()));
+            for _ in 0..20 {
+                let uvw = [0; 3].map(|_| 0.5 + 0.5 * next());
+                let p = cell_map(&corners, uvw);
+                assert!((cell.at(uvw) - p).max_abs() < 1e-15);
+                let mut j = [Vec3::ZERO; 3];
+                for (c, d) in corners.iter().zip(weight_derivatives(uvw)) {
+                    for (col, dk) in j.iter_mut().zip(d) {
+                        *col += *c * dk;
+                    }
+                }
+                for (a, b) in cell.jacobian(uvw).iter().zip(j) {
+                    assert!((*a - b).max_abs() < 1e-15);
+                }
+                assert!(in_hull(&corners, &rows, p));
+                let (found, _) = locate(&corners, p).expect("a point of the cell");
+                assert!(found.iter().zip(uvw).all(|(f, u)| (f - u).abs() < 1e-9));
+                // Out through a face, by a tenth of the cell.
+                let mut out = uvw;
+                out[0] = -0.1;
+                assert!(locate(&corners, cell_map(&corners, out)).is_none());
+            }
+        }
     }
 }
