@@ -686,3 +686,44 @@ fn bench_and_run_report_the_implicit_solvers_work() {
     let text = t.succeeds(&["run", world, "-q", "--steps", "3"]);
     assert!(!text.contains("Newton"), "{text}");
 }
+
+/// A negative number given to a numeric flag reaches our own check, which names the flag and
+/// the value (clap alone took `-0.001` for a flag and suggested `-- -0`).
+#[test]
+fn negative_numbers_are_values_that_our_checks_answer() {
+    let t = TempDir::new("negative");
+    t.create("w.w", &[]);
+    for (flag, value, says) in [
+        (
+            "--dt",
+            "-0.001",
+            "must be a finite number above 0 (got -0.001)",
+        ),
+        ("--time", "-2", "must be a finite number above 0 (got -2)"),
+        ("--steps", "-1", "must be a whole number ≥ 0 (got -1)"),
+    ] {
+        t.jello(&["run", "w.w", flag, value, "-q"])
+            .code(2)
+            .stderr_has(&format!("'{value}' for '{flag}"))
+            .stderr_has(says);
+    }
+    t.jello(&[
+        "run", "w.w", "--steps", "1", "--frames", "f", "--every", "-3",
+    ])
+    .code(2)
+    .stderr_has("must be a whole number ≥ 1 (got -3)");
+}
+
+/// A mesh given to `jello run` is named as a mesh, with how to make a scene of it, rather than
+/// read as a world (whose first word would be taken for an integrator).
+#[test]
+fn a_mesh_given_to_run_says_how_to_make_a_scene_of_it() {
+    let t = TempDir::new("mesh-run");
+    t.jello(&["shape", "sphere", "ball.obj"]).success();
+    for command in ["run", "info"] {
+        t.jello(&[command, "ball.obj"])
+            .code(1)
+            .stderr_has("ball.obj: this is a Wavefront OBJ mesh, not a world (.w) or scene (.toml)")
+            .stderr_has("jello create scene.toml --mesh ball.obj");
+    }
+}

@@ -3,6 +3,7 @@
 //! Every operation is plain IEEE arithmetic in a fixed order (x, then y, then z), so results are
 //! reproducible bit for bit across platforms and thread counts.
 
+use std::fmt;
 use std::ops::{Add, AddAssign, Div, Mul, Neg, Sub, SubAssign};
 
 /// A point, velocity or force in 3-D (metres, metres per second or newtons).
@@ -14,6 +15,29 @@ pub struct Vec3 {
     pub y: f64,
     /// z component.
     pub z: f64,
+}
+
+/// `(x, y, z)` for messages. Plain `{}` writes each number in its shortest form that reads back
+/// to the same `f64` (what a file gave is shown as written: `(0, 0, -1)`); a precision, `{:.4}`,
+/// rounds each to that many significant digits, for computed positions whose last bits are
+/// rounding (`0.09999999999999998` shows as `0.1`).
+impl fmt::Display for Vec3 {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let show = |x: f64| match f.precision() {
+            Some(digits) => crate::vec3::significant(x, digits),
+            None => crate::formats::world::Num(x).to_string(),
+        };
+        write!(f, "({}, {}, {})", show(self.x), show(self.y), show(self.z))
+    }
+}
+
+/// `x` rounded to `digits` significant digits (at least 1), in its shortest form.
+pub(crate) fn significant(x: f64, digits: usize) -> String {
+    if !x.is_finite() {
+        return x.to_string();
+    }
+    let rounded: f64 = format!("{:.*e}", digits.max(1) - 1, x).parse().unwrap_or(x);
+    crate::formats::world::Num(rounded).to_string()
 }
 
 impl Vec3 {
@@ -160,5 +184,21 @@ impl SubAssign for Vec3 {
     #[inline]
     fn sub_assign(&mut self, o: Vec3) {
         *self = *self - o;
+    }
+}
+
+#[cfg(test)]
+mod display_tests {
+    use super::Vec3;
+
+    #[test]
+    fn vectors_print_as_a_triple_exactly_or_to_significant_digits() {
+        let v = Vec3::new(0.0, -1.0, 0.1 + 0.2);
+        assert_eq!(v.to_string(), "(0, -1, 0.30000000000000004)");
+        assert_eq!(format!("{v:.6}"), "(0, -1, 0.3)");
+        assert_eq!(
+            format!("{:.3}", Vec3::new(1234.5678, 1e-9, f64::NAN)),
+            "(1230, 1e-9, NaN)"
+        );
     }
 }

@@ -13,7 +13,10 @@ use crate::error::CliError;
 use jello_io::{load, Source};
 
 /// Arguments of `jello info`.
+// Negative numbers are values (`--dt -0.001`), so that our own checks answer them rather than
+// clap taking them for flags.
 #[derive(Args, Debug)]
+#[command(allow_negative_numbers = true)]
 pub struct InfoArgs {
     /// World file (.w) or scene file (.toml) to describe.
     pub world: PathBuf,

@@ -8,7 +8,8 @@ use jello_core::diagnostics::{energy, max_penetration};
 use jello_core::Integrator;
 
 use super::{
-    cutbacks_range, parse_integrator, parse_positive, parse_tolerance, require_implicit, Device,
+    cutbacks_range, parse_count, parse_integrator, parse_positive, parse_tolerance,
+    require_implicit, Device,
 };
 use crate::error::CliError;
 use crate::export::GlbExport;
@@ -25,12 +26,15 @@ const DEFAULT_TIME: f64 = 1.0;
 const GPU_READBACK_STEPS: u64 = 2000;
 
 /// Arguments of `jello run`.
+// Negative numbers are values (`--dt -0.001`), so that our own checks answer them rather than
+// clap taking them for flags.
 #[derive(Args, Debug)]
+#[command(allow_negative_numbers = true)]
 pub struct RunArgs {
     /// World file (.w) or scene file (.toml) to run.
     pub world: PathBuf,
     /// Number of steps to take [default: as many as 1 s of simulated time takes].
-    #[arg(long, conflicts_with = "time")]
+    #[arg(long, conflicts_with = "time", value_parser = parse_count(0))]
     pub steps: Option<u64>,
     /// Simulated time to run (s), rounded up to whole steps.
     #[arg(long, value_parser = parse_positive)]
@@ -65,7 +69,7 @@ pub struct RunArgs {
     #[arg(long, value_name = "DIR")]
     pub frames: Option<PathBuf>,
     /// Write a frame every K steps [default: the world's steps per frame].
-    #[arg(long, value_name = "K", requires = "frames", value_parser = clap::value_parser!(u64).range(1..))]
+    #[arg(long, value_name = "K", requires = "frames", value_parser = parse_count(1))]
     pub every: Option<u64>,
     /// Frame file format.
     #[arg(long, value_enum, default_value_t = FrameFormat::Ply, requires = "frames")]

@@ -496,7 +496,7 @@ impl World {
         }
         if let Some(p) = state.pos.iter().chain(&state.vel).find(|v| !v.is_finite()) {
             return Err(ModelError::new(format!(
-                "refusing to save a non-finite state ({p:?})"
+                "refusing to save a non-finite state ({p})"
             )));
         }
         Ok(World {
