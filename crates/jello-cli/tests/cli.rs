@@ -727,3 +727,40 @@ fn a_mesh_given_to_run_says_how_to_make_a_scene_of_it() {
             .stderr_has("jello create scene.toml --mesh ball.obj");
     }
 }
+
+/// `--frames` without `--every` writes at `--export`'s rate, 30 frames per simulated second
+/// (`--fps` changes it); an OBJ frame groups each body's faces under its name, and its header
+/// shows the time without the rounding of summing it step by step.
+#[test]
+fn frames_default_to_thirty_per_second_with_a_group_per_body() {
+    let t = TempDir::new("frame-rate");
+    t.create(
+        "two.toml",
+        &[
+            "--dt", "0.0005", "--cube", "3", "--size", "0.4", "--centre", "0,0,0", "--name",
+            "left", "--cube", "3", "--size", "0.4", "--centre", "1,0,0", "--name", "right",
+        ],
+    );
+    // 0.1 s is 200 steps; 30 fps is a frame every round(66.7) = 67 steps: steps 0, 67 and 134.
+    t.jello(&[
+        "run", "two.toml", "--time", "0.1", "--frames", "f", "--format", "obj", "-q",
+    ])
+    .success()
+    .stdout_has("3 frames");
+    let text = String::from_utf8(t.read("f/frame_000001.obj")).unwrap();
+    assert!(
+        text.starts_with("# jello frame, step 67, t = 0.0335 s\n"),
+        "{text:.60}"
+    );
+    let groups: Vec<&str> = text.lines().filter(|l| l.starts_with("o ")).collect();
+    assert_eq!(groups, ["o left", "o right"]);
+    // At 100 fps: a frame every 20 steps, 11 in all.
+    t.jello(&[
+        "run", "two.toml", "--time", "0.1", "--frames", "g", "--fps", "100", "-q",
+    ])
+    .success()
+    .stdout_has("11 frames");
+    // --fps means nothing without an output that has frames.
+    t.jello(&["run", "two.toml", "--steps", "1", "--fps", "10"])
+        .code(2);
+}

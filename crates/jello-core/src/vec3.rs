@@ -24,20 +24,11 @@ pub struct Vec3 {
 impl fmt::Display for Vec3 {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         let show = |x: f64| match f.precision() {
-            Some(digits) => crate::vec3::significant(x, digits),
+            Some(digits) => crate::formats::world::significant(x, digits),
             None => crate::formats::world::Num(x).to_string(),
         };
         write!(f, "({}, {}, {})", show(self.x), show(self.y), show(self.z))
     }
-}
-
-/// `x` rounded to `digits` significant digits (at least 1), in its shortest form.
-pub(crate) fn significant(x: f64, digits: usize) -> String {
-    if !x.is_finite() {
-        return x.to_string();
-    }
-    let rounded: f64 = format!("{:.*e}", digits.max(1) - 1, x).parse().unwrap_or(x);
-    crate::formats::world::Num(rounded).to_string()
 }
 
 impl Vec3 {
