@@ -6,7 +6,8 @@ use std::path::{Path, PathBuf};
 
 use jello_core::surface::{CageVertices, Surface};
 use jello_core::{Model, State, Vec3};
-use jello_io::gltf::{MeshAnimation, MAX_FRAMES};
+use jello_io::colours::body_colour;
+use jello_io::gltf::{MeshAnimation, MeshPart, MAX_FRAMES};
 
 use crate::error::CliError;
 use jello_io::{check_writable_target, write_atomic};
@@ -36,8 +37,15 @@ pub struct GlbExport {
 impl GlbExport {
     /// An export to `path` of a run of `steps` steps at about `fps` frames per simulated second
     /// (a frame every `round(1/(fps·dt))` steps, at least one, and the final state). Fails
-    /// before the run when `path` cannot be written or the frames would be too many.
-    pub fn new(path: &Path, model: &Model, fps: f64, steps: u64) -> Result<Self, CliError> {
+    /// before the run when `path` cannot be written or the frames would be too many. Each body
+    /// gets a material of its own named `names[b]`, coloured as the viewer colours it.
+    pub fn new(
+        path: &Path,
+        model: &Model,
+        names: &[String],
+        fps: f64,
+        steps: u64,
+    ) -> Result<Self, CliError> {
         check_writable_target(path)?;
         let every = steps_between_frames(fps, model.dt);
         let frames = 1 + steps / every + u64::from(steps % every != 0);
@@ -55,10 +63,22 @@ impl GlbExport {
                 path.display()
             )));
         }
+        // The surface lists each body's triangles in turn, over its own vertices.
+        let triangles = surface.triangles();
+        let parts = (surface.body_vertices(model).iter().zip(names).enumerate())
+            .map(|(b, (vertices, name))| MeshPart {
+                name: name.clone(),
+                triangles_end: triangles.partition_point(|t| (t[0] as usize) < vertices.end),
+                colour: body_colour(b),
+            })
+            .collect();
+        let animation = MeshAnimation::new(surface.vertex_count(), triangles.to_vec())
+            .with_parts(parts)
+            .map_err(|e| CliError::input(format!("{}: {e}", path.display())))?;
         Ok(GlbExport {
             path: path.to_path_buf(),
             every,
-            animation: MeshAnimation::new(surface.vertex_count(), surface.triangles().to_vec()),
+            animation,
             surface,
             positions: Vec::new(),
         })

@@ -7,6 +7,7 @@
 
 #![warn(missing_docs)]
 
+pub mod colours;
 pub mod gltf;
 
 use std::fmt;

@@ -144,7 +144,13 @@ pub fn run(args: RunArgs) -> Result<(), CliError> {
     };
 
     let mut export = match &args.export {
-        Some(path) => Some(GlbExport::new(path, &sim.model, args.fps, total)?),
+        Some(path) => Some(GlbExport::new(
+            path,
+            &sim.model,
+            &body_names(&source, &sim.model),
+            args.fps,
+            total,
+        )?),
         None => None,
     };
 
