@@ -24,8 +24,8 @@ pub fn parse_integrator(s: &str) -> Result<Integrator, String> {
     s.parse::<Integrator>().map_err(|e| e.to_string())
 }
 
-/// Parses a finite, positive number for clap (which names the flag: "invalid value '-0.001' for
-/// '--dt <DT>': must be a finite number above 0 (got -0.001)").
+/// Parses a finite, positive number for clap (which names the flag: `invalid value '-0.001' for
+/// '--dt <DT>': must be a finite number above 0 (got -0.001)`).
 pub fn parse_positive(s: &str) -> Result<f64, String> {
     match s.parse::<f64>() {
         Ok(v) if v.is_finite() && v > 0.0 => Ok(v),
