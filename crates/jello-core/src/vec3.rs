@@ -24,11 +24,36 @@ pub struct Vec3 {
 impl fmt::Display for Vec3 {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         let show = |x: f64| match f.precision() {
-            Some(digits) => crate::formats::world::significant(x, digits),
-            None => crate::formats::world::Num(x).to_string(),
+            Some(digits) => significant(x, digits),
+            None => shortest(x),
         };
         write!(f, "({}, {}, {})", show(self.x), show(self.y), show(self.z))
     }
+}
+
+/// `x` in the shortest decimal form that reads back to the same `f64`, as
+/// `formats::world::Num` writes it (which the layers keep this module from using): plain for
+/// moderate magnitudes, scientific otherwise.
+fn shortest(x: f64) -> String {
+    let a = x.abs();
+    if a == 0.0 || (1e-5..1e16).contains(&a) {
+        format!("{x}")
+    } else {
+        format!("{x:e}")
+    }
+}
+
+/// `x` rounded to `digits` significant digits (at least 1), then written in its shortest form:
+/// for showing a computed value whose last bits are rounding (a time summed step by step,
+/// `2.9999999999997806`, shows as `3` to 12 digits; a stiffness `modulus × spacing`,
+/// `15000.000596046448`, as `15000` to 6). Data that must read back exactly keeps every digit
+/// (`formats::world::Num`).
+pub fn significant(x: f64, digits: usize) -> String {
+    if !x.is_finite() {
+        return x.to_string();
+    }
+    let rounded: f64 = format!("{:.*e}", digits.max(1) - 1, x).parse().unwrap_or(x);
+    shortest(rounded)
 }
 
 impl Vec3 {

@@ -488,8 +488,12 @@ mod tests {
         let json_len = u32::from_le_bytes(glb[12..16].try_into().unwrap()) as usize;
         let json = std::str::from_utf8(&glb[20..20 + json_len]).unwrap();
         assert_eq!(json.matches(r#""material":"#).count(), 2, "{json}");
-        assert!(json.contains(r#""name":"a","pbrMetallicRoughness":{"baseColorFactor":[1.0,0,0,1]"#));
-        assert!(json.contains(r#""name":"b","pbrMetallicRoughness":{"baseColorFactor":[0,0,1.0,1]"#));
+        assert!(
+            json.contains(r#""name":"a","pbrMetallicRoughness":{"baseColorFactor":[1.0,0,0,1]"#)
+        );
+        assert!(
+            json.contains(r#""name":"b","pbrMetallicRoughness":{"baseColorFactor":[0,0,1.0,1]"#)
+        );
         assert!(!json.contains("empty"), "{json}");
         for bad in [
             vec![part("a", 3, [0.0; 3])],

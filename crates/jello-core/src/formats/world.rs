@@ -19,6 +19,9 @@ use crate::model::{Aabb, Model, ModelBuilder, ModelError, Plane};
 use crate::state::State;
 use crate::vec3::Vec3;
 
+/// Numbers shown to a few digits (in `vec3`, the bottom layer, so that messages there use it).
+pub use crate::vec3::significant;
+
 /// Points in a world file: the classic 8×8×8 lattice.
 pub const POINTS: usize = 512;
 
@@ -514,19 +517,6 @@ impl World {
             velocities: state.vel.clone(),
         })
     }
-}
-
-/// `x` rounded to `digits` significant digits (at least 1), then written as [`Num`] writes it:
-/// for showing a computed value whose last bits are rounding (a time summed step by step,
-/// `2.9999999999997806`, shows as `3` to 12 digits; a stiffness `modulus × spacing`,
-/// `15000.000596046448`, as `15000` to 6). Data that must read back exactly is written with
-/// [`Num`] instead.
-pub fn significant(x: f64, digits: usize) -> String {
-    if !x.is_finite() {
-        return x.to_string();
-    }
-    let rounded: f64 = format!("{:.*e}", digits.max(1) - 1, x).parse().unwrap_or(x);
-    Num(rounded).to_string()
 }
 
 /// A number in the shortest decimal form that reads back to the same `f64`: plain notation
