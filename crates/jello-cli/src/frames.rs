@@ -5,7 +5,7 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 use clap::ValueEnum;
-use jello_core::formats::world::Num;
+use jello_core::formats::world::{significant, Num};
 use jello_core::surface::{CageVertices, Surface};
 use jello_core::{Model, State, Vec3};
 
@@ -112,7 +112,7 @@ impl FrameWriter {
              element vertex {}\nproperty double x\nproperty double y\nproperty double z\n\
              element face {}\nproperty list uchar uint vertex_indices\nend_header\n",
             state.steps,
-            Num(state.time),
+            header_time(state.time),
             self.positions.len(),
             triangles.len()
         );
@@ -132,7 +132,7 @@ impl FrameWriter {
             s,
             "# jello frame, step {}, t = {} s",
             state.steps,
-            Num(state.time)
+            header_time(state.time)
         );
         for p in &self.positions {
             let _ = writeln!(s, "v {} {} {}", Num(p.x), Num(p.y), Num(p.z));
@@ -147,6 +147,13 @@ impl FrameWriter {
         }
         s
     }
+}
+
+/// The time in a frame's header, a comment for people: to 12 significant digits, since the time
+/// is summed step by step and its last bits are rounding (`2.9999999999997806` is shown `3`). The
+/// positions are data and keep every digit (`Num`: the shortest form that reads back exactly).
+fn header_time(time: f64) -> String {
+    significant(time, 12)
 }
 
 fn csv(model: &Model, state: &State) -> String {

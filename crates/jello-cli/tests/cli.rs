@@ -686,3 +686,81 @@ fn bench_and_run_report_the_implicit_solvers_work() {
     let text = t.succeeds(&["run", world, "-q", "--steps", "3"]);
     assert!(!text.contains("Newton"), "{text}");
 }
+
+/// A negative number given to a numeric flag reaches our own check, which names the flag and
+/// the value (clap alone took `-0.001` for a flag and suggested `-- -0`).
+#[test]
+fn negative_numbers_are_values_that_our_checks_answer() {
+    let t = TempDir::new("negative");
+    t.create("w.w", &[]);
+    for (flag, value, says) in [
+        (
+            "--dt",
+            "-0.001",
+            "must be a finite number above 0 (got -0.001)",
+        ),
+        ("--time", "-2", "must be a finite number above 0 (got -2)"),
+        ("--steps", "-1", "must be a whole number ≥ 0 (got -1)"),
+    ] {
+        t.jello(&["run", "w.w", flag, value, "-q"])
+            .code(2)
+            .stderr_has(&format!("'{value}' for '{flag}"))
+            .stderr_has(says);
+    }
+    t.jello(&[
+        "run", "w.w", "--steps", "1", "--frames", "f", "--every", "-3",
+    ])
+    .code(2)
+    .stderr_has("must be a whole number ≥ 1 (got -3)");
+}
+
+/// A mesh given to `jello run` is named as a mesh, with how to make a scene of it, rather than
+/// read as a world (whose first word would be taken for an integrator).
+#[test]
+fn a_mesh_given_to_run_says_how_to_make_a_scene_of_it() {
+    let t = TempDir::new("mesh-run");
+    t.jello(&["shape", "sphere", "ball.obj"]).success();
+    for command in ["run", "info"] {
+        t.jello(&[command, "ball.obj"])
+            .code(1)
+            .stderr_has("ball.obj: this is a Wavefront OBJ mesh, not a world (.w) or scene (.toml)")
+            .stderr_has("jello create scene.toml --mesh ball.obj");
+    }
+}
+
+/// `--frames` without `--every` writes at `--export`'s rate, 30 frames per simulated second
+/// (`--fps` changes it); an OBJ frame groups each body's faces under its name, and its header
+/// shows the time without the rounding of summing it step by step.
+#[test]
+fn frames_default_to_thirty_per_second_with_a_group_per_body() {
+    let t = TempDir::new("frame-rate");
+    t.create(
+        "two.toml",
+        &[
+            "--dt", "0.0005", "--cube", "3", "--size", "0.4", "--centre", "0,0,0", "--name",
+            "left", "--cube", "3", "--size", "0.4", "--centre", "1,0,0", "--name", "right",
+        ],
+    );
+    // 0.1 s is 200 steps; 30 fps is a frame every round(66.7) = 67 steps: steps 0, 67 and 134.
+    t.jello(&[
+        "run", "two.toml", "--time", "0.1", "--frames", "f", "--format", "obj", "-q",
+    ])
+    .success()
+    .stdout_has("3 frames");
+    let text = String::from_utf8(t.read("f/frame_000001.obj")).unwrap();
+    assert!(
+        text.starts_with("# jello frame, step 67, t = 0.0335 s\n"),
+        "{text:.60}"
+    );
+    let groups: Vec<&str> = text.lines().filter(|l| l.starts_with("o ")).collect();
+    assert_eq!(groups, ["o left", "o right"]);
+    // At 100 fps: a frame every 20 steps, 11 in all.
+    t.jello(&[
+        "run", "two.toml", "--time", "0.1", "--frames", "g", "--fps", "100", "-q",
+    ])
+    .success()
+    .stdout_has("11 frames");
+    // --fps means nothing without an output that has frames.
+    t.jello(&["run", "two.toml", "--steps", "1", "--fps", "10"])
+        .code(2);
+}

@@ -88,7 +88,7 @@ impl Control {
         }
         if let Some(f) = self.forces.iter().find(|f| !f.is_finite()) {
             return Err(ModelError::new(format!(
-                "control forces must be finite ({f:?})"
+                "control forces must be finite ({f})"
             )));
         }
         for (i, pull) in self.pulls.iter().enumerate() {
@@ -100,7 +100,7 @@ impl Control {
                 && pull.damping >= 0.0;
             if !ok {
                 return Err(ModelError::new(format!(
-                    "pull {}: point {} of {n}, target {:?}, stiffness {}, damping {}: expected an \
+                    "pull {}: point {} of {n}, target {}, stiffness {}, damping {}: expected an \
                      existing point, a finite target and finite stiffness and damping of at least 0",
                     i + 1,
                     pull.point,

@@ -3,6 +3,7 @@
 //! Every operation is plain IEEE arithmetic in a fixed order (x, then y, then z), so results are
 //! reproducible bit for bit across platforms and thread counts.
 
+use std::fmt;
 use std::ops::{Add, AddAssign, Div, Mul, Neg, Sub, SubAssign};
 
 /// A point, velocity or force in 3-D (metres, metres per second or newtons).
@@ -14,6 +15,45 @@ pub struct Vec3 {
     pub y: f64,
     /// z component.
     pub z: f64,
+}
+
+/// `(x, y, z)` for messages. Plain `{}` writes each number in its shortest form that reads back
+/// to the same `f64` (what a file gave is shown as written: `(0, 0, -1)`); a precision, `{:.4}`,
+/// rounds each to that many significant digits, for computed positions whose last bits are
+/// rounding (`0.09999999999999998` shows as `0.1`).
+impl fmt::Display for Vec3 {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let show = |x: f64| match f.precision() {
+            Some(digits) => significant(x, digits),
+            None => shortest(x),
+        };
+        write!(f, "({}, {}, {})", show(self.x), show(self.y), show(self.z))
+    }
+}
+
+/// `x` in the shortest decimal form that reads back to the same `f64`, as
+/// `formats::world::Num` writes it (which the layers keep this module from using): plain for
+/// moderate magnitudes, scientific otherwise.
+fn shortest(x: f64) -> String {
+    let a = x.abs();
+    if a == 0.0 || (1e-5..1e16).contains(&a) {
+        format!("{x}")
+    } else {
+        format!("{x:e}")
+    }
+}
+
+/// `x` rounded to `digits` significant digits (at least 1), then written in its shortest form:
+/// for showing a computed value whose last bits are rounding (a time summed step by step,
+/// `2.9999999999997806`, shows as `3` to 12 digits; a stiffness `modulus × spacing`,
+/// `15000.000596046448`, as `15000` to 6). Data that must read back exactly keeps every digit
+/// (`formats::world::Num`).
+pub fn significant(x: f64, digits: usize) -> String {
+    if !x.is_finite() {
+        return x.to_string();
+    }
+    let rounded: f64 = format!("{:.*e}", digits.max(1) - 1, x).parse().unwrap_or(x);
+    shortest(rounded)
 }
 
 impl Vec3 {
@@ -160,5 +200,21 @@ impl SubAssign for Vec3 {
     #[inline]
     fn sub_assign(&mut self, o: Vec3) {
         *self = *self - o;
+    }
+}
+
+#[cfg(test)]
+mod display_tests {
+    use super::Vec3;
+
+    #[test]
+    fn vectors_print_as_a_triple_exactly_or_to_significant_digits() {
+        let v = Vec3::new(0.0, -1.0, 0.1 + 0.2);
+        assert_eq!(v.to_string(), "(0, -1, 0.30000000000000004)");
+        assert_eq!(format!("{v:.6}"), "(0, -1, 0.3)");
+        assert_eq!(
+            format!("{:.3}", Vec3::new(1234.5678, 1e-9, f64::NAN)),
+            "(1230, 1e-9, NaN)"
+        );
     }
 }

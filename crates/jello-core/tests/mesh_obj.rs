@@ -161,12 +161,11 @@ fn negative_indices_count_back_from_the_last_vertex() {
         }
         s.push_str("f -3 -2 -1\n");
     }
-    // Unwelded, each face is its own island: the reader does not weld OBJ vertices, so this is
-    // an open mesh, and the error names the first face's first edge.
-    let e = parse(&s).unwrap_err();
-    assert_eq!(e.line, 4, "{e}");
-    assert!(e.message.contains("vertex 1 (0, 0, 0)"), "{e}");
-    assert!(e.message.contains("one triangle only"), "{e}");
+    // Unwelded, each face is its own island: read, the corners at the same position are
+    // joined (as STL's are), which closes the cube (see `an_unwelded_obj_is_welded_as_stl_is`).
+    let welded = parse(&s).unwrap();
+    assert_eq!((welded.vertices.len(), welded.triangles.len()), (8, 12));
+    assert_eq!(welded.volume(), 1.0);
 
     // Mixed: vertices first, faces by negative index from the end.
     let mixed = cube_with("", |i| format!("-{}", 8 - i));
@@ -365,4 +364,67 @@ fn parse_chooses_the_reader_by_extension_in_any_case() {
             assert!(e.message.contains(n), "{name}: {e} does not mention {n}");
         }
     }
+}
+
+/// The cube with each triangle's own three vertices (as some exporters write OBJ, and as STL
+/// always is): read with the corners at the same position joined, it is the same solid as the
+/// welded cube, whose voxel body has the same cells and mass. A hole is still a hole, its message
+/// saying the corners were joined.
+#[test]
+fn an_unwelded_obj_is_welded_as_stl_is() {
+    use jello_core::formats::scene::{BodySpec, MeshSpec};
+    let cube = cube();
+    let mut unwelded = String::new();
+    for (n, t) in cube.triangles.iter().enumerate() {
+        for &i in t {
+            let p = cube.vertices[i as usize];
+            unwelded.push_str(&format!("v {} {} {}\n", p.x, p.y, p.z));
+        }
+        unwelded.push_str(&format!("f {} {} {}\n", 3 * n + 1, 3 * n + 2, 3 * n + 3));
+    }
+    let read = parse(&unwelded).unwrap();
+    assert_eq!((read.vertices.len(), read.triangles.len()), (8, 12));
+    assert_eq!(
+        (read.volume(), read.bounds()),
+        (cube.volume(), cube.bounds())
+    );
+    assert_eq!(euler_characteristic(&read), 2);
+    assert_valid(&read, "unwelded cube");
+    let body = |mesh: &TriMesh| {
+        let spec = BodySpec {
+            mesh: Some(MeshSpec {
+                cells: 5,
+                vertices: mesh.vertices.iter().map(|v| v.to_array()).collect(),
+                triangles: mesh.triangles.clone(),
+            }),
+            density: Some(1000.0),
+            ..BodySpec::default()
+        };
+        let scene = jello_core::SceneFile::new(vec![spec])
+            .to_scene("s.toml")
+            .unwrap();
+        let b = scene.model.body(0).clone();
+        (
+            b.cells().map(<[bool]>::to_vec),
+            b.cell_count(),
+            b.material.mass,
+        )
+    };
+    let (welded, unwelded_body) = (body(&cube), body(&read));
+    assert_eq!(welded, unwelded_body);
+    assert_eq!(welded.1, 125);
+
+    // Without its last triangle: a hole, found after the corners are joined.
+    let open: String = unwelded
+        .lines()
+        .take(4 * 11)
+        .map(|l| format!("{l}\n"))
+        .collect();
+    let e = parse(&open).unwrap_err();
+    assert!(e.message.contains("one triangle only"), "{e}");
+    assert!(
+        e.message
+            .contains("vertices at the same position taken as one"),
+        "{e}"
+    );
 }

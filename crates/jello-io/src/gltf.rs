@@ -13,6 +13,13 @@
 //! The morph targets hold positions only: readers recompute normals (Blender does), or shade
 //! with frame 0's (three.js).
 //!
+//! Each body is a primitive of the mesh with a material of its own (a PBR base colour, the
+//! viewer's: [`crate::colours`]), over the same vertices and morph targets, so that Blender
+//! makes one object with a material slot per body. The animation's time accessor carries its
+//! `min` and `max` (the first and last frame's times), as glTF requires of an animation input;
+//! glTF has no field for a scene's frame range, so a reader that sets one from the file can only
+//! take it from there.
+//!
 //! Positions are stored as 32-bit floats, as glTF requires for vertex data, and turned from
 //! Jello's frame (z up) into glTF's (y up): `(x, y, z)` is written `(x, z, −y)`, which importers
 //! such as Blender's turn back, so the jello stands the right way up. The JSON chunk is
@@ -27,11 +34,25 @@ use jello_core::Vec3;
 /// 1)` numbers (67 MB of them at this count), and the sparse indices are 32-bit.
 pub const MAX_FRAMES: usize = 4096;
 
+/// A part of the mesh drawn with a material of its own: a body.
+#[derive(Clone, Debug, PartialEq)]
+pub struct MeshPart {
+    /// The material's name (the body's).
+    pub name: String,
+    /// Where its triangles end in the mesh's list (they start where the previous part's end).
+    pub triangles_end: usize,
+    /// Its base colour, linear RGB (each 0 to 1).
+    pub colour: [f32; 3],
+}
+
 /// Frames of a mesh of fixed topology, to be written as an animated glTF.
 #[derive(Clone, Debug, Default)]
 pub struct MeshAnimation {
     triangles: Vec<[u32; 3]>,
     vertices: usize,
+    /// The parts, in the order of their triangles; none: the whole mesh is one part, coloured
+    /// as the first body.
+    parts: Vec<MeshPart>,
     /// Times (s), strictly increasing.
     times: Vec<f64>,
     /// Per frame, the positions of every vertex (f32, as stored).
@@ -59,6 +80,30 @@ impl MeshAnimation {
             vertices,
             ..Default::default()
         }
+    }
+
+    /// The same animation with its triangles drawn as `parts` (each a body, with its material),
+    /// in order; fails unless the parts' ends increase and the last is the triangle count.
+    pub fn with_parts(mut self, parts: Vec<MeshPart>) -> Result<Self, FrameError> {
+        let ends: Vec<usize> = parts.iter().map(|p| p.triangles_end).collect();
+        let increasing = ends.windows(2).all(|w| w[0] <= w[1]);
+        if !increasing || ends.last() != Some(&self.triangles.len()) {
+            return Err(FrameError(format!(
+                "parts ending at triangles {ends:?} do not cover the mesh's {} triangles in order",
+                self.triangles.len()
+            )));
+        }
+        if let Some(p) = parts
+            .iter()
+            .find(|p| !p.colour.iter().all(|c| (0.0..=1.0).contains(c)))
+        {
+            return Err(FrameError(format!(
+                "part {}: colour {:?} is not linear RGB between 0 and 1",
+                p.name, p.colour
+            )));
+        }
+        self.parts = parts;
+        Ok(self)
     }
 
     /// Number of frames so far.
@@ -126,19 +171,13 @@ impl MeshAnimation {
                 "triangle {t:?} refers to a vertex that does not exist"
             )));
         }
+        let raw_name = name;
         let name = json_string(name);
         let mut bin = Binary::default();
         let mut views = Vec::new();
         let mut accessors = Vec::new();
 
-        // Triangles.
-        let indices: Vec<u32> = self.triangles.iter().flatten().copied().collect();
-        let view = bin.view(&mut views, u32s(&indices), Some(34963));
-        accessors.push(format!(
-            r#"{{"bufferView":{view},"componentType":5125,"count":{},"type":"SCALAR"}}"#,
-            indices.len()
-        ));
-        // Frame 0: positions and smooth normals.
+        // Frame 0: positions (accessor 0) and smooth normals (1).
         let view = bin.view(&mut views, vec3s(base), Some(34962));
         accessors.push(vec3_accessor(view, base));
         let normals = normals(base, &self.triangles);
@@ -147,6 +186,40 @@ impl MeshAnimation {
             r#"{{"bufferView":{view},"componentType":5126,"count":{},"type":"VEC3"}}"#,
             normals.len()
         ));
+        // Each part's triangles (a part with none is left out: glTF wants no empty accessor),
+        // and its material.
+        let whole = [MeshPart {
+            name: raw_name.to_string(),
+            triangles_end: self.triangles.len(),
+            colour: crate::colours::body_colour(0),
+        }];
+        let parts = if self.parts.is_empty() {
+            &whole[..]
+        } else {
+            &self.parts[..]
+        };
+        let mut drawn = Vec::new();
+        let mut materials = Vec::new();
+        let mut start = 0;
+        for part in parts {
+            let triangles = &self.triangles[start..part.triangles_end];
+            start = part.triangles_end;
+            if triangles.is_empty() {
+                continue;
+            }
+            let indices: Vec<u32> = triangles.iter().flatten().copied().collect();
+            let view = bin.view(&mut views, u32s(&indices), Some(34963));
+            drawn.push((accessors.len(), materials.len()));
+            accessors.push(format!(
+                r#"{{"bufferView":{view},"componentType":5125,"count":{},"type":"SCALAR"}}"#,
+                indices.len()
+            ));
+            let [r, g, b] = part.colour.map(json_f32);
+            materials.push(format!(
+                r#"{{"name":{},"pbrMetallicRoughness":{{"baseColorFactor":[{r},{g},{b},1],"metallicFactor":0,"roughnessFactor":0.5}}}}"#,
+                json_string(&part.name)
+            ));
+        }
         // Later frames: displacements from frame 0.
         let mut targets = Vec::new();
         for frame in &self.frames[1..] {
@@ -188,20 +261,31 @@ impl MeshAnimation {
             );
         }
 
+        // One primitive per part, all over the same vertices and morph targets.
+        let targets = if targets.is_empty() {
+            String::new()
+        } else {
+            format!(r#","targets":[{}]"#, targets.join(","))
+        };
+        let primitives: Vec<String> = drawn
+            .iter()
+            .map(|(indices, material)| {
+                format!(
+                    r#"{{"attributes":{{"POSITION":0,"NORMAL":1}},"indices":{indices},"material":{material},"mode":4{targets}}}"#
+                )
+            })
+            .collect();
         let mut json = String::new();
         let _ = write!(
             json,
-            r#"{{"asset":{{"version":"2.0","generator":"jello {}"}},"scene":0,"scenes":[{{"nodes":[0]}}],"nodes":[{{"mesh":0,"name":{name}}}],"meshes":[{{"name":{name},"primitives":[{{"attributes":{{"POSITION":1,"NORMAL":2}},"indices":0,"mode":4{}}}]{}}}]{animation},"buffers":[{{"byteLength":{}}}],"bufferViews":[{}],"accessors":[{}]}}"#,
+            r#"{{"asset":{{"version":"2.0","generator":"jello {}"}},"scene":0,"scenes":[{{"nodes":[0]}}],"nodes":[{{"mesh":0,"name":{name}}}],"materials":[{}],"meshes":[{{"name":{name},"primitives":[{}]{}}}]{animation},"buffers":[{{"byteLength":{}}}],"bufferViews":[{}],"accessors":[{}]}}"#,
             env!("CARGO_PKG_VERSION"),
-            if targets.is_empty() {
+            materials.join(","),
+            primitives.join(","),
+            if target_count == 0 {
                 String::new()
             } else {
-                format!(r#","targets":[{}]"#, targets.join(","))
-            },
-            if targets.is_empty() {
-                String::new()
-            } else {
-                format!(r#","weights":[{}]"#, vec!["0"; targets.len()].join(","))
+                format!(r#","weights":[{}]"#, vec!["0"; target_count].join(","))
             },
             bin.data.len(),
             views.join(","),
@@ -382,6 +466,46 @@ mod tests {
         assert_eq!(&glb[24 + json_len..28 + json_len], b"BIN\0");
         assert_eq!(28 + json_len + bin_len, glb.len());
         assert_eq!(bin_len % 4, 0);
+    }
+
+    /// Parts: one primitive and material each, an empty part left out; parts that do not cover
+    /// the triangles in order are refused.
+    #[test]
+    fn parts_are_primitives_with_their_materials() {
+        let part = |name: &str, end, colour| MeshPart {
+            name: name.into(),
+            triangles_end: end,
+            colour,
+        };
+        let parts = vec![
+            part("a", 1, [1.0, 0.0, 0.0]),
+            part("empty", 1, [0.0, 1.0, 0.0]),
+            part("b", 4, [0.0, 0.0, 1.0]),
+        ];
+        let mut a = tetrahedron().with_parts(parts).unwrap();
+        a.push(0.0, &corners(0.0)).unwrap();
+        let glb = a.to_glb("t").unwrap();
+        let json_len = u32::from_le_bytes(glb[12..16].try_into().unwrap()) as usize;
+        let json = std::str::from_utf8(&glb[20..20 + json_len]).unwrap();
+        assert_eq!(json.matches(r#""material":"#).count(), 2, "{json}");
+        assert!(
+            json.contains(r#""name":"a","pbrMetallicRoughness":{"baseColorFactor":[1.0,0,0,1]"#)
+        );
+        assert!(
+            json.contains(r#""name":"b","pbrMetallicRoughness":{"baseColorFactor":[0,0,1.0,1]"#)
+        );
+        assert!(!json.contains("empty"), "{json}");
+        for bad in [
+            vec![part("a", 3, [0.0; 3])],
+            vec![
+                part("a", 3, [0.0; 3]),
+                part("b", 2, [0.0; 3]),
+                part("c", 4, [0.0; 3]),
+            ],
+            vec![part("a", 4, [2.0, 0.0, 0.0])],
+        ] {
+            assert!(tetrahedron().with_parts(bad).is_err());
+        }
     }
 
     #[test]

@@ -7,6 +7,7 @@
 
 #![warn(missing_docs)]
 
+pub mod colours;
 pub mod gltf;
 
 use std::fmt;
@@ -101,6 +102,7 @@ pub fn load(
     integrator: Option<Integrator>,
     dt: Option<f64>,
 ) -> Result<(Simulation, Source), FileError> {
+    refuse_mesh(path)?;
     let bytes = read_bounded(path)?;
     load_bytes(
         &bytes,
@@ -145,6 +147,29 @@ pub fn load_bytes(
     let sim =
         Simulation::from_world(&world).map_err(|e| FileError::input(format!("{name}: {e}")))?;
     Ok((sim, Source::World(world)))
+}
+
+/// An error for a mesh file (`.obj`, `.stl`) given where a world or scene is expected: read as a
+/// world, its first letters would be taken for an integrator's name. The message says how to make
+/// a scene of it.
+pub fn refuse_mesh(path: &Path) -> Result<(), FileError> {
+    let Some(extension) = path
+        .extension()
+        .map(|e| e.to_string_lossy().to_ascii_lowercase())
+    else {
+        return Ok(());
+    };
+    let format = match extension.as_str() {
+        "obj" => "a Wavefront OBJ mesh",
+        "stl" => "an STL mesh",
+        _ => return Ok(()),
+    };
+    let name = path.display();
+    Err(FileError::input(format!(
+        "{name}: this is {format}, not a world (.w) or scene (.toml); make a scene of it first, \
+         e.g. `jello create scene.toml --mesh {name}` (see `jello create --help`), then run \
+         the scene"
+    )))
 }
 
 /// Reads and parses a world file; errors name the file and the line.

@@ -13,7 +13,10 @@ use crate::error::CliError;
 use crate::gpu::Gpu;
 
 /// Arguments of `jello bench`.
+// Negative numbers are values (`--dt -0.001`), so that our own checks answer them rather than
+// clap taking them for flags.
 #[derive(Args, Debug)]
+#[command(allow_negative_numbers = true)]
 pub struct BenchArgs {
     /// Points per side of the N×N×N lattice.
     #[arg(long, default_value_t = 8, value_parser = clap::value_parser!(u64).range(2..=512))]

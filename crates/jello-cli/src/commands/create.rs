@@ -23,7 +23,10 @@ use jello_io::{check_new_output, is_scene, write_atomic};
 ///
 /// Options marked "per body" follow the `--mesh` or `--cube` they apply to in a scene; for a
 /// world file they are given at most once.
+// Negative numbers are values (`--dt -0.001`), so that our own checks answer them rather than
+// clap taking them for flags.
 #[derive(Args, Debug)]
+#[command(allow_negative_numbers = true)]
 pub struct CreateArgs {
     /// The file to write: a world file (.w), or a scene file (.toml) of bodies and obstacles.
     #[arg(value_name = "OUT.w|OUT.toml")]
@@ -132,8 +135,9 @@ pub struct CreateArgs {
     /// Side length of a --cube (m) [default: 1]; per body.
     #[arg(long, value_parser = parse_positive)]
     pub size: Vec<f64>,
-    /// Where the centre of the body's rest bounding box goes (m) [default: a mesh stays where it
-    /// is, a cube has its corner at the origin]; per body.
+    /// Where the centre of the body's shape's bounding box goes (m; a mesh's own box, not the
+    /// lattice's of whole cells around it) [default: a mesh stays where it is, a cube has its
+    /// corner at the origin]; per body.
     #[arg(
         long = "centre",
         visible_alias = "at",

@@ -13,7 +13,10 @@ use crate::error::CliError;
 use jello_io::{load, Source};
 
 /// Arguments of `jello info`.
+// Negative numbers are values (`--dt -0.001`), so that our own checks answer them rather than
+// clap taking them for flags.
 #[derive(Args, Debug)]
+#[command(allow_negative_numbers = true)]
 pub struct InfoArgs {
     /// World file (.w) or scene file (.toml) to describe.
     pub world: PathBuf,
@@ -179,7 +182,10 @@ fn print_body(m: &Model, b: usize, name: &str) {
         ),
         None => "no skin (the cage is drawn)".to_string(),
     };
-    let k = body.material.stiffness;
+    // Stiffness and mass per point are worked out (modulus × spacing, density × volume / points):
+    // shown to 6 significant digits, not with the rounding of the arithmetic (15000.000596046448).
+    let shown = |x: f64| jello_core::formats::world::significant(x, 6);
+    let k = body.material.stiffness.map(shown);
     println!(
         "body {:<9} {name}: {} points (lattice {nx}×{ny}×{nz}), {} springs ({} {}, {} {}, {} {}), \
          {} cells of {:.4} m, {skin}, mass {:.6} kg ({} kg per point), stiffness {}/{}/{} N/m",
@@ -195,7 +201,7 @@ fn print_body(m: &Model, b: usize, name: &str) {
         body.cell_count(),
         body.min_spacing(),
         body.total_mass(),
-        body.material.mass,
+        shown(body.material.mass),
         k[0],
         k[1],
         k[2]

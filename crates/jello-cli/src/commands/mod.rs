@@ -24,11 +24,22 @@ pub fn parse_integrator(s: &str) -> Result<Integrator, String> {
     s.parse::<Integrator>().map_err(|e| e.to_string())
 }
 
-/// Parses a finite, positive number for clap.
+/// Parses a finite, positive number for clap (which names the flag: `invalid value '-0.001' for
+/// '--dt <DT>': must be a finite number above 0 (got -0.001)`).
 pub fn parse_positive(s: &str) -> Result<f64, String> {
     match s.parse::<f64>() {
         Ok(v) if v.is_finite() && v > 0.0 => Ok(v),
-        _ => Err(format!("expected a finite positive number, found \"{s}\"")),
+        Ok(_) => Err(format!("must be a finite number above 0 (got {s})")),
+        Err(_) => Err(format!("expected a finite number above 0, found \"{s}\"")),
+    }
+}
+
+/// Parses a whole number for clap: a count of steps, frames or threads, at least `min`.
+pub fn parse_count(min: u64) -> impl Fn(&str) -> Result<u64, String> + Clone {
+    move |s: &str| match s.parse::<i128>() {
+        Ok(v) if v >= i128::from(min) && v <= i128::from(u64::MAX) => Ok(v as u64),
+        Ok(_) => Err(format!("must be a whole number ≥ {min} (got {s})")),
+        Err(_) => Err(format!("expected a whole number ≥ {min}, found \"{s}\"")),
     }
 }
 
@@ -68,7 +79,8 @@ pub fn require_implicit(
 pub fn parse_non_negative(s: &str) -> Result<f64, String> {
     match s.parse::<f64>() {
         Ok(v) if v.is_finite() && v >= 0.0 => Ok(v),
-        _ => Err(format!("expected a finite number ≥ 0, found \"{s}\"")),
+        Ok(_) => Err(format!("must be a finite number ≥ 0 (got {s})")),
+        Err(_) => Err(format!("expected a finite number ≥ 0, found \"{s}\"")),
     }
 }
 

@@ -8,10 +8,11 @@ use jello_core::diagnostics::{energy, max_penetration};
 use jello_core::Integrator;
 
 use super::{
-    cutbacks_range, parse_integrator, parse_positive, parse_tolerance, require_implicit, Device,
+    cutbacks_range, parse_count, parse_integrator, parse_positive, parse_tolerance,
+    require_implicit, Device,
 };
 use crate::error::CliError;
-use crate::export::GlbExport;
+use crate::export::{steps_between_frames, GlbExport, DEFAULT_FPS};
 use crate::frames::{FrameFormat, FrameWriter};
 use crate::gpu::Gpu;
 use crate::progress::Progress;
@@ -25,12 +26,16 @@ const DEFAULT_TIME: f64 = 1.0;
 const GPU_READBACK_STEPS: u64 = 2000;
 
 /// Arguments of `jello run`.
+// Negative numbers are values (`--dt -0.001`), so that our own checks answer them rather than
+// clap taking them for flags.
 #[derive(Args, Debug)]
+#[command(allow_negative_numbers = true)]
+#[command(group(clap::ArgGroup::new("outputs").args(["frames", "export"]).multiple(true)))]
 pub struct RunArgs {
     /// World file (.w) or scene file (.toml) to run.
     pub world: PathBuf,
     /// Number of steps to take [default: as many as 1 s of simulated time takes].
-    #[arg(long, conflicts_with = "time")]
+    #[arg(long, conflicts_with = "time", value_parser = parse_count(0))]
     pub steps: Option<u64>,
     /// Simulated time to run (s), rounded up to whole steps.
     #[arg(long, value_parser = parse_positive)]
@@ -64,8 +69,9 @@ pub struct RunArgs {
     /// Write frames into this folder (created when missing).
     #[arg(long, value_name = "DIR")]
     pub frames: Option<PathBuf>,
-    /// Write a frame every K steps [default: the world's steps per frame].
-    #[arg(long, value_name = "K", requires = "frames", value_parser = clap::value_parser!(u64).range(1..))]
+    /// Write a frame every K steps [default: --fps frames per simulated second, 30 unless given:
+    /// a frame every round(1/(fps·dt)) steps, as --export].
+    #[arg(long, value_name = "K", requires = "frames", value_parser = parse_count(1))]
     pub every: Option<u64>,
     /// Frame file format.
     #[arg(long, value_enum, default_value_t = FrameFormat::Ply, requires = "frames")]
@@ -75,8 +81,9 @@ pub struct RunArgs {
     /// run succeeds.
     #[arg(long, value_name = "OUT.glb")]
     pub export: Option<PathBuf>,
-    /// Frames per simulated second in the --export file (a frame every round(1/(fps·dt)) steps).
-    #[arg(long, value_name = "F", default_value_t = 30.0, requires = "export", value_parser = parse_positive)]
+    /// Frames per simulated second of the --export file, and of --frames without --every (a
+    /// frame every round(1/(fps·dt)) steps).
+    #[arg(long, value_name = "F", default_value_t = DEFAULT_FPS, requires = "outputs", value_parser = parse_positive)]
     pub fps: f64,
     /// Where to step: the f64 core on the CPU, or the f32 shaders on a GPU (the explicit
     /// integrators, with several bodies, obstacles, friction, pins and pulls; docs/gpu.md).
@@ -120,7 +127,7 @@ pub fn run(args: RunArgs) -> Result<(), CliError> {
         (Some(n), _) => n,
         (None, t) => steps_for(t.unwrap_or(DEFAULT_TIME), dt),
     };
-    let every = args.every.unwrap_or(u64::from(sim.model.steps_per_frame));
+    let every = args.every.unwrap_or(steps_between_frames(args.fps, dt));
     // On a GPU the state lives there; it is read back when a frame is due, and now and then.
     let mut gpu = match args.device {
         Device::Gpu => Some(Gpu::open(&sim.model, &sim.state, &sim.control, &name)?),
@@ -137,7 +144,13 @@ pub fn run(args: RunArgs) -> Result<(), CliError> {
     };
 
     let mut export = match &args.export {
-        Some(path) => Some(GlbExport::new(path, &sim.model, args.fps, total)?),
+        Some(path) => Some(GlbExport::new(
+            path,
+            &sim.model,
+            &body_names(&source, &sim.model),
+            args.fps,
+            total,
+        )?),
         None => None,
     };
 

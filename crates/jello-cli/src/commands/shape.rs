@@ -12,7 +12,10 @@ use crate::error::CliError;
 use jello_io::{check_new_output, write_atomic};
 
 /// Arguments of `jello shape`.
+// Negative numbers are values (`--dt -0.001`), so that our own checks answer them rather than
+// clap taking them for flags.
 #[derive(Args, Debug)]
+#[command(allow_negative_numbers = true)]
 pub struct ShapeArgs {
     /// The shape: torus (a ring, genus 1), blob (a lumpy ball), mould (a fluted jelly mould on a
     /// flat base), sphere, capsule (1 m long along z, 0.5 m across) or ell (an L-shaped block,

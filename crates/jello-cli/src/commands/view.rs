@@ -38,7 +38,10 @@ const MAX_CONNECTIONS: usize = 64;
 const READ_TIMEOUT: Duration = Duration::from_secs(10);
 
 /// Arguments of `jello view`.
+// Negative numbers are values (`--dt -0.001`), so that our own checks answer them rather than
+// clap taking them for flags.
 #[derive(Args, Debug)]
+#[command(allow_negative_numbers = true)]
 pub struct ViewArgs {
     /// World (.w) or scene (.toml) file to start with [default: the classic examples/jello.w].
     pub world: Option<PathBuf>,

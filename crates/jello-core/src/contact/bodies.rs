@@ -510,6 +510,9 @@ pub struct Closest {
     /// The deepest any sample of one is inside the other (m), or, when none is inside, minus
     /// the smallest gap between them: negative is a gap.
     pub depth: f64,
+    /// Where: the sample (a point of the surface of the first body that reveals it, or the middle
+    /// of one of its cells) that is deepest, or nearest the other when they are apart (m).
+    pub at: Vec3,
 }
 
 /// The pairs of bodies at positions `pos` whose surfaces come within a cell of each other (the
@@ -539,12 +542,18 @@ pub fn closest(model: &Model, pos: &[Vec3]) -> Vec<Closest> {
             continue;
         }
         let bodies = [a.min(b), a.max(b)];
+        // The sample: its own cell's corners (the first eight) weighted.
+        let at = (t.points[..8].iter().zip(&t.weights[..8]))
+            .fold(Vec3::ZERO, |s, (&p, &w)| s + pos[p as usize] * w);
+        let deepest = Closest {
+            bodies,
+            depth: t.depth,
+            at,
+        };
         match pairs.iter_mut().find(|c| c.bodies == bodies) {
-            Some(c) => c.depth = c.depth.max(t.depth),
-            None => pairs.push(Closest {
-                bodies,
-                depth: t.depth,
-            }),
+            Some(c) if c.depth < t.depth => *c = deepest,
+            Some(_) => {}
+            None => pairs.push(deepest),
         }
     }
     // Bodies sunk into each other further than their surfaces show (one inside the other, or
@@ -581,12 +590,15 @@ pub fn closest(model: &Model, pos: &[Vec3]) -> Vec<Closest> {
                 let depth = (-other.distance_in(cell, uvw).0).min(own);
                 if depth > 0.0 {
                     let pair = [a.min(b), a.max(b)];
+                    let deepest = Closest {
+                        bodies: pair,
+                        depth,
+                        at: middle,
+                    };
                     match pairs.iter_mut().find(|c| c.bodies == pair) {
-                        Some(c) => c.depth = c.depth.max(depth),
-                        None => pairs.push(Closest {
-                            bodies: pair,
-                            depth,
-                        }),
+                        Some(c) if c.depth < depth => *c = deepest,
+                        Some(_) => {}
+                        None => pairs.push(deepest),
                     }
                 }
                 true

@@ -19,6 +19,9 @@ use crate::model::{Aabb, Model, ModelBuilder, ModelError, Plane};
 use crate::state::State;
 use crate::vec3::Vec3;
 
+/// Numbers shown to a few digits (in `vec3`, the bottom layer, so that messages there use it).
+pub use crate::vec3::significant;
+
 /// Points in a world file: the classic 8×8×8 lattice.
 pub const POINTS: usize = 512;
 
@@ -496,7 +499,7 @@ impl World {
         }
         if let Some(p) = state.pos.iter().chain(&state.vel).find(|v| !v.is_finite()) {
             return Err(ModelError::new(format!(
-                "refusing to save a non-finite state ({p:?})"
+                "refusing to save a non-finite state ({p})"
             )));
         }
         Ok(World {

@@ -65,7 +65,7 @@ impl Aabb {
             Ok(())
         } else {
             Err(ModelError::new(format!(
-                "{what} must be finite with min < max on every axis (min {lo:?}, max {hi:?})"
+                "{what} must be finite with min < max on every axis (min {lo}, max {hi})"
             )))
         }
     }
@@ -269,7 +269,7 @@ impl Sphere {
             Ok(())
         } else {
             Err(ModelError::new(format!(
-                "sphere needs a finite centre and a finite, positive radius (centre {:?}, radius {})",
+                "sphere needs a finite centre and a finite, positive radius (centre {}, radius {})",
                 self.centre, self.radius
             )))
         }

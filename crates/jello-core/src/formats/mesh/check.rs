@@ -145,7 +145,20 @@ impl<'a> Raw<'a> {
             ));
         }
         self.check_degenerate()?;
-        self.check_edges()?;
+        if let Err(open) = self.check_edges() {
+            // An OBJ may give each triangle corners of its own, as an STL file does (some
+            // exporters write one that way): a surface that is only closed once the corners at
+            // the same position are one vertex. Welded as STL's are, it is checked again. A mesh
+            // closed as written is never welded, so its vertices stay the file's.
+            if self.format != Format::Obj || !self.weld_coincident() {
+                return Err(open);
+            }
+            self.check_edges().map_err(|mut e| {
+                e.message
+                    .push_str(" (vertices at the same position taken as one, as in STL)");
+                e
+            })?;
+        }
         self.drop_unused_vertices();
 
         // Orientation: a closed mesh encloses a non-zero volume whose sign says which way it is
@@ -302,6 +315,25 @@ impl<'a> Raw<'a> {
             ),
         };
         Err(self.error_at(h / 3, message))
+    }
+
+    /// Makes the triangles use one vertex, the first in the file, for all the corners at the
+    /// same position (`-0` equal to `0`, as the STL readers weld them); the others are left
+    /// unused. Whether any two vertices were joined.
+    fn weld_coincident(&mut self) -> bool {
+        let mut first: std::collections::HashMap<[u64; 3], u32> = Default::default();
+        // Adding +0 turns -0 into +0 and changes nothing else.
+        let key = |p: Vec3| [p.x + 0.0, p.y + 0.0, p.z + 0.0].map(f64::to_bits);
+        let same: Vec<u32> = (self.vertices.iter().enumerate())
+            .map(|(v, &p)| *first.entry(key(p)).or_insert(v as u32))
+            .collect();
+        if first.len() == self.vertices.len() {
+            return false;
+        }
+        for v in self.triangles.iter_mut().flatten() {
+            *v = same[*v as usize];
+        }
+        true
     }
 
     /// Drops the vertices no triangle uses, keeping the order of the others.

@@ -108,6 +108,11 @@ impl TriMesh {
     /// The file must be UTF-8 text (an optional byte-order mark is skipped); invalid UTF-8 and
     /// control characters are errors at their line. Vertex order is the file's, less the vertices
     /// no face uses.
+    ///
+    /// A file whose faces do not share their corners (each triangle with vertices of its own, as
+    /// some exporters write, and as STL always is) is not closed as written; it is then welded as
+    /// STL is, the corners at exactly the same position (`-0` equal to `0`) made the first such
+    /// vertex of the file, and checked again. A mesh closed as written is never welded.
     pub fn parse_obj(bytes: &[u8], name: &str) -> Result<TriMesh, MeshError> {
         obj::parse(bytes, name)
     }

@@ -24,13 +24,27 @@ impl SceneFile {
             column: 0,
             message,
         };
-        let integrator: Integrator = self
-            .simulation
-            .integrator
-            .parse()
-            .map_err(|e: crate::model::integrator::UnknownIntegrator| error(e.to_string()))?;
+        // An error at the line of `path` in the file (see `SourceLines`; 0 when not from one).
+        let error_at = |path: &str, message: String| SceneError {
+            line: self.origin.line(path),
+            ..error(message)
+        };
+        let integrator: Integrator = self.simulation.integrator.parse().map_err(
+            |e: crate::model::integrator::UnknownIntegrator| {
+                error_at("simulation.integrator", e.to_string())
+            },
+        )?;
+        let dt = self.simulation.dt;
+        if !(dt.is_finite() && dt > 0.0) {
+            return Err(error_at(
+                "simulation.dt",
+                format!("[simulation] dt must be a finite number above 0 s (got {dt})"),
+            ));
+        }
         let bounds = match self.bounds {
-            Some(b) => Aabb::new(v3(b.min), v3(b.max)).map_err(|e| error(format!("box: {e}")))?,
+            Some(b) => {
+                Aabb::new(v3(b.min), v3(b.max)).map_err(|e| error_at("box", format!("box: {e}")))?
+            }
             None => Aabb::classic(),
         };
         let field = match &self.field {
@@ -40,64 +54,89 @@ impl SceneFile {
                     bounds,
                     f.forces.iter().map(|&p| v3(p)).collect(),
                 )
-                .map_err(|e| error(format!("field: {e}")))?,
+                .map_err(|e| error_at("field", format!("field: {e}")))?,
             ),
             None => None,
         };
         let mut obstacles = Vec::new();
         for (i, o) in self.obstacles.iter().enumerate() {
-            let what = |e: ModelError| error(format!("obstacle {}: {e}", i + 1));
+            let table = format!("obstacle.{i}");
+            let what = |key: &str| {
+                let line = self.origin.key_or_table(&table, Some(key));
+                move |e: ModelError| SceneError {
+                    line,
+                    ..error(format!("obstacle {}: {e}", i + 1))
+                }
+            };
             obstacles.push(match *o {
                 ObstacleSpec::Plane { coeffs } => {
-                    Obstacle::Plane(Plane::new(coeffs).map_err(what)?)
+                    Obstacle::Plane(Plane::new(coeffs).map_err(what("coeffs"))?)
                 }
                 ObstacleSpec::Sphere { centre, radius } => {
-                    Obstacle::Sphere(Sphere::new(v3(centre), radius).map_err(what)?)
+                    let key = if radius.is_finite() && radius > 0.0 {
+                        "centre"
+                    } else {
+                        "radius"
+                    };
+                    Obstacle::Sphere(Sphere::new(v3(centre), radius).map_err(what(key))?)
                 }
                 ObstacleSpec::Box { min, max } => {
-                    Obstacle::Box(Aabb::new(v3(min), v3(max)).map_err(what)?)
+                    Obstacle::Box(Aabb::new(v3(min), v3(max)).map_err(what("min"))?)
                 }
             });
         }
         let mut bodies = Vec::new();
         let names = self.body_names();
-        let at_body = |b: usize, message: String| SceneError {
-            source_name: name.to_string(),
-            line: self.origin.0.get(b).copied().unwrap_or(0),
-            column: 0,
-            message: format!("body {}: {message}", b + 1),
+        // An error about body `b`, at the line of its `key` when the file gives one, else at its
+        // header.
+        let at_body_key = |b: usize, key: Option<&str>, message: String| SceneError {
+            line: self.origin.key_or_table(&format!("body.{b}"), key),
+            ..error(format!("body {}: {message}", b + 1))
         };
         for (b, spec) in self.bodies.iter().enumerate() {
-            let body = spec.to_body(name).map_err(|e| at_body(b, e))?;
+            let body = spec
+                .to_body(name)
+                .map_err(|e| at_body_key(b, e.key, e.message))?;
             bodies.push(body);
         }
         let c = &self.collision;
         if !(c.stiffness.is_finite() && c.stiffness > 0.0) {
-            return Err(error(format!(
-                "[collision] stiffness must be a finite number above 0 (got {})",
-                c.stiffness
-            )));
+            return Err(error_at(
+                "collision.stiffness",
+                format!(
+                    "[collision] stiffness must be a finite number above 0 (got {})",
+                    c.stiffness
+                ),
+            ));
         }
-        for (what, v) in [("damping", c.damping), ("friction", c.friction)] {
+        for (what, v) in [
+            ("damping", c.damping),
+            ("friction", c.friction),
+            ("wall_friction", c.wall_friction),
+        ] {
             if !(v.is_finite() && v >= 0.0) {
-                return Err(error(format!(
-                    "[collision] {what} must be a finite number ≥ 0 (got {v})"
-                )));
+                return Err(error_at(
+                    &format!("collision.{what}"),
+                    format!("[collision] {what} must be a finite number ≥ 0 (got {v})"),
+                ));
             }
         }
         if self.simulation.cutbacks > crate::model::solver::MAX_CUTBACKS {
-            return Err(error(format!(
-                "[simulation] cutbacks must be at most {} (got {})",
-                crate::model::solver::MAX_CUTBACKS,
-                self.simulation.cutbacks
-            )));
+            return Err(error_at(
+                "simulation.cutbacks",
+                format!(
+                    "[simulation] cutbacks must be at most {} (got {})",
+                    crate::model::solver::MAX_CUTBACKS,
+                    self.simulation.cutbacks
+                ),
+            ));
         }
         let tolerance = self.simulation.tolerance;
         if !(tolerance.is_finite()
             && tolerance > 0.0
             && tolerance <= crate::model::solver::MAX_TOLERANCE)
         {
-            return Err(error(format!(
+            return Err(error_at("simulation.tolerance", format!(
                 "[simulation] tolerance must be a number above 0 and at most {} m/s (got {tolerance})",
                 crate::model::solver::MAX_TOLERANCE,
             )));
@@ -124,7 +163,10 @@ impl SceneFile {
             .map_err(|e| error(e.to_string()))?;
         let mut state = State::at_rest(&model);
         if !self.simulation.time.is_finite() {
-            return Err(error("[simulation] time must be finite".into()));
+            return Err(error_at(
+                "simulation.time",
+                "[simulation] time must be finite".into(),
+            ));
         }
         state.time = self.simulation.time;
         let mut pins = Vec::new();
@@ -133,7 +175,7 @@ impl SceneFile {
             let body = model.body(b);
             let range = body.points();
             spec.initial_state(&model, b, &mut state)
-                .map_err(|e| at_body(b, e))?;
+                .map_err(|e| at_body_key(b, e.key, e.message))?;
             // Pins are found in the placed rest shape (so a saved state finds the same points).
             let rest = body.rest_positions();
             for (n, pin) in spec.pins.iter().enumerate() {
@@ -153,33 +195,28 @@ impl SceneFile {
                         .into_iter()
                         .collect()
                 };
+                let at_pins = |message| at_body_key(b, Some("pins"), message);
                 if !(pin.radius >= 0.0 && pin.radius.is_finite()) {
-                    return Err(at_body(
-                        b,
-                        format!(
-                            "pin {} needs a finite radius ≥ 0 (0: the nearest point)",
-                            n + 1
-                        ),
-                    ));
+                    return Err(at_pins(format!(
+                        "pin {} needs a finite radius ≥ 0 (0: the nearest point)",
+                        n + 1
+                    )));
                 }
                 if held.is_empty() {
-                    return Err(at_body(
-                        b,
-                        format!(
-                            "pin {} holds no point (none within {} m of {:?})",
-                            n + 1,
-                            pin.radius,
-                            pin.at
-                        ),
-                    ));
+                    return Err(at_pins(format!(
+                        "pin {} holds no point (none within {} m of {})",
+                        n + 1,
+                        pin.radius,
+                        v3(pin.at)
+                    )));
                 }
                 let motion = pin
                     .motion()
-                    .map_err(|e| at_body(b, format!("pin {}: {e}", n + 1)))?;
+                    .map_err(|e| at_pins(format!("pin {}: {e}", n + 1)))?;
                 if let Some(motion) = motion {
                     motion
                         .check()
-                        .map_err(|e| at_body(b, format!("pin {}: {e}", n + 1)))?;
+                        .map_err(|e| at_pins(format!("pin {}: {e}", n + 1)))?;
                     // A scene starts its moving pins at their path's velocity (a saved state
                     // keeps its own).
                     if spec.state.is_none() {
@@ -200,7 +237,10 @@ impl SceneFile {
         }
         // A saved state (a run's end) may rest against anything; a scene's start must be clear.
         if self.bodies.iter().all(|b| b.state.is_none()) {
-            check_start(&model, &state, &names).map_err(error)?;
+            check_start(&model, &state, &names).map_err(|(b, e)| SceneError {
+                line: self.origin.line(&format!("body.{b}")),
+                ..error(e)
+            })?;
         }
         Ok(Scene {
             model,
@@ -210,51 +250,102 @@ impl SceneFile {
     }
 }
 
-/// 1-based line and column of byte `offset` in `text`.
-/// Bodies must start inside the box, apart from each other (their surfaces may touch, up to a
-/// rounding), and outside the obstacles; `names` are the bodies'.
-fn check_start(model: &Model, state: &State, names: &[String]) -> Result<(), String> {
+/// How far a body may start past a wall or an obstacle's surface, or into another body, as a
+/// fraction of its finest lattice spacing: a body placed on a plate or against a wall by
+/// arithmetic (`0.3 − 0.2`) misses it by a rounding (1e-17 m), which is no overlap.
+pub const START_TOLERANCE: f64 = 1e-9;
+
+/// Bodies must start inside the box, apart from each other (their surfaces may touch, up to
+/// [`START_TOLERANCE`]), and outside the obstacles; `names` are the bodies'. An error names the
+/// body it is about (for its line) and where.
+fn check_start(model: &Model, state: &State, names: &[String]) -> Result<(), (usize, String)> {
     let bounds = model.bounds;
+    let named = |b: usize| format!("body {} ({})", b + 1, names[b]);
     for (b, body) in model.bodies().iter().enumerate() {
+        let slack = START_TOLERANCE * body.min_spacing();
         let r = body.points();
         for p in r.clone().filter(|&p| body.is_active(p - r.start)) {
             let q = state.pos[p];
-            if bounds.excursion(q) > 0.0 {
-                return Err(format!(
-                    "body {} starts outside the box (a point at {:?} is outside {:?} to {:?})",
-                    b + 1,
-                    q.to_array(),
-                    bounds.min.to_array(),
-                    bounds.max.to_array()
+            if bounds.excursion(q) > slack {
+                return Err((
+                    b,
+                    format!(
+                        "{} starts outside the box (a point at {q:.6} is outside {:.6} to {:.6}, \
+                         by {:.3e} m)",
+                        named(b),
+                        bounds.min,
+                        bounds.max,
+                        bounds.excursion(q)
+                    ),
                 ));
             }
-            if let Some(o) = model.obstacles.iter().position(|o| o.contact(q).is_some()) {
-                return Err(format!(
-                    "body {} starts inside obstacle {} (a point at {:?})",
-                    b + 1,
-                    o + 1,
-                    q.to_array()
+            let inside = model
+                .obstacles
+                .iter()
+                .enumerate()
+                .find_map(|(o, obstacle)| {
+                    obstacle
+                        .contact(q)
+                        .filter(|c| c.depth > slack)
+                        .map(|c| (o, c.depth))
+                });
+            if let Some((o, depth)) = inside {
+                return Err((
+                    b,
+                    format!(
+                        "{} starts inside obstacle {} (a point at {q:.6}, {depth:.3e} m deep)",
+                        named(b),
+                        o + 1
+                    ),
                 ));
             }
         }
     }
-    // Surfaces placed on each other touch but for a rounding.
+    // Surfaces placed on each other touch but for a rounding. The check is the contact model's:
+    // each body's skin (its surface mesh, or its lattice's boundary) against the others'.
     let finest = model
         .bodies()
         .iter()
         .map(|b| b.min_spacing())
         .fold(f64::INFINITY, f64::min);
     let pairs = crate::contact::closest(model, &state.pos);
-    if let Some(c) = pairs.iter().find(|c| c.depth > 1e-9 * finest) {
-        let [a, b] = c.bodies.map(|b| format!("body {} ({})", b + 1, names[b]));
+    if let Some(c) = pairs.iter().find(|c| c.depth > START_TOLERANCE * finest) {
+        let [a, b] = c.bodies;
         let what = if a == b {
-            format!("{a} starts inside itself")
+            format!("{} starts inside itself", named(a))
         } else {
-            format!("{a} and {b} start inside each other")
+            format!("{} and {} start inside each other", named(a), named(b))
         };
-        return Err(format!("{what} (by {:.3e} m); move them apart", c.depth));
+        return Err((
+            a,
+            format!(
+                "{what}: their surfaces overlap by {:.3e} m near {:.6}; move them apart",
+                c.depth, c.at
+            ),
+        ));
     }
     Ok(())
+}
+
+/// An error about a body, with the key it is about when there is one (for its line).
+pub(super) struct KeyError {
+    /// The key at fault within the body's table; `None`: the body as a whole.
+    pub(super) key: Option<&'static str>,
+    /// What is wrong.
+    pub(super) message: String,
+}
+
+impl KeyError {
+    fn at(key: &'static str, message: String) -> Self {
+        KeyError {
+            key: Some(key),
+            message,
+        }
+    }
+
+    fn body(message: String) -> Self {
+        KeyError { key: None, message }
+    }
 }
 
 impl BodySpec {
@@ -283,15 +374,72 @@ impl BodySpec {
         Ok(())
     }
 
+    /// The material keys as written: each number finite, and positive where it must be (a
+    /// damping may be 0). Checked before they are turned into a mass and stiffnesses per point,
+    /// so that the message names the key and the value the file gives.
+    fn check_material_keys(&self) -> Result<(), KeyError> {
+        let positive = [
+            ("mass", self.mass),
+            ("total_mass", self.total_mass),
+            ("density", self.density),
+            ("modulus", self.modulus),
+        ];
+        let at_least_zero = [("viscosity", self.viscosity)];
+        let three = |key, values: Option<[f64; 3]>, positive: bool| {
+            values.map_or(Ok(()), |v| {
+                if v.iter()
+                    .all(|&x| x.is_finite() && (x > 0.0 || !positive && x == 0.0))
+                {
+                    Ok(())
+                } else {
+                    let rule = if positive { "above 0" } else { "≥ 0" };
+                    Err(KeyError::at(
+                        key,
+                        format!(
+                            "{key} must be three finite numbers {rule} (got {})",
+                            Vec3::from_array(v)
+                        ),
+                    ))
+                }
+            })
+        };
+        for (key, value) in positive {
+            if let Some(v) = value.filter(|v| !(v.is_finite() && *v > 0.0)) {
+                return Err(KeyError::at(
+                    key,
+                    format!("{key} must be a finite number above 0 (got {v})"),
+                ));
+            }
+        }
+        for (key, value) in at_least_zero {
+            if let Some(v) = value.filter(|v| !(v.is_finite() && *v >= 0.0)) {
+                return Err(KeyError::at(
+                    key,
+                    format!("{key} must be a finite number ≥ 0 (got {v})"),
+                ));
+            }
+        }
+        three("stiffness", self.stiffness, true)?;
+        three("damping", self.damping, false)
+    }
+
     /// The body, placed, with its material.
-    fn to_body(&self, file: &str) -> Result<Body, String> {
+    fn to_body(&self, file: &str) -> Result<Body, KeyError> {
+        self.check_material_keys()?;
         let material = Material::classic();
+        // The middle of the shape's bounding box, from the lattice's point (0, 0, 0): what
+        // `centre` places and `rotation` turns about. A mesh's lattice starts at the mesh's lower
+        // corner but may reach up to a cell past its upper one (whole cells), so the lattice's
+        // own box is not the shape's.
+        let mut middle = None;
         let mut body = match (&self.cube, &self.mesh) {
             (Some(c), None) => Body::lattice_box(Lattice::new(c.points, v3(c.size)), material),
             (None, Some(m)) => {
                 let vertices: Vec<Vec3> = m.vertices.iter().map(|&p| v3(p)).collect();
                 let mesh = TriMesh::from_parts(&vertices, &m.triangles, &format!("{file}: mesh"))
-                    .map_err(|e| e.to_string())?;
+                    .map_err(|e| KeyError::at("mesh", e.to_string()))?;
+                let (lo, hi) = mesh.bounds();
+                middle = Some((hi - lo) * 0.5);
                 Body::from_mesh(
                     &mesh.vertices,
                     &mesh.triangles,
@@ -299,13 +447,12 @@ impl BodySpec {
                     MAX_CELLS,
                     material,
                 )
-                .map_err(|e| e.to_string())?
+                .map_err(|e| KeyError::at("mesh", e.to_string()))?
             }
-            _ => return Err("expected exactly one shape".into()),
+            _ => return Err(KeyError::body("expected exactly one shape".into())),
         };
-        // Placement: turn about the middle of the rest bounding box, then move it to `centre`.
-        let size = body.lattice().size;
-        let half = size * 0.5;
+        // Placement: turn about the middle of the shape's bounding box, then move it to `centre`.
+        let half = middle.unwrap_or(body.lattice().size * 0.5);
         let rotation = self.rotation.map_or(IDENTITY, rotation_xyz);
         let turned_half = Vec3::new(
             rotation[0].dot(half),
@@ -347,9 +494,10 @@ impl BodySpec {
         if let Some(eta) = self.viscosity {
             m.damping = [eta * body.min_spacing(); 3];
         }
-        m.check().map_err(|e| e.to_string())?;
+        m.check().map_err(|e| KeyError::body(e.to_string()))?;
         body.material = m;
-        self.apply_regions(&mut body)?;
+        self.apply_regions(&mut body)
+            .map_err(|e| KeyError::at("region", e))?;
         Ok(body)
     }
 
@@ -367,8 +515,9 @@ impl BodySpec {
             let (lo, hi) = (region.min, region.max);
             if !(v3(lo).is_finite() && v3(hi).is_finite()) || (0..3).any(|a| lo[a] > hi[a]) {
                 return Err(what(format!(
-                    "needs finite corners with min ≤ max (got {:?} to {:?})",
-                    region.min, region.max
+                    "needs finite corners with min ≤ max (got {} to {})",
+                    v3(region.min),
+                    v3(region.max)
                 )));
             }
             let scale = region.scale();
@@ -395,9 +544,12 @@ impl BodySpec {
                     }
                 }
                 return Err(what(format!(
-                    "no spring has both ends in {:?} to {:?} (the body rests within {min:?} to \
-                     {max:?} as placed)",
-                    region.min, region.max
+                    "no spring has both ends in {} to {} (the body rests within {:.6} to {:.6} as \
+                     placed)",
+                    v3(region.min),
+                    v3(region.max),
+                    v3(min),
+                    v3(max)
                 )));
             }
         }
@@ -405,22 +557,22 @@ impl BodySpec {
     }
 
     /// Writes body `b`'s initial positions and velocities into the state.
-    fn initial_state(&self, model: &Model, b: usize, state: &mut State) -> Result<(), String> {
+    fn initial_state(&self, model: &Model, b: usize, state: &mut State) -> Result<(), KeyError> {
         let body = model.body(b);
         let range = body.points();
         if let Some(s) = &self.state {
             let n = range.len();
             if s.positions.len() != n || s.velocities.len() != n {
-                return Err(format!(
+                return Err(KeyError::at("state", format!(
                     "state needs {n} positions and {n} velocities (one per lattice point), found {} and {}",
                     s.positions.len(),
                     s.velocities.len()
-                ));
+                )));
             }
             for (q, (p, v)) in range.zip(s.positions.iter().zip(&s.velocities)) {
                 let (p, v) = (v3(*p), v3(*v));
                 if !(p.is_finite() && v.is_finite()) {
-                    return Err("state values must be finite".into());
+                    return Err(KeyError::at("state", "state values must be finite".into()));
                 }
                 (state.pos[q], state.vel[q]) = (p, v);
             }
@@ -431,8 +583,17 @@ impl BodySpec {
         let com = crate::diagnostics::body_centre_of_mass(model, b, &state.pos);
         let v0 = self.velocity.map_or(Vec3::ZERO, v3);
         let w = self.spin.map_or(Vec3::ZERO, v3);
-        if !(v0.is_finite() && w.is_finite()) {
-            return Err("velocity and spin must be finite".into());
+        if !v0.is_finite() {
+            return Err(KeyError::at(
+                "velocity",
+                format!("velocity must be finite (got {v0})"),
+            ));
+        }
+        if !w.is_finite() {
+            return Err(KeyError::at(
+                "spin",
+                format!("spin must be finite (got {w})"),
+            ));
         }
         for q in range.filter(active) {
             state.vel[q] = rigid_velocity(v0, w, com, state.pos[q]);

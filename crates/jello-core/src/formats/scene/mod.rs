@@ -33,7 +33,7 @@
 //! [[body]]
 //! name = "cube"
 //! cube = { points = [8, 8, 8], size = [1.0, 1.0, 1.0] }   # or mesh = { vertices, triangles }, cells
-//! centre = [0.0, 0.0, 0.5]    # where the middle of its rest bounding box goes
+//! centre = [0.0, 0.0, 0.5]    # where the middle of its shape's bounding box goes (a mesh's own)
 //! rotation = [0.0, 0.0, 30.0] # degrees about x, then y, then z
 //! velocity = [0.0, 0.0, 0.0]  # m/s
 //! spin = [0.0, 0.0, 0.0]      # rad/s, about its centre of mass
@@ -59,6 +59,7 @@
 use std::fmt;
 
 mod build;
+mod source;
 mod tables;
 
 pub use tables::{
@@ -69,6 +70,7 @@ pub use tables::{
 
 use serde::{Deserialize, Serialize};
 
+use self::source::SourceLines;
 use crate::model::body::Material;
 use crate::model::field_preset::FieldPreset;
 use crate::model::{Aabb, Model, Plane};
@@ -126,21 +128,10 @@ pub struct SceneFile {
     /// The bodies (at least one).
     #[serde(default, rename = "body")]
     pub bodies: Vec<BodySpec>,
-    /// Where each body's table starts in the file it was read from, for errors found when the
+    /// Where each table and key is in the file it was read from, for errors found when the
     /// scene is made into a model.
     #[serde(skip)]
     origin: SourceLines,
-}
-
-/// Lines of the `[[body]]` headers in the text a scene was read from: where it came from, not
-/// part of its value (two scenes with the same content are equal wherever they were read).
-#[derive(Clone, Debug, Default)]
-struct SourceLines(Vec<usize>);
-
-impl PartialEq for SourceLines {
-    fn eq(&self, _: &Self) -> bool {
-        true
-    }
 }
 
 /// A scene made ready to step: the model, its initial state, and per body its name.
@@ -288,21 +279,28 @@ impl SceneFile {
             error(line, column, "expected UTF-8 text".into())
         })?;
         let mut scene: SceneFile = toml::from_str(text).map_err(|e| {
-            let (line, column) = e.span().map_or((0, 0), |s| line_column(text, s.start));
-            error(line, column, e.message().trim_end().to_string())
+            let message = e.message().trim_end().to_string();
+            let Some(span) = e.span() else {
+                return error(0, 0, message);
+            };
+            // An unknown key is reported at its table (an `[[array]]` table's header only):
+            // point at the key itself, the first place it is written as a key from there on.
+            let unknown = message
+                .strip_prefix("unknown field `")
+                .and_then(|rest| rest.split_once('`'))
+                .and_then(|(key, _)| source::find_key(&text[span.start..], key));
+            let (line, column) = line_column(text, span.start + unknown.unwrap_or(0));
+            error(line, column, message)
         })?;
         // Semantic checks that serde cannot make, at the line of the body's header.
         if scene.bodies.is_empty() {
             return Err(error(0, 0, "expected at least one [[body]]".into()));
         }
-        scene.origin = SourceLines(
-            (0..scene.bodies.len())
-                .map(|b| body_header_line(text, b))
-                .collect(),
-        );
+        scene.origin = SourceLines::of(text);
         for (b, body) in scene.bodies.iter().enumerate() {
+            let line = scene.origin.line(&format!("body.{b}"));
             body.check()
-                .map_err(|m| error(scene.origin.0[b], 0, format!("body {}: {m}", b + 1)))?;
+                .map_err(|m| error(line, 0, format!("body {}: {m}", b + 1)))?;
         }
         Ok(scene)
     }
@@ -333,16 +331,4 @@ impl SceneFile {
         }
         scene
     }
-}
-
-/// Line of the header of the `b`-th `[[body]]` (0 when not found).
-fn body_header_line(text: &str, b: usize) -> usize {
-    text.lines()
-        .enumerate()
-        .filter(|(_, l)| {
-            let t = l.trim_start();
-            t.starts_with("[[body]]") || t.starts_with("[[ body ]]")
-        })
-        .nth(b)
-        .map_or(0, |(n, _)| n + 1)
 }

@@ -174,8 +174,9 @@ pub struct BodySpec {
     /// A closed triangle mesh, voxelised into `cells` cells along its longest side.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub mesh: Option<MeshSpec>,
-    /// Where the middle of the rest bounding box goes (m); default: a cube's lower corner at the
-    /// origin, a mesh where it is.
+    /// Where the middle of the shape's rest bounding box goes (m): a mesh's own box, not the
+    /// lattice's of whole cells around it; default: a cube's lower corner at the origin, a mesh
+    /// where it is.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub centre: Option<[f64; 3]>,
     /// Degrees about x, then y, then z, about the centre.
