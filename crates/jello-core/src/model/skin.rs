@@ -19,7 +19,9 @@ use crate::vec3::Vec3;
 pub struct Skin {
     /// Per vertex: lattice index of the lower corner `(i, j, k)` of its cell.
     pub corner: Vec<u32>,
-    /// Per vertex: its place in the cell, each coordinate in `[0, 1]`.
+    /// Per vertex: its place in the cell, each coordinate in `[0, 1]` (up to
+    /// [`crate::model::voxel::ON_PLANE`] outside it for a vertex on a plane between cells that
+    /// the cell beside it carries).
     pub local: Vec<[f64; 3]>,
     /// Triangles, as indices into the vertices (the input mesh's).
     pub triangles: Vec<[u32; 3]>,
@@ -67,18 +69,18 @@ const CORNERS: [(usize, usize, usize); 8] = [
 
 impl Skin {
     /// Embeds the mesh `vertices` / `triangles` in the cells of `voxels` (made from the same
-    /// mesh, so that every vertex's cell is kept).
+    /// mesh, so that every vertex's [`Voxels::anchor_cell`] is kept).
     pub fn embed(voxels: &Voxels, vertices: &[Vec3], triangles: &[[u32; 3]]) -> Skin {
         let lattice = voxels.lattice();
         let (corner, local) = vertices
             .iter()
             .map(|&p| {
-                let [i, j, k] = voxels.cell_of(p);
+                let [i, j, k] = voxels.anchor_cell(p);
                 debug_assert!(voxels.occupied[voxels.index([i, j, k])]);
                 let base = voxels.cell_min([i, j, k]);
-                let uvw = ((p - base) / voxels.cell)
-                    .to_array()
-                    .map(|c| c.clamp(0.0, 1.0));
+                // Not clamped: a vertex on a plane between cells may be a rounding error
+                // outside the cell that carries it, and the interpolation puts it back exactly.
+                let uvw = ((p - base) / voxels.cell).to_array();
                 (lattice.index(i, j, k) as u32, uvw)
             })
             .unzip();
