@@ -136,6 +136,28 @@ impl Skin {
     }
 }
 
+/// The volume (m³) the closed, outward-wound triangle mesh `positions` / `triangles` encloses,
+/// by the divergence theorem: the signed volumes of the tetrahedra joining each triangle to the
+/// middle of the mesh's bounding box (not the origin, so that a mesh far from it loses no
+/// precision), summed. Negative for an inward-wound mesh; 0 for no triangles.
+pub fn enclosed_volume(positions: &[Vec3], triangles: &[[u32; 3]]) -> f64 {
+    let Some(&first) = positions.first() else {
+        return 0.0;
+    };
+    let (lo, hi) = positions
+        .iter()
+        .fold((first, first), |(lo, hi), &p| (lo.min(p), hi.max(p)));
+    let centre = lo * 0.5 + hi * 0.5;
+    let six: f64 = triangles
+        .iter()
+        .map(|t| {
+            let [a, b, c] = t.map(|v| positions[v as usize] - centre);
+            a.dot(b.cross(c))
+        })
+        .sum();
+    six / 6.0
+}
+
 /// Smooth unit vertex normals of the triangle mesh `positions` / `triangles` into `out` (one per
 /// position): the sum of the normals of the triangles around each vertex, weighted by their
 /// areas, normalised; a vertex whose triangles all have zero area gets +z.
