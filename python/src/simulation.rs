@@ -181,7 +181,8 @@ impl Simulation {
     /// blows up, leaving the state at the last good step (`steps` says how many were taken);
     /// Ctrl-C stops between steps, leaving a whole step too.
     #[pyo3(signature = (n = 1))]
-    fn step(&mut self, py: Python<'_>, n: u64) -> PyResult<()> {
+    fn step(&mut self, py: Python<'_>, n: i64) -> PyResult<()> {
+        let n = step_count(n)?;
         let result = match self.device {
             Device::Cpu => self.step_cpu(py, n, |_| {}),
             Device::Gpu => self.gpu.advance(py, &mut self.sim, n),
@@ -191,14 +192,15 @@ impl Simulation {
 
     /// Advances `n` steps: `step(n)` under the Rust core's name (`Simulation::advance`), so
     /// that `step` is one step and `advance(n)` is `n` in both.
-    fn advance(&mut self, py: Python<'_>, n: u64) -> PyResult<()> {
+    fn advance(&mut self, py: Python<'_>, n: i64) -> PyResult<()> {
         self.step(py, n)
     }
 
     /// Steps `n` times as `step` does and returns the deepest penetration (m) into a wall, the
     /// plane or an obstacle at the start and after every step, as `jello run` reports it. A
     /// `jello.BlowUp` carries it as `max_penetration`, up to the last good step.
-    fn run(&mut self, py: Python<'_>, n: u64) -> PyResult<f64> {
+    fn run(&mut self, py: Python<'_>, n: i64) -> PyResult<f64> {
+        let n = step_count(n)?;
         let mut deepest = max_penetration(&self.sim.model, &self.sim.state.pos);
         let result = match self.device {
             Device::Cpu => self.step_cpu(py, n, |sim| {
@@ -638,6 +640,14 @@ impl SolverStats {
 }
 
 /// An integrator by name, for the loaders' keyword.
+/// The number of steps `n` of `step`, `advance` or `run`: a `ValueError` naming the argument for
+/// a negative one (rather than the `OverflowError` of an unsigned conversion).
+fn step_count(n: i64) -> PyResult<u64> {
+    u64::try_from(n).map_err(|_| {
+        PyValueError::new_err(format!("n: the number of steps must be 0 or more, not {n}"))
+    })
+}
+
 fn parse_integrator(name: Option<&str>) -> PyResult<Option<Integrator>> {
     name.map(|n| {
         n.parse::<Integrator>()
