@@ -18,8 +18,9 @@ create_exception!(
     PyRuntimeError,
     "A step blew up (a value went non-finite, a point left the box, or an implicit step did not \
      converge). The message is the `jello` command line's; the simulation stays at the last good \
-     step. Attributes: step, time, point, body, integrator, dt, suggested_dt (None when no time \
-     step would do), residual (None unless the implicit solve did not converge)."
+     step. Attributes: step, time, point (the row of `positions`), body, integrator, dt, \
+     suggested_dt (None when no time step would do), residual (None unless the implicit solve \
+     did not converge)."
 );
 
 create_exception!(
@@ -50,9 +51,10 @@ pub fn world_error(py: Python<'_>, message: String, filename: Option<&str>) -> P
     err
 }
 
-/// `jello.BlowUp` for `blow_up`, its message prefixed by the source's name as the CLI's is.
+/// `jello.BlowUp` for `blow_up`, its message prefixed by the source's name as the CLI's is, and
+/// its advice on the time step given the Python way (`sim.dt = …`, not the CLI's `--dt …`).
 pub fn blow_up_error(py: Python<'_>, source: &str, blow_up: &jello_core::BlowUp) -> PyErr {
-    let err = BlowUp::new_err(format!("{source}: {blow_up}"));
+    let err = BlowUp::new_err(python_advice(format!("{source}: {blow_up}")));
     let value = err.value(py);
     let residual = match blow_up.cause {
         BlowUpCause::NotConverged { residual, .. } => Some(residual),
@@ -67,6 +69,14 @@ pub fn blow_up_error(py: Python<'_>, source: &str, blow_up: &jello_core::BlowUp)
     let _ = value.setattr("suggested_dt", blow_up.suggested_dt);
     let _ = value.setattr("residual", residual);
     err
+}
+
+/// The core's advice on the time step, written for the command line (`try --dt 0.0011`, `try a
+/// smaller --dt`), as a Python user follows it: `try sim.dt = 0.0011`, `try a smaller sim.dt`.
+fn python_advice(message: String) -> String {
+    message
+        .replace("try --dt ", "try sim.dt = ")
+        .replace("try a smaller --dt", "try a smaller sim.dt")
 }
 
 /// The Python exception for an input file that cannot be read at all (missing, a folder, no

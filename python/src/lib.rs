@@ -3,6 +3,7 @@
 //! `jello/__init__.py` re-exports it; `_jello.pyi` types it. No physics here: only conversions
 //! between numpy and the core's types, and errors turned into Python exceptions.
 
+mod active;
 mod arrays;
 mod build;
 mod errors;

@@ -8,11 +8,12 @@ use jello_core::diagnostics::{energy, max_penetration};
 use jello_core::model::solver::Newton;
 use jello_core::{Integrator, Material, ModelBuilder};
 use jello_io::Source;
-use numpy::PyArray2;
+use numpy::{PyArray1, PyArray2};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::PySlice;
 
+use crate::active::ActivePoints;
 use crate::arrays::{from_array, to_array};
 use crate::errors::{blow_up_error, unreadable, world_error, write_error};
 use crate::gpu::{Device, Mirror};
@@ -44,6 +45,8 @@ pub struct Simulation {
     pub(crate) body_names: Vec<String>,
     /// Each body's material as loaded or built, so that a saved scene records changes to it.
     pub(crate) initial_materials: Vec<Material>,
+    /// The points the arrays show (see `active.rs`).
+    active: ActivePoints,
     /// Where `step` and `run` compute, and the GPU's copy when that is the GPU.
     device: Device,
     gpu: Mirror,
@@ -57,12 +60,14 @@ impl Simulation {
             Source::Scene(file) => file.body_names(),
         };
         let initial_materials = sim.model.bodies().iter().map(|b| b.material).collect();
+        let active = ActivePoints::of(&sim.model);
         Simulation {
             sim,
             source,
             name,
             body_names,
             initial_materials,
+            active,
             device: Device::Cpu,
             gpu: Mirror::default(),
         }
@@ -74,6 +79,11 @@ impl Simulation {
         match stop {
             Stopped::BlowUp(b) => {
                 let err = blow_up_error(py, &self.name, &b);
+                // `point` is the row of `positions` (the message keeps the lattice's index and
+                // coordinates, as the CLI's does); a point at fault is always active.
+                if let Some(row) = self.active.row_of(b.point) {
+                    let _ = err.value(py).setattr("point", row);
+                }
                 if let Some(d) = deepest {
                     let _ = err.value(py).setattr("max_penetration", d);
                 }
@@ -160,6 +170,7 @@ impl Simulation {
         let state = self.sim.state.clone();
         self.sim = jello_core::Simulation::new(model, state);
         self.sim.control = control;
+        self.active = ActivePoints::of(&self.sim.model);
         Ok(())
     }
 }
@@ -170,7 +181,8 @@ impl Simulation {
     /// blows up, leaving the state at the last good step (`steps` says how many were taken);
     /// Ctrl-C stops between steps, leaving a whole step too.
     #[pyo3(signature = (n = 1))]
-    fn step(&mut self, py: Python<'_>, n: u64) -> PyResult<()> {
+    fn step(&mut self, py: Python<'_>, n: i64) -> PyResult<()> {
+        let n = step_count(n)?;
         let result = match self.device {
             Device::Cpu => self.step_cpu(py, n, |_| {}),
             Device::Gpu => self.gpu.advance(py, &mut self.sim, n),
@@ -180,14 +192,15 @@ impl Simulation {
 
     /// Advances `n` steps: `step(n)` under the Rust core's name (`Simulation::advance`), so
     /// that `step` is one step and `advance(n)` is `n` in both.
-    fn advance(&mut self, py: Python<'_>, n: u64) -> PyResult<()> {
+    fn advance(&mut self, py: Python<'_>, n: i64) -> PyResult<()> {
         self.step(py, n)
     }
 
     /// Steps `n` times as `step` does and returns the deepest penetration (m) into a wall, the
     /// plane or an obstacle at the start and after every step, as `jello run` reports it. A
     /// `jello.BlowUp` carries it as `max_penetration`, up to the last good step.
-    fn run(&mut self, py: Python<'_>, n: u64) -> PyResult<f64> {
+    fn run(&mut self, py: Python<'_>, n: i64) -> PyResult<f64> {
+        let n = step_count(n)?;
         let mut deepest = max_penetration(&self.sim.model, &self.sim.state.pos);
         let result = match self.device {
             Device::Cpu => self.step_cpu(py, n, |sim| {
@@ -267,46 +280,70 @@ impl Simulation {
             .map_err(|e| PyValueError::new_err(format!("{}: {e}", self.name)))
     }
 
-    /// Positions (m), a new `(n, 3)` float64 array each time; assign an `(n, 3)` array to move
-    /// the points.
+    /// Positions (m) of the active points, a new `(n, 3)` float64 array each time; assign an
+    /// `(n, 3)` array to move them.
     #[getter]
     fn positions<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f64>> {
-        to_array(py, &self.sim.state.pos)
+        to_array(py, &self.active.gather(&self.sim.state.pos))
     }
 
     #[setter]
     fn set_positions(&mut self, value: &Bound<'_, PyAny>) -> PyResult<()> {
-        self.sim.state.pos = from_array(value, self.sim.state.pos.len(), "positions")?;
+        let values = from_array(value, self.active.len(), "positions")?;
+        self.active.scatter(values, &mut self.sim.state.pos);
         self.gpu.state_changed(&self.sim.state);
         Ok(())
     }
 
-    /// Velocities (m/s), a new `(n, 3)` float64 array each time; assign to set them.
+    /// Velocities (m/s) of the active points, a new `(n, 3)` float64 array each time; assign to
+    /// set them.
     #[getter]
     fn velocities<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f64>> {
-        to_array(py, &self.sim.state.vel)
+        to_array(py, &self.active.gather(&self.sim.state.vel))
     }
 
     #[setter]
     fn set_velocities(&mut self, value: &Bound<'_, PyAny>) -> PyResult<()> {
-        self.sim.state.vel = from_array(value, self.sim.state.vel.len(), "velocities")?;
+        let values = from_array(value, self.active.len(), "velocities")?;
+        self.active.scatter(values, &mut self.sim.state.vel);
         self.gpu.state_changed(&self.sim.state);
         Ok(())
     }
 
-    /// Extra force on each point (N), held through every step until changed: an `(n, 3)` array,
-    /// or `None` for none.
+    /// Positions (m) of every lattice point, active or not, in lattice order: a body voxelised
+    /// from a mesh keeps a regular lattice whose points outside its cells never move (`active`
+    /// says which). Read only; `positions` is the same without them.
+    #[getter]
+    fn lattice_positions<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f64>> {
+        to_array(py, &self.sim.state.pos)
+    }
+
+    /// Per lattice point (the rows of `lattice_positions`), whether it is active: a new bool
+    /// array; `lattice_positions[sim.active]` is `positions`.
+    #[getter]
+    fn active<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<bool>> {
+        PyArray1::from_vec(py, self.active.mask())
+    }
+
+    /// Extra force on each active point (N), held through every step until changed: an
+    /// `(n, 3)` array, or `None` for none.
     #[getter]
     fn control_forces<'py>(&self, py: Python<'py>) -> Option<Bound<'py, PyArray2<f64>>> {
         let forces = &self.sim.control.forces;
-        (!forces.is_empty()).then(|| to_array(py, forces))
+        (!forces.is_empty()).then(|| to_array(py, &self.active.gather(forces)))
     }
 
     #[setter]
     fn set_control_forces(&mut self, value: Option<&Bound<'_, PyAny>>) -> PyResult<()> {
         self.sim.control.forces = match value {
             None => Vec::new(),
-            Some(v) => from_array(v, self.sim.state.pos.len(), "control_forces")?,
+            Some(v) => {
+                let values = from_array(v, self.active.len(), "control_forces")?;
+                // The inactive points never move: no force on them.
+                let mut all = vec![jello_core::Vec3::ZERO; self.sim.state.pos.len()];
+                self.active.scatter(values, &mut all);
+                all
+            }
         };
         self.gpu.control_changed(&self.sim.control);
         Ok(())
@@ -357,14 +394,14 @@ impl Simulation {
         self.sim.state.steps
     }
 
-    /// Number of points.
+    /// Number of active points (the rows of `positions`; `jello info` counts the same).
     #[getter]
     fn point_count(&self) -> usize {
-        self.sim.state.pos.len()
+        self.active.len()
     }
 
     fn __len__(&self) -> usize {
-        self.sim.state.pos.len()
+        self.active.len()
     }
 
     /// Time step (s); assign to change it (the state carries on).
@@ -468,13 +505,11 @@ impl Simulation {
     #[getter]
     fn bodies<'py>(&self, py: Python<'py>) -> PyResult<Vec<(String, Bound<'py, PySlice>)>> {
         Ok(self
-            .sim
-            .model
-            .bodies()
+            .active
+            .body_ranges()
             .iter()
             .zip(&self.body_names)
-            .map(|(b, name)| {
-                let r = b.points();
+            .map(|(r, name)| {
                 (
                     name.clone(),
                     PySlice::new(py, r.start as isize, r.end as isize, 1),
@@ -535,7 +570,7 @@ impl Simulation {
         format!(
             "Simulation({:?}, {} points, {}, dt={}, t={}{})",
             self.name,
-            self.sim.state.pos.len(),
+            self.active.len(),
             self.sim.model.integrator.name(),
             self.sim.model.dt,
             self.sim.state.time,
@@ -605,6 +640,14 @@ impl SolverStats {
 }
 
 /// An integrator by name, for the loaders' keyword.
+/// The number of steps `n` of `step`, `advance` or `run`: a `ValueError` naming the argument for
+/// a negative one (rather than the `OverflowError` of an unsigned conversion).
+fn step_count(n: i64) -> PyResult<u64> {
+    u64::try_from(n).map_err(|_| {
+        PyValueError::new_err(format!("n: the number of steps must be 0 or more, not {n}"))
+    })
+}
+
 fn parse_integrator(name: Option<&str>) -> PyResult<Option<Integrator>> {
     name.map(|n| {
         n.parse::<Integrator>()

@@ -2,6 +2,10 @@
 
 from __future__ import annotations
 
+import re
+import subprocess
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -125,3 +129,58 @@ def test_advance_is_step_under_the_rust_name() -> None:
     b.advance(300)
     assert a.steps == b.steps == 300
     assert np.array_equal(a.positions, b.positions) and np.array_equal(a.velocities, b.velocities)
+
+
+def info_point_counts(cli: Path, scene: Path) -> list[int]:
+    """Each body's points as `jello info` counts them (`body N  name: P points (lattice …)`)."""
+    out = subprocess.run([cli, "info", scene], check=True, capture_output=True, text=True).stdout
+    return [int(m) for m in re.findall(r"^body \d+ .*?: (\d+) points", out, re.MULTILINE)]
+
+
+@pytest.mark.parametrize("scene", ["torus.toml", "mould.toml", "ring.toml"])
+def test_arrays_hold_the_active_points_jello_info_counts(cli: Path, scene: str) -> None:
+    """A body voxelised from a mesh keeps a whole lattice whose points outside its cells never
+    move: `len`, `positions`, `velocities`, `control_forces` and `bodies` show the active points
+    only, as many as `jello info` counts; `lattice_positions[active]` is `positions`."""
+    counts = info_point_counts(cli, EXAMPLES / scene)
+    sim = jello.load(EXAMPLES / scene)
+    assert len(sim) == sim.point_count == sum(counts)
+    assert [s.stop - s.start for _, s in sim.bodies] == counts
+    assert sim.bodies[-1][1].stop == len(sim)
+    assert sim.positions.shape == sim.velocities.shape == (len(sim), 3)
+    lattice = sim.lattice_positions
+    assert sim.active.dtype == np.bool_ and sim.active.shape == (len(lattice),)
+    assert int(sim.active.sum()) == len(sim) < len(lattice)
+    assert np.array_equal(lattice[sim.active], sim.positions)
+    # Every point shown takes part: all of them fall, none stands still.
+    start = sim.positions
+    sim.step(20)
+    assert np.all(sim.positions[:, 2] < start[:, 2])
+    assert np.array_equal(sim.lattice_positions[~sim.active], lattice[~sim.active])
+    # Setting the arrays sets the active points and leaves the placeholders.
+    sim.velocities = np.zeros((len(sim), 3))
+    sim.positions = start
+    assert np.array_equal(sim.positions, start)
+    assert np.array_equal(sim.lattice_positions, lattice)
+    sim.control_forces = np.ones((len(sim), 3))
+    assert np.array_equal(sim.control_forces, np.ones((len(sim), 3)))
+    with pytest.raises(ValueError, match=rf"positions: expected an array of shape \({len(sim)}, 3\)"):
+        sim.positions = lattice
+
+
+def test_a_world_shows_all_its_points() -> None:
+    """The classic world's lattice is all active: the two views are the same 512 points."""
+    sim = jello.load(EXAMPLES / "jello.w")
+    assert len(sim) == 512 and bool(sim.active.all())
+    assert np.array_equal(sim.lattice_positions, sim.positions)
+
+
+def test_a_blow_up_names_the_row_of_positions() -> None:
+    """`BlowUp.point` indexes `positions`; the message keeps the lattice's index, as the CLI's."""
+    sim = jello.load(EXAMPLES / "torus.toml", integrator="Euler", dt=0.01)
+    with pytest.raises(jello.BlowUp) as caught:
+        sim.step(1000)
+    lattice_index = int(re.search(r"point (\d+) \(", str(caught.value)).group(1))  # type: ignore[union-attr]
+    row = caught.value.point
+    assert 0 <= row < len(sim)
+    assert int(np.flatnonzero(sim.active)[row]) == lattice_index

@@ -96,7 +96,9 @@ def test_a_blow_up_carries_the_cli_message_and_keeps_the_last_good_step(cli: Pat
         text=True,
     )
     assert run.returncode == 3
-    assert run.stderr.strip() == f"jello: error: {err}"
+    # The CLI's message, its advice given the Python way.
+    assert f"; try sim.dt = {err.suggested_dt}" in str(err) and "--dt" not in str(err)
+    assert run.stderr.strip() == f"jello: error: {err}".replace("try sim.dt = ", "try --dt ")
     # Stepping on from the last good step blows up at the same step again.
     with pytest.raises(jello.BlowUp) as again:
         sim.step(10)
@@ -148,3 +150,11 @@ def test_an_implicit_step_that_fails_is_cut_back_or_raises(shared_worlds: Path, 
         text=True,
     )
     assert f"{sim.split_steps} steps taken in parts" in run.stdout, run.stdout + run.stderr
+
+
+@pytest.mark.parametrize("method", ["step", "advance", "run"])
+def test_a_negative_number_of_steps_is_a_value_error_naming_it(method: str) -> None:
+    sim = jello.load(EXAMPLES / "jello.w")
+    with pytest.raises(ValueError, match=r"^n: the number of steps must be 0 or more, not -1$"):
+        getattr(sim, method)(-1)
+    assert sim.steps == 0

@@ -239,7 +239,7 @@ def test_points_outside_a_mesh_body_are_in_no_contact_on_the_gpu(gpu: str) -> No
         body = jello.mesh(vertices=vertices, triangles=triangles, cells=6, rotation=(0, 0, 45))
         sim = jello.create([body], bounds=((-2, -2, -2), (wall, 2, 2)), dt=0.0005)
         sim.device = device
-        lattice_depth = sim.positions[:, 0].max() - wall
+        lattice_depth = sim.lattice_positions[:, 0].max() - wall
         deepest.append(sim.run(1))
     assert lattice_depth > deepest[0] + 0.05
     assert deepest[1] == pytest.approx(deepest[0], abs=1e-4)

@@ -306,7 +306,7 @@ export class App implements PanelHost {
     this.banners.clear('integrator');
     if (!this.startParameters) return;
     this.runner.setParameters(this.startParameters);
-    const points = this.sim.pointCount;
+    const points = this.sim.activePointCount;
     const fewer = Math.round(this.startParameters.dt / own.dt);
     this.banners.show(
       'integrator',

@@ -97,8 +97,14 @@ export class SimView {
   get isScene(): boolean {
     return this.copy.isScene;
   }
+  /** Lattice points, active or not: the length of the per-point arrays. */
   get pointCount(): number {
     return this.copy.pointCount;
+  }
+  /** Points that take part, as `jello info` counts them: a body voxelised from a mesh keeps a
+   *  whole lattice whose points outside its cells never move ([`activePoints`] marks them). */
+  get activePointCount(): number {
+    return activePointCount(this.copy);
   }
   get surfaceVertexCount(): number {
     return this.copy.surfaceVertexCount;
@@ -375,6 +381,14 @@ export function sceneData(sim: JelloSim): SceneData {
   };
 }
 
+/** The points of `sim` that take part, as `jello info` counts them (a body voxelised from a mesh
+ *  keeps a whole lattice whose points outside its cells never move). */
+export function activePointCount(sim: JelloSim): number {
+  let n = 0;
+  for (const a of sim.activePoints()) n += a;
+  return n;
+}
+
 /** Parses a world file, or a scene file when the name ends in `.toml`; throws an Error whose
  *  message names the file and line (and column, for a scene). */
 export function parseWorld(text: string, name: string): JelloSim {
@@ -382,10 +396,10 @@ export function parseWorld(text: string, name: string): JelloSim {
 }
 
 /** The parameters a freshly loaded `sim` starts with in the viewer: its own, except that a
- *  scene of more than [`IMPLICIT_ABOVE_POINTS`] points stepped by an explicit method on the CPU
+ *  scene of more than [`IMPLICIT_ABOVE_POINTS`] active points stepped by an explicit method on the CPU
  *  starts with the implicit default (on the GPU, `onGpu`, its own explicit steps keep up).
  *  `undefined` when its own stand. */
 export function startingParameters(sim: JelloSim, onGpu: boolean): Parameters | undefined {
-  if (sim.pointCount <= IMPLICIT_ABOVE_POINTS || sim.isImplicit || onGpu) return undefined;
+  if (activePointCount(sim) <= IMPLICIT_ABOVE_POINTS || sim.isImplicit || onGpu) return undefined;
   return { ...IMPLICIT_DEFAULT, stiffness: sim.stiffness, damping: sim.damping, mass: sim.mass };
 }

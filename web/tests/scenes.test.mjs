@@ -4,12 +4,13 @@
 // drawn, pulling and pushing one body of several, saving the state as a scene that loads again,
 // and a bad scene's error. Run by scripts/web-test.sh after a build.
 import assert from 'node:assert/strict';
+import { execFileSync } from 'node:child_process';
 import { readFileSync } from 'node:fs';
 import { join } from 'node:path';
 import { after, before, describe, test } from 'node:test';
 import { launch, openForTest } from './browser.mjs';
 import { difference, shot } from './pixels.mjs';
-import { ROOT, startViewer } from './server.mjs';
+import { JELLO, ROOT, startViewer } from './server.mjs';
 
 const pause = (ms) => new Promise((r) => setTimeout(r, ms));
 
@@ -191,6 +192,25 @@ describe('scenes in the viewer', () => {
     if (after.integrator !== 'BackwardEuler') {
       assert.equal(after.integrator, 'RK4');
       assert.match(after.banner, /BackwardEuler stopped .*the file's own RK4 at dt = [\d.e-]+ s carries on/);
+    }
+    await done();
+  });
+
+  test("the implicit banner counts a mesh body's points as `jello info` does, not its lattice's", async () => {
+    // torus.toml and mould.toml are bodies voxelised from meshes: a whole lattice (845 and 1690
+    // points) of which only the corners of kept cells take part.
+    const { page, done } = await open();
+    for (const name of ['torus.toml', 'mould.toml']) {
+      const info = execFileSync(JELLO, ['info', join(ROOT, 'examples', name)], { encoding: 'utf8' });
+      const counted = Number(info.match(/^body 1 .*?: (\d+) points \(lattice (\d+)×(\d+)×(\d+)\)/m)[1]);
+      await page.evaluate((name) => window.jello.loadUrl(`examples/${name}`, name), name);
+      await loaded(page, name);
+      const shown = await page.evaluate(() => ({
+        banner: document.querySelector('.banner-integrator')?.textContent ?? '',
+        lattice: window.jello.sim.pointCount,
+      }));
+      assert.ok(counted < shown.lattice, `${name}: ${counted} active of ${shown.lattice}`);
+      assert.match(shown.banner, new RegExp(`^${name} has ${counted} points: running BackwardEuler`));
     }
     await done();
   });

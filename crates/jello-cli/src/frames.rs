@@ -1,5 +1,5 @@
 //! Frames of a run written as files: PLY or OBJ meshes of the surface (each body's skin, or its
-//! cage with every lattice point as a vertex), or CSV of every point.
+//! cage with every lattice point as a vertex), or CSV of every active point.
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -20,7 +20,7 @@ pub enum FrameFormat {
     Ply,
     /// Wavefront OBJ: the same mesh as PLY.
     Obj,
-    /// CSV: one row per lattice point with body, i, j, k, position and velocity.
+    /// CSV: one row per active point with body, i, j, k, position and velocity.
     Csv,
 }
 
@@ -156,11 +156,18 @@ fn header_time(time: f64) -> String {
     significant(time, 12)
 }
 
+/// One row per active point: a body voxelised from a mesh keeps a whole lattice for its indexing,
+/// but its points outside the kept cells never move and are no part of the body (`jello info`
+/// does not count them), so they are left out; `i,j,k` still place each row in the lattice.
 fn csv(model: &Model, state: &State) -> String {
     let mut s = String::with_capacity(80 * state.len());
     s.push_str("body,i,j,k,x,y,z,vx,vy,vz\n");
     for (n, (p, v)) in state.pos.iter().zip(&state.vel).enumerate() {
         let (body, [i, j, k]) = model.locate(n);
+        let own = model.body(body);
+        if !own.is_active(n - own.points().start) {
+            continue;
+        }
         let _ = writeln!(
             s,
             "{},{i},{j},{k},{},{},{},{},{},{}",

@@ -277,3 +277,43 @@ fn frames_mesh_volume_and_last_frame() {
         }
     }
 }
+
+/// A body voxelised from a mesh keeps a whole lattice, whose points outside its cells never move:
+/// CSV frames have a row for each active point only, as many as `jello info` counts, and every
+/// row of the falling torus moves (a frozen placeholder row would stand still).
+#[test]
+fn csv_frames_of_a_mesh_body_have_its_active_points_only() {
+    let t = TempDir::new("csv-active");
+    let scene = concat!(env!("CARGO_MANIFEST_DIR"), "/../../examples/torus.toml");
+    let info = t.succeeds(&["info", scene]);
+    let line = info
+        .lines()
+        .find(|l| l.starts_with("body 1"))
+        .unwrap_or_else(|| panic!("no body line in\n{info}"));
+    let counted: usize = line
+        .split(": ")
+        .nth(1)
+        .and_then(|rest| rest.split(" points").next())
+        .and_then(|n| n.parse().ok())
+        .unwrap_or_else(|| panic!("no point count in {line:?}"));
+    t.jello(&[
+        "run", scene, "--steps", "20", "--every", "20", "--format", "csv", "--frames", "f", "-q",
+    ]);
+    let rows = |n: usize| -> Vec<(String, Vec3)> {
+        t.text(&format!("f/frame_{n:06}.csv"))
+            .lines()
+            .skip(1)
+            .map(|l| {
+                let w: Vec<&str> = l.split(',').collect();
+                (w[..4].join(","), vec3(&w[4..7]))
+            })
+            .collect()
+    };
+    let (first, last) = (rows(0), rows(1));
+    assert_eq!(first.len(), counted, "rows of frame 0 against `jello info`");
+    assert_eq!(last.len(), counted, "rows of frame 1 against `jello info`");
+    for ((at, p0), (at1, p1)) in first.iter().zip(&last) {
+        assert_eq!(at, at1);
+        assert_ne!(p0, p1, "row {at} stood still while the torus fell");
+    }
+}

@@ -416,6 +416,54 @@ fn a_shape_becomes_a_scene_with_its_mesh_as_the_skin() {
     assert!(info.contains("skin 128 vertices, 256 triangles"), "{info}");
 }
 
+/// `jello info` shows a mesh body's own volume, and `--density` gives it that volume's mass: a
+/// 0.3 × 0.5 × 0.7 m box in 3 cells along its length (2 × 3 × 3 cells of 0.233 m, 0.229 m³)
+/// weighs 105 kg at 1000 kg/m³, its own 0.105 m³, not its cells' 229 kg.
+#[test]
+fn info_shows_a_mesh_bodys_volume_and_density_gives_its_mass() {
+    let dir = TempDir::new("volume");
+    let corners = |i: usize| {
+        [
+            0.3 * (i & 1) as f64,
+            0.5 * ((i >> 1) & 1) as f64,
+            0.7 * ((i >> 2) & 1) as f64,
+        ]
+    };
+    let mut obj: String = (0..8)
+        .map(|i| {
+            let [x, y, z] = corners(i);
+            format!("v {x} {y} {z}\n")
+        })
+        .collect();
+    // The faces as quads, counter-clockwise seen from outside (vertex x + 2y + 4z, from 1).
+    for [a, b, c, d] in [
+        [1, 3, 4, 2],
+        [5, 6, 8, 7],
+        [1, 2, 6, 5],
+        [3, 7, 8, 4],
+        [1, 5, 7, 3],
+        [2, 4, 8, 6],
+    ] {
+        obj.push_str(&format!("f {a} {b} {c} {d}\n"));
+    }
+    fs::write(dir.path("box.obj"), obj).unwrap();
+    dir.jello(&[
+        "create",
+        "box.toml",
+        "--mesh",
+        "box.obj",
+        "--cells",
+        "3",
+        "--density",
+        "1000",
+    ]);
+    let info = dir.jello(&["info", "box.toml"]);
+    assert!(
+        info.contains("volume 0.105000 m³, mass 105.000000 kg"),
+        "{info}"
+    );
+}
+
 /// `--shake` moves a body's pins along a sine: the scene holds it and `jello run` follows it;
 /// without `--pin` it is a usage error.
 #[test]

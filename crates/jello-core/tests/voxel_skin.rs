@@ -9,14 +9,14 @@
 //! follows an affine motion of the lattice exactly; bad input is an error.
 
 use jello_core::model::skin::Skin;
-use jello_core::model::voxel::Voxels;
+use jello_core::model::voxel::{Voxels, ON_PLANE};
 use jello_core::Vec3;
 
 #[path = "common/meshes.rs"]
 mod meshes;
 
 use jello_core::TriMesh;
-use meshes::{cuboid, to_obj, torus, uv_sphere};
+use meshes::{cuboid, rounded_to_f32, to_ascii_stl, to_binary_stl, to_obj, torus, uv_sphere};
 
 const MAX_CELLS: usize = 1 << 24;
 
@@ -28,13 +28,14 @@ fn voxels(mesh: &TriMesh, cells: usize) -> Voxels {
 fn assert_vertices_in_kept_cells(mesh: &TriMesh, voxels: &Voxels, what: &str) {
     let h = voxels.cell;
     for (n, &v) in mesh.vertices.iter().enumerate() {
-        let c = voxels.cell_of(v);
+        let c = voxels.anchor_cell(v);
         assert!(
             voxels.occupied[voxels.index(c)],
             "{what}: vertex {n} at {v:?} is in cell {c:?}, which is not kept"
         );
         let lo = voxels.cell_min(c);
-        let tol = 1e-12 * (1.0 + v.max_abs());
+        // A vertex on a plane between cells may be carried by the cell beside it.
+        let tol = ON_PLANE * h + 1e-12 * (1.0 + v.max_abs());
         for (p, l) in v.to_array().into_iter().zip(lo.to_array()) {
             assert!(
                 p >= l - tol && p <= l + h + tol,
@@ -237,5 +238,95 @@ fn a_mesh_read_from_obj_voxelises_and_skins() {
     skin.positions(&v.rest_points(), &mut out);
     for (got, want) in out.iter().zip(&mesh.vertices) {
         assert!((*got - *want).max_abs() <= 1e-12);
+    }
+}
+
+/// The closed surface of a union of cubes of side 0.2 m (`cells`, by lattice coordinates), one
+/// quad per face between a cube and no cube, shifted by `offset` tenths of a metre. Coordinates
+/// are `tenths / 10`, the double nearest the decimal a file would hold (`0.6`, not `3 × 0.2`).
+fn cubes(cells: &[[i64; 3]], offset: [i64; 3]) -> TriMesh {
+    let filled = |c: [i64; 3]| cells.contains(&c);
+    let mut vertices: Vec<Vec3> = Vec::new();
+    let mut number = std::collections::HashMap::new();
+    let mut triangles = Vec::new();
+    for &c in cells {
+        for axis in 0..3 {
+            for side in [0, 1] {
+                let mut beside = c;
+                beside[axis] += 2 * side - 1;
+                if filled(beside) {
+                    continue;
+                }
+                let (a, b) = ((axis + 1) % 3, (axis + 2) % 3);
+                // Corners counter-clockwise about +axis (e_a × e_b = e_axis); reversed for −axis.
+                let mut quad: Vec<[i64; 3]> = [(0, 0), (1, 0), (1, 1), (0, 1)]
+                    .iter()
+                    .map(|&(da, db)| {
+                        let mut p = c;
+                        p[axis] += side;
+                        p[a] += da;
+                        p[b] += db;
+                        p
+                    })
+                    .collect();
+                if side == 0 {
+                    quad.reverse();
+                }
+                let ids: Vec<u32> = quad
+                    .iter()
+                    .map(|&p| {
+                        *number.entry(p).or_insert_with(|| {
+                            let at = |k: usize| (2 * p[k] + offset[k]) as f64 / 10.0;
+                            vertices.push(Vec3::new(at(0), at(1), at(2)));
+                            vertices.len() as u32 - 1
+                        })
+                    })
+                    .collect();
+                triangles.push([ids[0], ids[1], ids[2]]);
+                triangles.push([ids[0], ids[2], ids[3]]);
+            }
+        }
+    }
+    TriMesh {
+        vertices,
+        triangles,
+    }
+}
+
+/// Faces on the planes between cells: an L of five 0.2 m cubes (0.6 m long, so the cell side is
+/// `0.6 / N`, which rounds below 0.2 for N = 3) keeps exactly its `5 (N/3)³` cells at every N
+/// that puts its faces on cell planes, read from OBJ, ASCII STL and binary STL (32-bit floats)
+/// alike, wherever it sits; and its cells' volume is the solid's. Before the vertices on a
+/// plane chose the cell the solid keeps, the OBJ kept 8 cells at N = 3 and 50 at N = 6.
+#[test]
+fn the_same_solid_keeps_the_same_cells_in_every_format() {
+    let ell = [[0, 0, 0], [1, 0, 0], [2, 0, 0], [0, 0, 1], [0, 0, 2]];
+    for offset in [[0, 0, 0], [-7, 3, 11], [13, -29, 5]] {
+        let mesh = cubes(&ell, offset);
+        let files: [(&str, Vec<u8>); 3] = [
+            ("ell.obj", to_obj(&mesh).into_bytes()),
+            ("ell.stl", to_ascii_stl(&mesh, "ell").into_bytes()),
+            (
+                "ell-binary.stl",
+                to_binary_stl(&rounded_to_f32(&mesh), b"ell"),
+            ),
+        ];
+        for n in [3, 6, 9, 12, 15] {
+            let mut kept: Option<Vec<bool>> = None;
+            for (name, bytes) in &files {
+                let read = TriMesh::parse(bytes, name).unwrap();
+                let v = voxels(&read, n);
+                let what = format!("{name} at {offset:?}, {n} cells");
+                assert_eq!(v.cells, [n, n / 3, n], "{what}");
+                let want = 5 * (n / 3).pow(3);
+                assert_eq!(v.occupied_count(), want, "{what}");
+                assert!((v.volume() - read.volume()).abs() < 1e-6, "{what}");
+                assert_vertices_in_kept_cells(&read, &v, &what);
+                match &kept {
+                    None => kept = Some(v.occupied.clone()),
+                    Some(first) => assert_eq!(&v.occupied, first, "{what}: other cells"),
+                }
+            }
+        }
     }
 }

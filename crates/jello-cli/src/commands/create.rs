@@ -148,7 +148,7 @@ pub struct CreateArgs {
     /// A name for the body; per body.
     #[arg(long)]
     pub name: Vec<String>,
-    /// Density (kg/m³) over the body's cells, instead of --mass; per body.
+    /// Density (kg/m³) over the body's volume (a mesh's own, not its cells'), instead of --mass; per body.
     #[arg(long, value_parser = parse_positive)]
     pub density: Vec<f64>,
     /// Stiffness independent of the resolution (Pa): every spring gets modulus × spacing,

@@ -169,7 +169,8 @@ fn implicit_verdict(integrator: Integrator, omega2: f64, dt: f64) -> String {
     )
 }
 
-/// One body's line: points, springs, cells, skin and mass.
+/// One body's line: points, springs, cells, skin, volume (a mesh's own, `Body::volume`)
+/// and mass.
 fn print_body(m: &Model, b: usize, name: &str) {
     let body = m.body(b);
     let [nx, ny, nz] = body.lattice().counts;
@@ -188,7 +189,8 @@ fn print_body(m: &Model, b: usize, name: &str) {
     let k = body.material.stiffness.map(shown);
     println!(
         "body {:<9} {name}: {} points (lattice {nx}×{ny}×{nz}), {} springs ({} {}, {} {}, {} {}), \
-         {} cells of {:.4} m, {skin}, mass {:.6} kg ({} kg per point), stiffness {}/{}/{} N/m",
+         {} cells of {:.4} m, {skin}, volume {:.6} m³, mass {:.6} kg ({} kg per point), \
+         stiffness {}/{}/{} N/m",
         b + 1,
         body.active_count(),
         body.spring_count(),
@@ -200,6 +202,7 @@ fn print_body(m: &Model, b: usize, name: &str) {
         SpringKind::Bend.name(),
         body.cell_count(),
         body.min_spacing(),
+        body.volume(),
         body.total_mass(),
         shown(body.material.mass),
         k[0],

@@ -25,7 +25,7 @@ use std::sync::{Arc, OnceLock};
 
 use crate::model::contact_surface::ContactSurface;
 use crate::model::lattice::{Lattice, SpringKind, STENCIL};
-use crate::model::skin::Skin;
+use crate::model::skin::{enclosed_volume, Skin};
 use crate::model::springs::{Spring, SpringScale, SpringTable, Springs};
 use crate::model::voxel::Voxels;
 use crate::vec3::Vec3;
@@ -250,11 +250,10 @@ impl Body {
     }
 
     /// The same body with a material given independently of the resolution
-    /// ([`Material::from_modulus`]): modulus (Pa), viscosity (Pa·s) and density (kg/m³) over the
-    /// volume of its kept cells.
+    /// ([`Material::from_modulus`]): modulus (Pa), viscosity (Pa·s) and density (kg/m³) over
+    /// [`Body::volume`].
     pub fn with_modulus(mut self, modulus: f64, viscosity: f64, density: f64) -> Self {
-        let h = self.lattice.spacing();
-        let volume = self.cell_count() as f64 * h.x * h.y * h.z;
+        let volume = self.volume();
         self.material = Material::from_modulus(
             modulus,
             viscosity,
@@ -309,6 +308,25 @@ impl Body {
                 .iter()
                 .map(|&n| n.saturating_sub(1))
                 .product(),
+        }
+    }
+
+    /// The solid's volume (m³): what its skin encloses at rest for a body made from a mesh (the
+    /// divergence theorem over the closed mesh, [`enclosed_volume`]), else the volume of its
+    /// cells. A density gives the body this volume's mass: the mesh's, not its cage's, which
+    /// encloses it and is larger (an r = 0.3 m sphere in 10 cells across: 0.113 m³ against the
+    /// cells' 0.156 m³).
+    pub fn volume(&self) -> f64 {
+        match &self.skin {
+            Some(skin) => {
+                let mut rest = vec![Vec3::ZERO; skin.len()];
+                skin.positions(&self.lattice.rest_positions(), &mut rest);
+                enclosed_volume(&rest, &skin.triangles)
+            }
+            None => {
+                let h = self.lattice.spacing();
+                self.cell_count() as f64 * h.x * h.y * h.z
+            }
         }
     }
 

@@ -19,7 +19,9 @@ use crate::vec3::Vec3;
 pub struct Skin {
     /// Per vertex: lattice index of the lower corner `(i, j, k)` of its cell.
     pub corner: Vec<u32>,
-    /// Per vertex: its place in the cell, each coordinate in `[0, 1]`.
+    /// Per vertex: its place in the cell, each coordinate in `[0, 1]` (up to
+    /// [`crate::model::voxel::ON_PLANE`] outside it for a vertex on a plane between cells that
+    /// the cell beside it carries).
     pub local: Vec<[f64; 3]>,
     /// Triangles, as indices into the vertices (the input mesh's).
     pub triangles: Vec<[u32; 3]>,
@@ -67,18 +69,18 @@ const CORNERS: [(usize, usize, usize); 8] = [
 
 impl Skin {
     /// Embeds the mesh `vertices` / `triangles` in the cells of `voxels` (made from the same
-    /// mesh, so that every vertex's cell is kept).
+    /// mesh, so that every vertex's [`Voxels::anchor_cell`] is kept).
     pub fn embed(voxels: &Voxels, vertices: &[Vec3], triangles: &[[u32; 3]]) -> Skin {
         let lattice = voxels.lattice();
         let (corner, local) = vertices
             .iter()
             .map(|&p| {
-                let [i, j, k] = voxels.cell_of(p);
+                let [i, j, k] = voxels.anchor_cell(p);
                 debug_assert!(voxels.occupied[voxels.index([i, j, k])]);
                 let base = voxels.cell_min([i, j, k]);
-                let uvw = ((p - base) / voxels.cell)
-                    .to_array()
-                    .map(|c| c.clamp(0.0, 1.0));
+                // Not clamped: a vertex on a plane between cells may be a rounding error
+                // outside the cell that carries it, and the interpolation puts it back exactly.
+                let uvw = ((p - base) / voxels.cell).to_array();
                 (lattice.index(i, j, k) as u32, uvw)
             })
             .unzip();
@@ -132,6 +134,28 @@ impl Skin {
     pub fn normals(&self, positions: &[Vec3], out: &mut [Vec3]) {
         vertex_normals(positions, &self.triangles, out);
     }
+}
+
+/// The volume (m³) the closed, outward-wound triangle mesh `positions` / `triangles` encloses,
+/// by the divergence theorem: the signed volumes of the tetrahedra joining each triangle to the
+/// middle of the mesh's bounding box (not the origin, so that a mesh far from it loses no
+/// precision), summed. Negative for an inward-wound mesh; 0 for no triangles.
+pub fn enclosed_volume(positions: &[Vec3], triangles: &[[u32; 3]]) -> f64 {
+    let Some(&first) = positions.first() else {
+        return 0.0;
+    };
+    let (lo, hi) = positions
+        .iter()
+        .fold((first, first), |(lo, hi), &p| (lo.min(p), hi.max(p)));
+    let centre = lo * 0.5 + hi * 0.5;
+    let six: f64 = triangles
+        .iter()
+        .map(|t| {
+            let [a, b, c] = t.map(|v| positions[v as usize] - centre);
+            a.dot(b.cross(c))
+        })
+        .sum();
+    six / 6.0
 }
 
 /// Smooth unit vertex normals of the triangle mesh `positions` / `triangles` into `out` (one per

@@ -12,6 +12,15 @@
 //! does not keep it. Holes through the solid (a torus) stay open where they are at least a cell
 //! wide; parts thinner than a cell keep the cells they pass through.
 //!
+//! **On a plane means within [`ON_PLANE`] of it.** A face or a vertex lying on a plane between
+//! cells must not depend on how its coordinates round: `0.2` and the plane `0.6 / 3 =
+//! 0.19999999999999998` are the same place, and so are a binary STL's 32-bit `0.2f32` and the
+//! 64-bit `0.2` of an OBJ. So a face that enters a cell by less than `ON_PLANE` cell sides does not
+//! enter it; a side within `ON_PLANE` cells of a whole number of cells gets that number; and a
+//! vertex within `ON_PLANE` cells of a plane belongs to whichever cell beside it the solid keeps,
+//! keeping a cell of its own only when none of them is kept. The same solid then keeps the same
+//! cells whatever the file format and its rounding.
+//!
 //! "Inside" is decided per row of cell centres by a ray along +x, counting the surface's
 //! crossings with their orientation (the winding number). Each projected edge's side is computed
 //! once, in one canonical order of its two vertices, and a ray through an edge or a vertex goes
@@ -20,6 +29,12 @@
 
 use crate::model::error::ModelError;
 use crate::vec3::Vec3;
+
+/// How close to a plane between cells, in cell sides, a face or a vertex counts as lying on it
+/// (see the module documentation). Far above the rounding of 64-bit coordinates (1e-16 of
+/// them) and of binary STL's 32-bit ones (6e-8 of them: within 1e-5 of a cell for a mesh up to
+/// about 150 cells from the origin), and far below anything a cell's content could notice.
+pub const ON_PLANE: f64 = 1e-5;
 
 /// The cells of a regular grid that a solid occupies.
 #[derive(Clone, Debug, PartialEq)]
@@ -91,8 +106,8 @@ impl Voxels {
             if side == longest {
                 cells
             } else {
-                // A side that is a whole number of cells up to rounding gets that number.
-                ((side / h) * (1.0 - 1e-12)).ceil().max(1.0) as usize
+                // A side within ON_PLANE of a whole number of cells gets that number.
+                (side / h - ON_PLANE).ceil().max(1.0) as usize
             }
         };
         let counts = [count(size.x), count(size.y), count(size.z)];
@@ -114,8 +129,10 @@ impl Voxels {
         };
         voxels.mark_surface_cells(vertices, triangles);
         voxels.mark_inside_cells(vertices, triangles);
+        // Every vertex in a kept cell (the skin's anchors): one the solid keeps when the vertex
+        // lies on a plane between cells, else its own.
         for &v in vertices {
-            let c = voxels.cell_of(v);
+            let c = voxels.anchor_cell(v);
             let index = voxels.index(c);
             voxels.occupied[index] = true;
         }
@@ -140,6 +157,36 @@ impl Voxels {
         ]
     }
 
+    /// The cell that carries vertex `p`: when `p` lies on a plane between cells (within
+    /// [`ON_PLANE`] cell sides), the first kept one of the cells beside it, its own
+    /// ([`Voxels::cell_of`]) first; otherwise, or when none is kept, its own.
+    pub fn anchor_cell(&self, p: Vec3) -> [usize; 3] {
+        let own = self.cell_of(p);
+        let local = ((p - self.origin) / self.cell).to_array();
+        // Per axis, the cells to try: its own, and the one across an inner plane it lies on.
+        let choices: [[usize; 2]; 3] = std::array::from_fn(|a| {
+            let plane = local[a].round();
+            let inner = plane >= 1.0 && plane <= (self.cells[a] - 1) as f64;
+            if inner && (local[a] - plane).abs() <= ON_PLANE {
+                let above = plane as usize;
+                let other = if own[a] == above { above - 1 } else { above };
+                [own[a], other]
+            } else {
+                [own[a]; 2]
+            }
+        });
+        for i in choices[0] {
+            for j in choices[1] {
+                for k in choices[2] {
+                    if self.occupied[self.index([i, j, k])] {
+                        return [i, j, k];
+                    }
+                }
+            }
+        }
+        own
+    }
+
     /// Number of kept cells.
     pub fn occupied_count(&self) -> usize {
         self.occupied.iter().filter(|&&o| o).count()
@@ -159,8 +206,8 @@ impl Voxels {
     fn mark_surface_cells(&mut self, vertices: &[Vec3], triangles: &[[u32; 3]]) {
         let h = self.cell;
         // A cell shrunk by this much on every side: a triangle that only touches the cell's
-        // boundary (within rounding) does not count.
-        let inset = h * 1e-9;
+        // boundary (within ON_PLANE) does not count.
+        let inset = h * ON_PLANE;
         let half = Vec3::new(h, h, h) * 0.5 - Vec3::new(inset, inset, inset);
         for t in triangles {
             let tri = t.map(|v| vertices[v as usize]);

@@ -469,10 +469,9 @@ impl BodySpec {
             centre - turned_half
         };
         body = body.placed(origin, rotation);
-        // Material.
-        let h = body.lattice().spacing();
-        let cell_volume = h.x * h.y * h.z;
-        let volume = body.cell_count() as f64 * cell_volume;
+        // Material: a density gives the body the mass of its solid (a mesh's own volume, not
+        // its cells').
+        let volume = body.volume();
         let n = body.active_count() as f64;
         let mut m = body.material;
         if let Some(mass) = self.mass {

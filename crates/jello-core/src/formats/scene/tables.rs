@@ -194,7 +194,8 @@ pub struct BodySpec {
     /// Mass of the body (kg), spread over its points.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub total_mass: Option<f64>,
-    /// Density (kg/m³) over the volume of its cells.
+    /// Density (kg/m³) over the body's volume ([`crate::model::body::Body::volume`]: a mesh's
+    /// own, not its cells').
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub density: Option<f64>,
     /// Stiffness of structural, shear and bend springs (N/m).
