@@ -78,7 +78,7 @@ impl Voxels {
         }
         if let Some(n) = vertices.iter().position(|v| !v.is_finite()) {
             return Err(ModelError::new(format!(
-                "mesh coordinates must be finite (vertex {} is {:?})",
+                "mesh coordinates must be finite (vertex {} is {})",
                 n + 1,
                 vertices[n]
             )));
@@ -393,6 +393,23 @@ mod tests {
 
     /// Rays through the vertices and along the edges of an octahedron's projection: the
     /// winding number is still exactly 1 inside and 0 outside (no crossing lost or doubled).
+    /// A vertex that is not a number is named with its place, as a user writes one.
+    #[test]
+    fn a_vertex_not_a_number_is_shown_as_written() {
+        let vertices = [
+            Vec3::ZERO,
+            Vec3::new(1.0, 0.0, 0.0),
+            Vec3::new(0.0, f64::NAN, 0.5),
+            Vec3::new(0.0, 0.0, 1.0),
+        ];
+        let triangles = [[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]];
+        let error = Voxels::from_mesh(&vertices, &triangles, 2, 1000).unwrap_err();
+        assert!(
+            error.to_string().contains("vertex 3 is (0, NaN, 0.5)"),
+            "{error}"
+        );
+    }
+
     #[test]
     fn rays_through_edges_and_vertices_count_once() {
         let vertices = vec![
