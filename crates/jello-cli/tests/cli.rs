@@ -622,6 +622,67 @@ fn bench_steps_measures_exactly_those_steps_from_the_start() {
     }
 }
 
+/// `jello bench --job rest|drop` steps the frame-rate job: the very scene `jello create` makes
+/// with the flags BENCHMARKS.md gives, at 1/60 s for an implicit integrator, over the job's
+/// simulated time unless told otherwise, with its real-time factor in `--json`.
+#[test]
+fn bench_job_steps_the_scene_jello_create_makes() {
+    use jello_core::benchmark::Job;
+    use jello_core::SceneFile;
+    let t = TempDir::new("bench-job");
+    for (job, centre) in [(Job::Rest, "0,0,0.5"), (Job::Drop, "0,0,1")] {
+        let path = t.path(&format!("{}.toml", job.name()));
+        let path = path.to_str().unwrap();
+        t.succeeds(&[
+            "create",
+            path,
+            "--cube",
+            "5",
+            "--total-mass",
+            "1",
+            "--modulus",
+            "1400",
+            "--viscosity",
+            "1.75",
+            "--field",
+            "gravity",
+            "--plane",
+            "0,0,1,0",
+            "--at",
+            centre,
+        ]);
+        let created = SceneFile::parse(&fs::read(path).unwrap(), path).unwrap();
+        let ours = SceneFile::parse(job.scene_text(5).as_bytes(), "job").unwrap();
+        assert_eq!(created.to_toml(), ours.to_toml(), "{}", job.name());
+        let out = t.succeeds(&[
+            "bench",
+            "--job",
+            job.name(),
+            "--size",
+            "5",
+            "--integrator",
+            "BackwardEuler",
+            "--json",
+        ]);
+        assert!(
+            out.contains(&format!("\"job\": \"{}\"", job.name())),
+            "{out}"
+        );
+        assert_eq!(json_number(&out, "dt"), Some(1.0 / 60.0), "{out}");
+        // 3 s of simulated time at 1/60 s.
+        assert_eq!(json_number(&out, "steps"), Some(180.0), "{out}");
+        assert!(
+            json_number(&out, "real_time").is_some_and(|r| r > 0.0),
+            "{out}"
+        );
+    }
+    let out = t.succeeds(&[
+        "bench", "--job", "drop", "--size", "5", "--steps", "4", "--json",
+    ]);
+    assert_eq!(json_number(&out, "steps"), Some(4.0), "{out}");
+    assert!(out.contains("\"job\": \"drop\""), "{out}");
+}
+
 /// `jello bench` and `jello run` report the implicit solver's work per step: Newton
 /// iterations (fewer than one a step once the benchmark's small cube comes to rest, where a
 /// step starts within the tolerance), at least one conjugate-gradient iteration each, more

@@ -3,7 +3,8 @@
 use std::time::{Duration, Instant};
 
 use clap::Args;
-use jello_core::{benchmark, compute::simd, Integrator, Model, Simulation, SolverStats, State};
+use jello_core::benchmark::{self, Job};
+use jello_core::{compute::simd, Integrator, Model, Simulation, SolverStats, State};
 
 use super::{
     parse_integrator, parse_positive, parse_tolerance, require_implicit, solver_work_per_step,
@@ -18,13 +19,21 @@ use crate::gpu::Gpu;
 #[derive(Args, Debug)]
 #[command(allow_negative_numbers = true)]
 pub struct BenchArgs {
+    /// What to step: the benchmark scene (a cube thrown about the box, see BENCHMARKS.md), or
+    /// the frame-rate job, a 1 m, 1 kg cube on a floor, resting or dropped from 0.5 m (the
+    /// scene of `jello create --cube N --total-mass 1 --modulus 1400 --viscosity 1.75 --field
+    /// gravity --plane 0,0,1,0`), measured over its simulated time (3 s up to 8³, 2 s up to
+    /// 16³, 1 s beyond) unless `--seconds` or `--steps` says otherwise.
+    #[arg(long, value_enum, default_value_t = BenchJob::Throw)]
+    pub job: BenchJob,
     /// Points per side of the N×N×N lattice.
     #[arg(long, default_value_t = 8, value_parser = clap::value_parser!(u64).range(2..=512))]
     pub size: u64,
     /// Integrator (Euler, RK2, RK4, SymplecticEuler, BackwardEuler, SDIRK2).
     #[arg(long, value_parser = parse_integrator, default_value = "RK4")]
     pub integrator: Integrator,
-    /// Time step (s) [default: the scene's 0.0005].
+    /// Time step (s) [default: the benchmark scene's 0.0005; for a job, 1/60 s for an implicit
+    /// integrator and 90 % of the stable step for an explicit one].
     #[arg(long, value_parser = parse_positive)]
     pub dt: Option<f64>,
     /// Implicit integrators: the residual each step is solved to (m/s per point, times the
@@ -34,9 +43,9 @@ pub struct BenchArgs {
     /// Worker threads (1 = the calling thread only).
     #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u64).range(1..=256))]
     pub threads: u64,
-    /// Measured time, after a warm-up (s).
-    #[arg(long, value_parser = parse_positive, default_value_t = DEFAULT_SECONDS)]
-    pub seconds: f64,
+    /// Measured time, after a warm-up (s) [default: 3; for a job, its simulated time].
+    #[arg(long, value_parser = parse_positive)]
+    pub seconds: Option<f64>,
     /// Measure exactly N steps instead of about `--seconds`, from the scene's start (on the GPU,
     /// explicit integrators only, after the warm-up's steps): the same work on every machine and
     /// build (an implicit integrator's steps cost more while the benchmark's cube is thrown
@@ -53,6 +62,28 @@ pub struct BenchArgs {
     pub device: Device,
 }
 
+/// What `jello bench` steps.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum BenchJob {
+    /// The benchmark scene: a cube thrown about the box.
+    Throw,
+    /// A cube resting on a floor.
+    Rest,
+    /// A cube dropped onto a floor from 0.5 m.
+    Drop,
+}
+
+impl BenchJob {
+    /// The frame-rate job, if it is one.
+    fn job(self) -> Option<Job> {
+        match self {
+            BenchJob::Throw => None,
+            BenchJob::Rest => Some(Job::Rest),
+            BenchJob::Drop => Some(Job::Drop),
+        }
+    }
+}
+
 /// The measured time when `--steps` does not say otherwise (s).
 const DEFAULT_SECONDS: f64 = 3.0;
 
@@ -63,6 +94,8 @@ enum Span {
     Seconds(f64),
     /// Exactly this many steps.
     Steps(u64),
+    /// The steps of this much simulated time (s).
+    Simulated(f64),
 }
 
 impl Span {
@@ -71,7 +104,7 @@ impl Span {
     fn warm_up(self) -> Duration {
         let seconds = match self {
             Span::Seconds(s) => s,
-            Span::Steps(_) => DEFAULT_SECONDS,
+            Span::Steps(_) | Span::Simulated(_) => DEFAULT_SECONDS,
         };
         Duration::from_secs_f64((seconds * 0.1).clamp(0.05, 1.0))
     }
@@ -82,6 +115,15 @@ impl Span {
         match self {
             Span::Seconds(s) => (elapsed.as_secs_f64() < s).then_some(batch),
             Span::Steps(n) => (done < n).then(|| batch.min(n - done)),
+            Span::Simulated(_) => unreachable!("a simulated time is counted in steps first"),
+        }
+    }
+
+    /// The span at time step `dt` (s): a simulated time as its steps (at least one).
+    fn at_step(self, dt: f64) -> Span {
+        match self {
+            Span::Simulated(t) => Span::Steps(((t / dt).round() as u64).max(1)),
+            span => span,
         }
     }
 }
@@ -112,25 +154,24 @@ pub fn bench(args: BenchArgs) -> Result<(), CliError> {
         .num_threads(threads)
         .build()
         .map_err(|e| CliError::input(format!("cannot start {threads} threads: {e}")))?;
-    let span = args.steps.map_or(Span::Seconds(args.seconds), Span::Steps);
+    let job = args.job.job();
+    let n = args.size as usize;
+    let span = match (args.steps, args.seconds, job) {
+        (Some(steps), _, _) => Span::Steps(steps),
+        (None, Some(seconds), _) => Span::Seconds(seconds),
+        (None, None, Some(_)) => Span::Simulated(Job::simulated_time(n)),
+        (None, None, None) => Span::Seconds(DEFAULT_SECONDS),
+    };
     let warm = span.warm_up();
     let (m, adapter, kernel) = match args.device {
         Device::Cpu => {
             let m = pool.install(|| {
-                measure(
-                    args.size as usize,
-                    args.integrator,
-                    args.dt,
-                    args.tolerance,
-                    warm,
-                    span,
-                )
+                measure(job, n, args.integrator, args.dt, args.tolerance, warm, span)
             })?;
             (m, None, None)
         }
         Device::Gpu => {
-            let (m, adapter, kernel) =
-                measure_gpu(args.size as usize, args.integrator, args.dt, warm, span)?;
+            let (m, adapter, kernel) = measure_gpu(job, n, args.integrator, args.dt, warm, span)?;
             (m, Some(adapter), Some(kernel))
         }
     };
@@ -172,10 +213,11 @@ pub fn bench(args: BenchArgs) -> Result<(), CliError> {
         });
         let kernel_json = kernel.map_or("null".to_string(), |k| format!("\"{k}\""));
         println!(
-            "{{\"impl\": \"jello\", \"size\": {}, \"points\": {}, \"springs\": {}, \"integrator\": \"{}\", \"tolerance\": {}, \
+            "{{\"impl\": \"jello\", \"job\": \"{}\", \"size\": {}, \"points\": {}, \"springs\": {}, \"integrator\": \"{}\", \"tolerance\": {}, \
              \"device\": \"{device}\", \"adapter\": {adapter_json}, \"gpu_kernel\": {kernel_json}, \"precision\": \"{precision}\", \
              \"threads\": {threads}, \"simd\": \"{tier}\", \"dt\": {}, \"steps\": {}, \"seconds\": {:.3}, \"steps_per_s\": {:.1}, \
              \"real_time\": {:.4}, \"split_steps\": {}, {solver_json}, \"spring_evals_per_s\": {}, \"peak_rss_mib\": {}, \"version\": \"{}\"}}",
+            job.map_or("throw", Job::name),
             args.size,
             m.points,
             m.springs,
@@ -196,8 +238,13 @@ pub fn bench(args: BenchArgs) -> Result<(), CliError> {
             None => format!("{threads} thread(s), {tier}"),
             Some(a) => format!("GPU {a}, f32, {} kernel", kernel.unwrap_or_default()),
         };
+        let what = match job {
+            None => "lattice",
+            Some(Job::Rest) => "cube resting on a floor",
+            Some(Job::Drop) => "cube dropped onto a floor",
+        };
         println!(
-            "{n}³ lattice ({} points, {} springs), {}, dt {} s, {on}: {:.0} steps/s, {:.3}× real time{}{} \
+            "{n}³ {what} ({} points, {} springs), {}, dt {} s, {on}: {:.0} steps/s, {:.3}× real time{}{} \
              ({} steps in {:.2} s{}{})",
             m.points,
             m.springs,
@@ -218,20 +265,29 @@ pub fn bench(args: BenchArgs) -> Result<(), CliError> {
                 k => format!(", {k} of them taken in parts"),
             },
             peak.map_or(String::new(), |p| format!(", peak memory {p:.0} MiB")),
-            n = args.size
         );
     }
     Ok(())
 }
 
-/// The benchmark scene (see [`benchmark::scene`]) of `n³` points, at `dt` and solved to
-/// `tolerance` if given.
+/// The benchmark scene (see [`benchmark::scene`]) or the frame-rate `job` (see [`Job`]) of `n³`
+/// points, at `dt` and solved to `tolerance` if given.
 fn scene(
+    job: Option<Job>,
     n: usize,
     integrator: Integrator,
     dt: Option<f64>,
     tolerance: Option<f64>,
 ) -> Result<(Model, State), CliError> {
+    if let Some(job) = job {
+        let (mut model, state) = job
+            .scene(n, integrator, dt)
+            .map_err(|e| CliError::usage(format!("--job {}: {e}", job.name())))?;
+        if let Some(tolerance) = tolerance {
+            model.newton.tolerance = tolerance;
+        }
+        return Ok((model, state));
+    }
     let (model, state) =
         benchmark::scene(n, integrator).map_err(|e| CliError::input(e.to_string()))?;
     let mut model = match dt {
@@ -252,6 +308,7 @@ fn scene(
 /// starts again from the initial state. A blow-up (the scene never blows up at its dt) is an
 /// error.
 fn measure(
+    job: Option<Job>,
     n: usize,
     integrator: Integrator,
     dt: Option<f64>,
@@ -259,9 +316,10 @@ fn measure(
     warm: Duration,
     span: Span,
 ) -> Result<Measurement, CliError> {
-    let (model, state) = scene(n, integrator, dt, tolerance)?;
+    let (model, state) = scene(job, n, integrator, dt, tolerance)?;
     let tolerance = integrator.is_implicit().then_some(model.newton.tolerance);
     let dt = model.dt;
+    let span = span.at_step(dt);
     let (points, springs) = (model.point_count(), model.spring_count());
     let mut sim = Simulation::new(model, state);
     let advance = |sim: &mut Simulation, steps: u64| -> Result<(), CliError> {
@@ -279,13 +337,13 @@ fn measure(
     let per_step = start.elapsed().as_secs_f64() / warm_steps as f64;
     let batch = ((0.05 / per_step) as u64).max(1);
 
-    // Back to the initial state, made anew rather than kept as a copy: at 128³ a copy would be
-    // 96 MiB of the peak memory this reports. The old state goes first.
-    sim.state.pos = Vec::new();
-    sim.state.vel = Vec::new();
-    sim.state = benchmark::scene(n, integrator)
-        .map_err(|e| CliError::input(e.to_string()))?
-        .1;
+    // Back to the start, a simulation made anew rather than kept as a copy (at 128³ a copy
+    // would be 96 MiB of the peak memory this reports; the old one goes first), and anew so
+    // that an implicit solver's kept matrices do not depend on how many steps the warm-up
+    // took: the measured run does the same work on every machine.
+    drop(sim);
+    let (model, state) = scene(job, n, integrator, Some(dt), tolerance)?;
+    let mut sim = Simulation::new(model, state);
     let split_before = sim.cutback_stats().split_steps;
     let solver_before = sim.solver_stats();
     let start = Instant::now();
@@ -312,15 +370,20 @@ fn measure(
 /// measured run goes on from the warmed-up state. Returns the measurement, the adapter and the
 /// kernel (`resident` or `stages`).
 fn measure_gpu(
+    job: Option<Job>,
     n: usize,
     integrator: Integrator,
     dt: Option<f64>,
     warm: Duration,
     span: Span,
 ) -> Result<(Measurement, String, String), CliError> {
-    let (model, state) = scene(n, integrator, dt, None)?;
+    let (model, state) = scene(job, n, integrator, dt, None)?;
+    let span = span.at_step(model.dt);
     let (points, springs) = (model.point_count(), model.spring_count());
-    let name = format!("the {n}³ benchmark scene");
+    let name = match job {
+        None => format!("the {n}³ benchmark scene"),
+        Some(job) => format!("the {n}³ {} job", job.name()),
+    };
     let mut gpu = Gpu::open(&model, &state, &Default::default(), &name)?;
     let start = Instant::now();
     let mut warm_steps = 0u64;
