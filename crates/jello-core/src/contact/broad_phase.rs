@@ -87,8 +87,10 @@ pub(crate) struct BroadPhase {
     sorted_margin: Option<f64>,
     /// How many sorts there have been.
     sorts: usize,
-    /// Per body: its reach (m; see the module's notes) at the last sort.
+    /// Per body: its reach (m; see the module's notes) at the last sort, and the largest reach of
+    /// the bodies whose samples may be in its cells.
     reach: Vec<f64>,
+    farthest: Vec<f64>,
     /// Per body: how far (along any axis) each of its points may move before the grid is
     /// sorted again (its reach, or more for a body near no other).
     allowed: Vec<f64>,
@@ -132,6 +134,7 @@ impl BroadPhase {
             sorted_margin: None,
             sorts: 0,
             reach: vec![0.0; model.bodies().len()],
+            farthest: vec![0.0; model.bodies().len()],
             allowed: vec![0.0; model.bodies().len()],
         }
     }
@@ -219,12 +222,13 @@ impl BroadPhase {
         }
         // Each cell's box and span (on the team's threads: cells are independent), only for
         // cells that meet a box a sample may come from; then how many entries each bucket gets.
+        // Per body: the largest reach of the bodies whose samples may be in its cells.
+        for (farthest, list) in self.farthest.iter_mut().zip(&self.neighbours) {
+            *farthest = (list.iter()).fold(0.0, |m: f64, &a| m.max(self.reach[a as usize]));
+        }
         let (cell_body, cell_corner) = (&self.cell_body, &self.cell_corner);
         let (neighbours, body_boxes, reach) = (&self.neighbours, &self.body_boxes, &self.reach);
-        // Per body: the largest reach of the bodies whose samples may be in its cells.
-        let farthest: Vec<f64> = (neighbours.iter())
-            .map(|list| list.iter().map(|&a| reach[a as usize]).fold(0.0, f64::max))
-            .collect();
+        let farthest = &self.farthest;
         let size = crate::compute::team::chunk_size(cell_body.len(), 512);
         let place = |g: usize| -> Option<([[i32; 3]; 2], [Vec3; 2])> {
             let b = cell_body[g] as usize;
