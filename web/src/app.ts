@@ -281,6 +281,7 @@ export class App implements PanelHost {
       sim = parseWorld(text, name);
     } catch (e) {
       this.banners.show('error', `Could not load ${name}: ${errorMessage(e)}. The current world keeps running.`);
+      this.panel.refresh();
       return false;
     }
     this.replaceSim(sim, { kind: 'text', text, name }, from);
@@ -302,6 +303,7 @@ export class App implements PanelHost {
       this.loadText(await response.text(), name, url);
     } catch (e) {
       this.banners.show('error', `Could not fetch ${name}: ${errorMessage(e)}`);
+      this.panel.refresh(); // the list shows the world still running, not the one that failed
     }
   }
 

@@ -104,6 +104,20 @@ describe('the panel', () => {
     await done();
   });
 
+  test('a listed world that cannot be fetched: the list goes back to the world still running', async () => {
+    const { page, errors, done } = await open(ownScene);
+    await page.route('**/examples/spin.w', (route) => route.fulfill({ status: 404, body: 'gone' }));
+    await page.locator('#worlds select').selectOption({ label: 'spin.w' });
+    await page.waitForSelector('.banner-error:has-text("Could not fetch spin.w")');
+    assert.equal(await page.textContent('#world-name'), 'mine.toml');
+    assert.equal((await worldList(page)).selected, 'mine.toml (your file)');
+    // The browser's own report of the 404 is expected here.
+    const expected = errors.filter((e) => /status of 404/.test(e));
+    assert.equal(expected.length, 1, `${errors}`);
+    errors.splice(errors.indexOf(expected[0]), 1);
+    await done();
+  });
+
   test("a user's file with an example's name is listed as theirs, beside the example", async () => {
     const { page, done } = await open(ownJello);
     const list = await worldList(page);
