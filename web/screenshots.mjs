@@ -54,7 +54,10 @@ try {
   for (const { name, seconds } of scenes) {
     const { page, errors } = await openViewer(browser.context, server.url);
     await page.setViewportSize({ width: 800, height: 500 });
-    await page.addStyleTag({ content: '#panel, #banners { visibility: hidden !important; }' });
+    // Without the panel the name and readout may run across the page (they wrap short of it).
+    await page.addStyleTag({
+      content: '#panel, #banners { visibility: hidden !important; } #hud { right: 10px !important; }',
+    });
     await page.evaluate(async (name) => {
       const app = window.jello;
       app.paused = true;

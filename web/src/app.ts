@@ -4,20 +4,13 @@ import { FrameSequence, SEQUENCE_FPS, SEQUENCE_MAX, VideoRecorder, download, web
 import { Panel, type PanelHost } from './gui';
 import { Interaction, type InteractionSettings } from './interact';
 import { Viewer, type RenderMode } from './render';
+import { exampleUrl, servedWorlds, type ServedWorld, type ServerConfig } from './served';
 import { JelloSim, Runner, SimView, parseWorld, sceneData, startingParameters, type Device, type Parameters, type Source } from './sim';
 import { Banners, Readout, acceptDroppedFiles } from './ui';
 
 /** Largest world or scene file accepted (bytes), as in the command line: a classic file with a
  *  30³ field is under 1 MiB, a scene with a 100 000-triangle mesh a few MiB. */
 const MAX_WORLD_BYTES = 64 << 20;
-
-/** What `jello view` tells the page (config.json). */
-export interface ServerConfig {
-  /** URL of the world given on the command line, and its file name. */
-  world?: { url: string; name: string };
-  /** File names of the example worlds and scenes, served under `examples/`. */
-  examples: string[];
-}
 
 export class App implements PanelHost {
   readonly viewer: Viewer;
@@ -26,7 +19,15 @@ export class App implements PanelHost {
   readonly banners: Banners;
   readonly readout: Readout;
   readonly integratorNames = JelloSim.integratorNames();
+  /** File names of the examples `jello view` serves. */
+  readonly examples: string[];
+  /** The worlds the panel lists: the user's own file, then the examples. */
+  readonly worlds: ServedWorld[];
   panel!: Panel;
+  /** The URL of the world now loaded when it came from the server (see [`listedWorld`]). */
+  private loadedFrom: string | undefined;
+  /** Whether the world now loaded is a cube built here rather than a file. */
+  private builtHere = false;
 
   private sequence: FrameSequence | undefined;
   private sequenceNeedsFrame = false;
@@ -49,8 +50,13 @@ export class App implements PanelHost {
   constructor(
     canvas: HTMLCanvasElement,
     runner: Runner,
-    readonly examples: string[],
+    config: ServerConfig,
+    loadedFrom: string | undefined,
   ) {
+    this.examples = config.examples;
+    this.worlds = servedWorlds(config);
+    this.loadedFrom = loadedFrom;
+    this.builtHere = loadedFrom === undefined;
     this.viewer = new Viewer(canvas);
     this.runner = runner;
     this.runner.onError = (message) => this.banners.show('error', `The simulation stopped: ${message}`);
@@ -134,6 +140,16 @@ export class App implements PanelHost {
     return this.sim.name;
   }
 
+  /** The listed world now loaded, if it is one. */
+  get listedWorld(): ServedWorld | undefined {
+    return this.worlds.find((w) => w.url === this.loadedFrom);
+  }
+
+  /** What the list shows for a world it does not list: a file opened here or a cube built here. */
+  get unlistedWorldLabel(): string {
+    return `${this.sim.name} (${this.builtHere ? 'built here' : 'opened here'})`;
+  }
+
   get device(): Device {
     return this.runner.device;
   }
@@ -182,7 +198,11 @@ export class App implements PanelHost {
   }
 
   loadExample(name: string): void {
-    void this.loadUrl(`examples/${encodeURIComponent(name)}`, name);
+    void this.loadUrl(exampleUrl(name), name);
+  }
+
+  loadWorld(world: ServedWorld): void {
+    void this.loadUrl(world.url, world.name);
   }
 
   openFilePicker(): void {
@@ -205,7 +225,7 @@ export class App implements PanelHost {
 
   loadCube(n: number): void {
     try {
-      this.replaceSim(JelloSim.cube(n), { kind: 'cube', n });
+      this.replaceSim(JelloSim.cube(n), { kind: 'cube', n }, undefined);
     } catch (e) {
       this.banners.show('error', errorMessage(e));
     }
@@ -253,16 +273,18 @@ export class App implements PanelHost {
 
   // ---- Loading worlds ----
 
-  /** Loads world text; on error shows it and keeps the running world. */
-  loadText(text: string, name: string): boolean {
+  /** Loads world text (fetched from the server's `from`, when it was); on error shows it and
+   *  keeps the running world. */
+  loadText(text: string, name: string, from?: string): boolean {
     let sim: JelloSim;
     try {
       sim = parseWorld(text, name);
     } catch (e) {
       this.banners.show('error', `Could not load ${name}: ${errorMessage(e)}. The current world keeps running.`);
+      this.panel.refresh();
       return false;
     }
-    this.replaceSim(sim, { kind: 'text', text, name });
+    this.replaceSim(sim, { kind: 'text', text, name }, from);
     return true;
   }
 
@@ -278,15 +300,18 @@ export class App implements PanelHost {
     try {
       const response = await fetch(url);
       if (!response.ok) throw new Error(`${response.status} ${response.statusText}`);
-      this.loadText(await response.text(), name);
+      this.loadText(await response.text(), name, url);
     } catch (e) {
       this.banners.show('error', `Could not fetch ${name}: ${errorMessage(e)}`);
+      this.panel.refresh(); // the list shows the world still running, not the one that failed
     }
   }
 
-  private replaceSim(sim: JelloSim, source: Source): void {
+  private replaceSim(sim: JelloSim, source: Source, from: string | undefined): void {
     this.interactionHandler.cancel();
     this.runner.replace(sim, source);
+    this.loadedFrom = from;
+    this.builtHere = source.kind === 'cube';
     this.lastSolverCount = { steps: 0, newton: 0 };
     this.lastNewtonRate = undefined;
     this.banners.clear('error');

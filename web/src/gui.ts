@@ -4,13 +4,17 @@ import GUI, { type Controller } from 'lil-gui';
 import type { Device, Parameters } from './sim';
 import type { InteractionSettings } from './interact';
 import type { RenderMode } from './render';
+import type { ServedWorld } from './served';
 
 /** What the panel drives; the app implements it. */
 export interface PanelHost {
   integratorNames: string[];
-  examples: string[];
-  /** Name of the loaded world (selected in the examples list when it is one). */
-  readonly worldName: string;
+  /** The worlds the server offers: the user's own file, then the examples. */
+  readonly worlds: ServedWorld[];
+  /** The listed world now loaded (selected in the list), if it is one. */
+  readonly listedWorld: ServedWorld | undefined;
+  /** What the list shows when the world loaded is not one it lists. */
+  readonly unlistedWorldLabel: string;
   parameters(): Parameters;
   /** True when the integrator in use is implicit (the tolerance applies). */
   readonly isImplicit: boolean;
@@ -28,7 +32,7 @@ export interface PanelHost {
   interaction: InteractionSettings;
   reset(): void;
   stepOnce(): void;
-  loadExample(name: string): void;
+  loadWorld(world: ServedWorld): void;
   openFilePicker(): void;
   save(): void;
   loadCube(n: number): void;
@@ -58,7 +62,10 @@ export class Panel {
   private readonly toleranceController: Controller;
   private readonly sequenceButton: Controller;
   private readonly videoButton: Controller;
-  private readonly choice = { example: '' };
+  /** The list's value: a listed world's URL, or the label of an unlisted one (lil-gui shows a
+   *  value that is not among the options as it is, so the list never goes blank). */
+  private readonly choice = { world: '' };
+  private readonly backendText: HTMLElement;
 
   constructor(
     private readonly host: PanelHost,
@@ -83,25 +90,25 @@ export class Panel {
       .add(host, 'device', { 'GPU (WebGPU) when it can': 'auto', 'CPU (wasm, f64)': 'cpu' })
       .name('device')
       .onChange(() => this.refresh());
-    const backend = sim.add(host, 'backendLabel').name('stepping on').disable().listen();
-    backend.domElement.id = 'backend';
-    // The reason the GPU does not step can be long: the whole of it is the row's tooltip.
-    const showBackend = backend.updateDisplay.bind(backend);
-    backend.updateDisplay = () => {
-      backend.domElement.title = host.backendLabel;
-      return showBackend();
-    };
+    this.backendText = addTextRow(sim, 'stepping on', 'backend');
+    this.followBackend();
     sim.add(host, 'speed', 0.05, 4, 0.05).name('speed ×').listen();
     sim.add(host, 'paused').name('paused (p)').listen();
     sim.add(host, 'stepOnce').name('single step (n)');
     sim.add(host, 'reset').name('reset to loaded world (r)');
 
     const worlds = this.gui.addFolder('World');
-    if (host.examples.length > 0) {
-      worlds
-        .add(this.choice, 'example', host.examples)
-        .name('examples')
-        .onChange((name: string) => host.loadExample(name));
+    if (host.worlds.length > 0) {
+      const options = Object.fromEntries(host.worlds.map((w) => [w.label, w.url]));
+      const list = worlds
+        .add(this.choice, 'world', options)
+        .name('showing')
+        .onChange((url: string) => {
+          const world = host.worlds.find((w) => w.url === url);
+          if (world) host.loadWorld(world);
+        });
+      list.domElement.id = 'worlds';
+      if (host.worlds.length === 1) list.domElement.title = 'jello view serves this file only (no examples folder found)';
     }
     worlds.add(host, 'openFilePicker').name('load .w or .toml file… (or drop one)');
     worlds.add(host, 'save').name('save state (.w; a scene as .toml)');
@@ -159,7 +166,7 @@ export class Panel {
 
   /** Shows the app's current values (after a load, a reset or a key press). */
   refresh(): void {
-    this.choice.example = this.host.examples.includes(this.host.worldName) ? this.host.worldName : '';
+    this.choice.world = this.host.listedWorld?.url ?? this.host.unlistedWorldLabel;
     Object.assign(this.params, this.host.parameters());
     this.showParameters();
     Object.assign(this.view, {
@@ -173,8 +180,32 @@ export class Panel {
     this.fieldController.enable(this.host.hasField);
   }
 
+  /** Keeps the "stepping on" row current: the worker reports the backend when it has one. */
+  private followBackend(): void {
+    const label = this.host.backendLabel;
+    if (this.backendText.textContent !== label) this.backendText.textContent = label;
+    requestAnimationFrame(() => this.followBackend());
+  }
+
   setRecordingLabels(sequence: string, video: string | undefined): void {
     this.sequenceButton.name(sequence);
     if (video !== undefined && this.host.canRecordVideo) this.videoButton.name(video);
   }
+}
+
+/** Adds a read-only row to `folder` whose text wraps onto as many lines as it needs (lil-gui's
+ *  text row is one line, which cuts a long backend or adapter name off); returns the element
+ *  holding the text, with the given id. */
+function addTextRow(folder: GUI, name: string, id: string): HTMLElement {
+  const row = document.createElement('div');
+  row.className = 'lil-controller panel-text-row';
+  const label = document.createElement('div');
+  label.className = 'lil-name';
+  label.textContent = name;
+  const text = document.createElement('output');
+  text.className = 'panel-text';
+  text.id = id;
+  row.append(label, text);
+  folder.$children.append(row);
+  return text;
 }

@@ -1,7 +1,8 @@
 // Entry point: load the core, ask the server what to show, start the app.
 import './style.css';
-import { App, errorMessage, type ServerConfig } from './app';
+import { App, errorMessage } from './app';
 import { bindKeys, KEYS } from './keys';
+import { exampleUrl, listedUrl, type ServerConfig } from './served';
 import { JelloSim, Runner, loadCore, type Source } from './sim';
 
 /** `config.json` from `jello view`; without it (a plain static server, `vite dev`) no examples
@@ -17,9 +18,15 @@ async function serverConfig(): Promise<ServerConfig> {
 }
 
 /** The world to start with: the one given to `jello view`, else the classic example, else the
- *  classic cube at rest under gravity. */
-async function firstWorld(config: ServerConfig): Promise<{ sim: JelloSim; source: Source; error?: string }> {
-  const candidates = [config.world, config.examples.includes('jello.w') ? { url: 'examples/jello.w', name: 'jello.w' } : undefined];
+ *  classic cube at rest under gravity; `listedAs` is its URL in the panel's list. */
+async function firstWorld(
+  config: ServerConfig,
+): Promise<{ sim: JelloSim; source: Source; listedAs?: string; error?: string }> {
+  const classic = exampleUrl('jello.w');
+  const candidates = [
+    config.world && { ...config.world, listedAs: listedUrl(config.world, config) },
+    config.examples.includes('jello.w') ? { url: classic, name: 'jello.w', listedAs: classic } : undefined,
+  ];
   let error: string | undefined;
   for (const c of candidates) {
     if (!c) continue;
@@ -27,7 +34,8 @@ async function firstWorld(config: ServerConfig): Promise<{ sim: JelloSim; source
       const r = await fetch(c.url);
       if (!r.ok) throw new Error(`${r.status} ${r.statusText}`);
       const text = await r.text();
-      return { sim: JelloSim.load(text, c.name), source: { kind: 'text', text, name: c.name }, error };
+      const sim = JelloSim.load(text, c.name);
+      return { sim, source: { kind: 'text', text, name: c.name }, listedAs: c.listedAs, error };
     } catch (e) {
       error = `Could not load ${c.name}: ${errorMessage(e)}`;
     }
@@ -51,10 +59,10 @@ async function main(): Promise<void> {
   fillHelp();
   await loadCore();
   const config = await serverConfig();
-  const { sim, source, error } = await firstWorld(config);
+  const { sim, source, listedAs, error } = await firstWorld(config);
   const runner = await Runner.start(sim, source);
   const canvas = document.getElementById('view') as HTMLCanvasElement;
-  const app = new App(canvas, runner, config.examples);
+  const app = new App(canvas, runner, config, listedAs);
   bindKeys(app);
   if (error) app.banners.show('error', error);
   // A handle for the console and the tests: `jello.sim.time`, `jello.paused`, …

@@ -9,6 +9,7 @@ import { readFileSync } from 'node:fs';
 import { join } from 'node:path';
 import { after, before, describe, test } from 'node:test';
 import { launch, openForTest } from './browser.mjs';
+import { worldList } from './labels.mjs';
 import { difference, shot } from './pixels.mjs';
 import { JELLO, ROOT, startViewer } from './server.mjs';
 
@@ -83,6 +84,10 @@ describe('scenes in the viewer', () => {
     for (const n of ['torus.toml', 'blob.toml', 'mould.toml', 'stack.toml', 'jello.w']) {
       assert.ok(names.includes(n), `${n} is listed: ${names}`);
     }
+    // `jello view examples/stack.toml` shows that example, selected, not a copy as the user's own.
+    const list = await worldList(page);
+    assert.equal(list.selected, 'stack.toml');
+    assert.ok(!list.options.some((o) => o.includes('your file')), `${list.options}`);
     await page.locator('#panel select:has(option:text-is("torus.toml"))').selectOption({ label: 'torus.toml' });
     await loaded(page, 'torus.toml');
     const counts = await page.evaluate(() => ({

@@ -95,7 +95,10 @@ fn serves_the_viewer_config_world_and_examples() {
     let (status, _, body) = server.get("/config.json");
     assert_eq!(status, 200);
     let config = String::from_utf8(body).unwrap();
-    assert!(config.contains(r#""world": {"url": "world.w", "name": "rotate.w"}"#));
+    assert!(
+        config.contains(r#""world": {"url": "world.w", "name": "rotate.w", "example": true}"#),
+        "{config}"
+    );
     assert!(config.contains(r#""jello.w""#) && config.contains(r#""spin.w""#));
     assert!(config.contains(r#""stack.toml""#) && config.contains(r#""torus.toml""#));
     let (status, head, body) = server.get("/examples/stack.toml");
@@ -113,6 +116,28 @@ fn serves_the_viewer_config_world_and_examples() {
     let (status, head, body) = server.request("HEAD / HTTP/1.1\r\n\r\n");
     assert_eq!(status, 200);
     assert!(head.contains("Content-Length: ") && body.is_empty());
+}
+
+#[test]
+fn a_users_own_file_is_not_taken_for_the_example_of_its_name() {
+    // The user's own jello.w, in a folder of theirs: the page must list it as theirs, beside
+    // the example jello.w.
+    let dir = std::env::temp_dir().join(format!("jello-view-own-{}", std::process::id()));
+    fs::create_dir_all(&dir).unwrap();
+    let own = dir.join("jello.w");
+    fs::copy(example("rotate.w"), &own).unwrap();
+    let server = Server::start("own", &[own.to_str().unwrap()]);
+    let (_, _, body) = server.get("/config.json");
+    fs::remove_dir_all(&dir).unwrap();
+    let config = String::from_utf8(body).unwrap();
+    assert!(
+        config.contains(r#""world": {"url": "world.w", "name": "jello.w", "example": false}"#),
+        "{config}"
+    );
+    assert!(
+        config.contains(r#""jello.w""#),
+        "the example is still listed: {config}"
+    );
 }
 
 #[test]

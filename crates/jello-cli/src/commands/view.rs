@@ -8,7 +8,7 @@
 //!
 //! | path | what |
 //! | --- | --- |
-//! | `/config.json` | `{"world": {"url", "name"} or null, "examples": [names]}` for the page |
+//! | `/config.json` | `{"world": {"url", "name", "example"} or null, "examples": [names]}` for the page (`example`: the world is that example's file) |
 //! | `/world.w` | the world or scene given on the command line (read and checked at start; the page reads it by the name in `config.json`) |
 //! | `/examples/NAME` | an example world or scene from the source tree's `examples/` |
 //! | anything else | a file of the built viewer, `/` meaning `index.html` |
@@ -63,8 +63,18 @@ struct Site {
     dist: PathBuf,
     /// Example worlds: file name and path, sorted by name.
     examples: Vec<(String, PathBuf)>,
-    /// The world given on the command line: its file name and bytes.
-    world: Option<(String, Vec<u8>)>,
+    /// The world given on the command line.
+    world: Option<GivenWorld>,
+}
+
+/// The world or scene given on the command line.
+struct GivenWorld {
+    /// Its file name.
+    name: String,
+    bytes: Vec<u8>,
+    /// Whether it is one of the examples' files (the page then lists it as that example, not
+    /// as the user's own file, which may have an example's name).
+    is_example: bool,
 }
 
 /// The source tree this binary was built from (crates/jello-cli/../..).
@@ -97,7 +107,12 @@ pub fn view(args: ViewArgs) -> Result<(), CliError> {
             let name = path
                 .file_name()
                 .map_or_else(|| "world.w".into(), |n| n.to_string_lossy().into_owned());
-            Some((name, bytes))
+            let is_example = is_one_of(path, &examples);
+            Some(GivenWorld {
+                name,
+                bytes,
+                is_example,
+            })
         }
         None => None,
     };
@@ -108,7 +123,7 @@ pub fn view(args: ViewArgs) -> Result<(), CliError> {
     let port = listener.local_addr().map(|a| a.port()).unwrap_or(args.port);
     let url = format!("http://127.0.0.1:{port}/");
     let showing = match &world {
-        Some((name, _)) => name.clone(),
+        Some(given) => given.name.clone(),
         None if examples.iter().any(|(n, _)| n == "jello.w") => "examples/jello.w".into(),
         None => "the classic cube".into(),
     };
@@ -162,6 +177,17 @@ fn list_examples(dir: &Path) -> Vec<(String, PathBuf)> {
         .collect();
     found.sort();
     found
+}
+
+/// Whether `path` is the same file as one of `examples` (compared canonically, so
+/// `./examples/jello.w` is the example and another folder's `jello.w` is not).
+fn is_one_of(path: &Path, examples: &[(String, PathBuf)]) -> bool {
+    let Ok(path) = path.canonicalize() else {
+        return false;
+    };
+    examples
+        .iter()
+        .any(|(_, example)| example.canonicalize().is_ok_and(|e| e == path))
 }
 
 /// Tries `xdg-open URL`, saying so when it cannot.
@@ -241,8 +267,8 @@ fn resolve(site: &Site, target: &str) -> Option<(&'static str, Vec<u8>)> {
         "" => return file(&site.dist.join("index.html")),
         "config.json" => return Some((content_type("json"), config_json(site).into_bytes())),
         "world.w" => {
-            let (_, bytes) = site.world.as_ref()?;
-            return Some((content_type("w"), bytes.clone()));
+            let given = site.world.as_ref()?;
+            return Some((content_type("w"), given.bytes.clone()));
         }
         _ => {}
     }
@@ -295,7 +321,11 @@ fn content_type(ext: &str) -> &'static str {
 /// What the page asks first: the world to start with and the examples to list.
 fn config_json(site: &Site) -> String {
     let world = match &site.world {
-        Some((name, _)) => format!(r#"{{"url": "world.w", "name": {}}}"#, json_string(name)),
+        Some(given) => format!(
+            r#"{{"url": "world.w", "name": {}, "example": {}}}"#,
+            json_string(&given.name),
+            given.is_example
+        ),
         None => "null".into(),
     };
     let examples: Vec<String> = site.examples.iter().map(|(n, _)| json_string(n)).collect();
