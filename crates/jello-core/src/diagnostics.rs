@@ -1,10 +1,12 @@
-//! Quantities read off a state, never mixed into stepping: energies, penetration, momentum.
+//! Quantities read off a state, never mixed into stepping: energies, penetration, momentum, and
+//! points that passed through an obstacle between two states.
 
 use crate::model::Model;
 use crate::state::State;
 use crate::vec3::Vec3;
 
 pub use crate::contact::obstacles::max_penetration;
+pub use crate::contact::tunnelling::{Crossings, TunnelWatch};
 
 /// Mechanical energy (J) of a state. The force field is not a potential, so its work is not part
 /// of it: with a field, the total changes by the work the field does.

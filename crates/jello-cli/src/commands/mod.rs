@@ -6,6 +6,7 @@ pub mod create_scene;
 pub mod info;
 pub mod run;
 pub mod shape;
+mod tunnelling;
 pub mod view;
 
 use jello_core::{Integrator, SolverStats};

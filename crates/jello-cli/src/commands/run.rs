@@ -4,7 +4,7 @@ use std::path::PathBuf;
 use std::time::Instant;
 
 use clap::Args;
-use jello_core::diagnostics::{energy, max_penetration};
+use jello_core::diagnostics::{energy, max_penetration, TunnelWatch};
 use jello_core::Integrator;
 
 use super::{
@@ -164,6 +164,10 @@ pub fn run(args: RunArgs) -> Result<(), CliError> {
     if let Some(x) = export.as_mut() {
         x.record(&sim.model, &sim.state)?;
     }
+    // On the CPU each step is compared with the last for points that passed through an obstacle
+    // (the GPU's state is read back only now and then: too seldom to tell).
+    let mut watch = (gpu.is_none() && TunnelWatch::watches(&sim.model))
+        .then(|| TunnelWatch::new(&sim.model, &sim.state.pos, sim.state.time));
     let start = Instant::now();
     let mut done = 0;
     while done < total {
@@ -195,6 +199,9 @@ pub fn run(args: RunArgs) -> Result<(), CliError> {
                 progress.finish();
                 return Err(e);
             }
+        }
+        if let Some(w) = watch.as_mut() {
+            w.observe(&sim.model, &sim.state.pos, sim.state.time);
         }
         deepest = match &gpu {
             None => deepest.max(max_penetration(&sim.model, &sim.state.pos)),
@@ -278,6 +285,14 @@ pub fn run(args: RunArgs) -> Result<(), CliError> {
         summary.push_str(&format!(", {} frames exported", x.frames()));
     }
     println!("{summary}");
+    // Warnings after the summary, on stderr: the run itself succeeded.
+    let names = body_names(&source, &sim.model);
+    for c in watch.iter().flat_map(|w| w.crossings()) {
+        eprintln!(
+            "warning: {name}: {}",
+            super::tunnelling::crossing_warning(&sim.model, c, &names)
+        );
+    }
     Ok(())
 }
 

@@ -5,7 +5,8 @@
 //! - [`bodies`]: contacts between bodies' surfaces (and of a body with itself), their penalty
 //!   law and the overlap diagnostics;
 //! - [`broad_phase`]: the hashed uniform grid that finds the cells of bodies near a point;
-//! - [`friction`]: Coulomb friction, on obstacles (anchored ties) and between bodies (sliding).
+//! - [`friction`]: Coulomb friction, on obstacles (anchored ties) and between bodies (sliding);
+//! - [`tunnelling`]: points a step carried through an obstacle, read off two successive states.
 //!
 //! Contact reads the model; the force pass ([`crate::forces`]) and the implicit integrators
 //! call it.
@@ -14,6 +15,7 @@ pub mod bodies;
 pub mod broad_phase;
 pub mod friction;
 pub mod obstacles;
+pub mod tunnelling;
 
 pub use bodies::{closest, overlap, touch_force, Closest, Contacts};
 pub use obstacles::max_penetration;

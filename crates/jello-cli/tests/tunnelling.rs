@@ -1,0 +1,118 @@
+//! `jello run` warns when points pass through an obstacle, with a time step that avoids it, and
+//! stays quiet about a body resting on one.
+
+use std::process::Output;
+
+mod common;
+
+use common::TempDir;
+
+/// A small cube thrown at 30 m/s at a 5 cm plate under BackwardEuler at dt = 0.002 s: a step
+/// moves it 6 cm, so its bottom layer jumps through the plate and it ends impaled on it.
+const THROWN: &[&str] = &[
+    "create",
+    "thrown.toml",
+    "--cube",
+    "3",
+    "--size",
+    "0.2",
+    "--centre",
+    "0,0,0.5",
+    "--velocity",
+    "0,0,-30",
+    "--name",
+    "cube",
+    "--collision-stiffness",
+    "1e6",
+    "--collision-damping",
+    "20",
+    "--box=-1,-1,-0.05,1,1,0",
+    "--integrator",
+    "BackwardEuler",
+    "--dt",
+    "0.002",
+];
+
+fn stderr(out: &Output) -> String {
+    String::from_utf8_lossy(&out.stderr).into_owned()
+}
+
+/// The z of the centre of mass `jello info` gives for a saved state.
+fn centre_z(dir: &TempDir, file: &str) -> f64 {
+    let info = dir.succeeds(&["info", file]);
+    let line = info
+        .lines()
+        .find(|l| l.starts_with("centre of mass"))
+        .unwrap_or_else(|| panic!("{info}"));
+    let inner = &line[line.find('(').unwrap() + 1..line.find(')').unwrap()];
+    inner.split(", ").nth(2).unwrap().parse().unwrap()
+}
+
+#[test]
+fn a_cube_thrown_through_a_plate_is_reported_and_the_advised_dt_stops_it() {
+    let dir = TempDir::new("tunnel");
+    dir.succeeds(THROWN);
+    let run = |extra: &[&str]| {
+        let mut args = vec!["run", "thrown.toml", "--time", "0.5", "-q"];
+        args.extend_from_slice(extra);
+        let out = dir.run(&args);
+        assert!(out.status.success(), "{}", stderr(&out));
+        stderr(&out)
+    };
+    let warned = run(&["--save", "impaled.toml"]);
+    assert!(
+        warned.contains(
+            "warning: thrown.toml: 9 points of body 'cube' passed through obstacle 1 (box, 5 cm \
+             thick there) between t = 0.014 s and 0.016 s"
+        ),
+        "{warned}"
+    );
+    // Impaled: the cube (0.2 m) straddles the plate, its centre under its half size.
+    assert!(centre_z(&dir, "impaled.toml") < 0.05);
+
+    let dt = warned
+        .split("try --dt ")
+        .nth(1)
+        .and_then(|rest| rest.split(' ').next())
+        .unwrap_or_else(|| panic!("no --dt advised: {warned}"));
+    assert!(dt.parse::<f64>().unwrap() < 0.002, "{dt}");
+    let quiet = run(&["--dt", dt, "--save", "bounced.toml"]);
+    assert!(!quiet.contains("warning"), "{quiet}");
+    assert!(centre_z(&dir, "bounced.toml") > 0.1);
+}
+
+#[test]
+fn a_cube_resting_on_a_plate_is_not_reported() {
+    let dir = TempDir::new("rest");
+    dir.succeeds(&[
+        "create",
+        "rest.toml",
+        "--cube",
+        "3",
+        "--size",
+        "0.2",
+        "--centre",
+        "0,0,0.11",
+        "--collision-stiffness",
+        "1e4",
+        "--collision-damping",
+        "5",
+        "--box=-1,-1,-0.05,1,1,0",
+    ]);
+    let out = dir.run(&[
+        "run",
+        "rest.toml",
+        "--time",
+        "2",
+        "-q",
+        "--save",
+        "after.toml",
+    ]);
+    assert!(
+        out.status.success() && stderr(&out).is_empty(),
+        "{}",
+        stderr(&out)
+    );
+    // It rests on the plate (its centre at its half size, 0.1 m, less the contact's give).
+    assert!((centre_z(&dir, "after.toml") - 0.1).abs() < 1e-3);
+}

@@ -1,0 +1,327 @@
+//! Tunnelling: points that a step carried through the middle of a solid obstacle, a diagnostic
+//! read off two successive states, never part of stepping.
+//!
+//! The penalty law pushes a point inside a solid box out through its nearest face, and one
+//! inside a ball out along its radius. A point that gets past the middle of the obstacle in one
+//! step (it moved more than half the obstacle's thickness, or the penalty spring was too soft to
+//! stop it in time) is then pushed out of the far side: it has passed through, and no state
+//! shows it (the depth is measured to the nearest face, so it never exceeds half the thickness).
+//! [`TunnelWatch`] compares each step's positions with the last step's and counts such points.
+//!
+//! What counts as a crossing:
+//! - a solid box: the segment from a point's old position to its new one crosses the box's
+//!   middle plane across some axis at a place inside the box where the faces across that axis
+//!   are the nearest (so the push reverses there);
+//! - a ball: the segment passes the centre (the old and new positions on opposite sides of it)
+//!   more than half the radius deep.
+//!
+//! Planes, the classic plane and the box's walls are half-spaces: nothing passes through them
+//! (the blow-up check catches a point far beyond a wall), so they are not watched.
+//!
+//! The watch goes over the bodies' active points in order on one thread: the same report on any
+//! number of threads.
+
+use crate::model::body::Body;
+use crate::model::obstacle::{Aabb, Obstacle, Sphere};
+use crate::model::Model;
+use crate::vec3::Vec3;
+
+/// The crossings of one body through one obstacle over the steps watched.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Crossings {
+    /// The body (an index into the model's bodies).
+    pub body: usize,
+    /// The obstacle (an index into the model's obstacles).
+    pub obstacle: usize,
+    /// How many of the body's points crossed it (each counted once).
+    pub points: usize,
+    /// How many steps carried some point of the body across it.
+    pub steps: u64,
+    /// The first step that did: its start and end time (s).
+    pub first: (f64, f64),
+    /// The last step that did: its start and end time (s).
+    pub last: (f64, f64),
+    /// The longest move of a crossing point in its crossing step (m).
+    pub longest_move: f64,
+    /// The fastest the body's centre of mass moved over the steps watched up to the last
+    /// crossing (m/s): the speed it may have hit the obstacle with.
+    pub impact_speed: f64,
+    /// Half the obstacle's thickness where it was crossed (m): half the box's size across the
+    /// crossing axis, half a ball's radius.
+    pub half_thickness: f64,
+    /// The time step of the crossing steps (s).
+    pub dt: f64,
+    /// The mass of one of the body's points (kg).
+    pub point_mass: f64,
+}
+
+impl Crossings {
+    /// The longest a step should be (s) when a step moved points further than half of
+    /// [`Crossings::half_thickness`] (`None` when none did): the CFL-like bound at which the
+    /// crossing points, and the body's centre at its impact speed, move at most that far.
+    pub fn advised_dt(&self) -> Option<f64> {
+        let limit = 0.5 * self.half_thickness;
+        let step = self.longest_move.max(self.impact_speed * self.dt);
+        (step > limit).then(|| self.dt * limit / step)
+    }
+
+    /// The least collision stiffness (N/m) whose penalty spring stops a lone point of the body
+    /// at its impact speed within half of [`Crossings::half_thickness`] (a point of mass `m` at
+    /// speed `v` on a spring `k` sinks `v·√(m/k)`); `None` when the stiffness is already that.
+    /// A body's other points push behind it, so this is a lower bound.
+    pub fn advised_stiffness(&self, model: &Model) -> Option<f64> {
+        let stop = 0.5 * self.half_thickness;
+        let k = self.point_mass * (self.impact_speed / stop).powi(2);
+        (k > model.k_collision).then_some(k)
+    }
+}
+
+/// Watches successive states for points that pass through a solid obstacle (see the module's
+/// documentation).
+#[derive(Clone, Debug)]
+pub struct TunnelWatch {
+    /// The positions of the last state observed.
+    before: Vec<Vec3>,
+    /// Its time (s).
+    time: f64,
+    /// Per body, the fastest its centre of mass moved in a step so far (m/s).
+    fastest: Vec<f64>,
+    /// Per (point, obstacle), whether the point has crossed it: allocated at the first crossing.
+    crossed: Vec<bool>,
+    found: Vec<Crossings>,
+}
+
+impl TunnelWatch {
+    /// A watch starting from positions `pos` at time `time`.
+    pub fn new(model: &Model, pos: &[Vec3], time: f64) -> Self {
+        TunnelWatch {
+            before: pos.to_vec(),
+            time,
+            fastest: vec![0.0; model.bodies().len()],
+            crossed: Vec::new(),
+            found: Vec::new(),
+        }
+    }
+
+    /// True when `model` has an obstacle a point could pass through (a box or a ball): when it
+    /// has none, [`TunnelWatch::observe`] never finds anything.
+    pub fn watches(model: &Model) -> bool {
+        model
+            .obstacles
+            .iter()
+            .any(|o| matches!(o, Obstacle::Box(_) | Obstacle::Sphere(_)))
+    }
+
+    /// Compares the positions `pos` at `time` (one step after the last observed) with the last
+    /// observed, records the points that crossed an obstacle between them, and keeps `pos`.
+    pub fn observe(&mut self, model: &Model, pos: &[Vec3], time: f64) {
+        let dt = time - self.time;
+        for (b, body) in model.bodies().iter().enumerate() {
+            let first = body.points().start;
+            let shift = centre(body, pos) - centre(body, &self.before);
+            if dt > 0.0 {
+                self.fastest[b] = self.fastest[b].max(shift.length() / dt);
+            }
+            for q in (0..body.len()).filter(|&q| body.is_active(q)) {
+                let (a, z) = (self.before[first + q], pos[first + q]);
+                let moved = (z - a).length();
+                for (o, obstacle) in model.obstacles.iter().enumerate() {
+                    let half = match obstacle {
+                        Obstacle::Box(bx) => box_crossing(bx, a, z),
+                        Obstacle::Sphere(s) => ball_crossing(s, a, z),
+                        Obstacle::Plane(_) => None,
+                    };
+                    if let Some(half_thickness) = half {
+                        self.record(model, b, first + q, o, half_thickness, moved, dt, time);
+                    }
+                }
+            }
+        }
+        self.before.copy_from_slice(pos);
+        self.time = time;
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn record(
+        &mut self,
+        model: &Model,
+        body: usize,
+        point: usize,
+        obstacle: usize,
+        half_thickness: f64,
+        moved: f64,
+        dt: f64,
+        time: f64,
+    ) {
+        let obstacles = model.obstacles.len();
+        if self.crossed.is_empty() {
+            self.crossed = vec![false; model.point_count() * obstacles];
+        }
+        let new_point = !std::mem::replace(&mut self.crossed[point * obstacles + obstacle], true);
+        let step = (self.time, time);
+        let fastest = self.fastest[body];
+        match self
+            .found
+            .iter_mut()
+            .find(|c| c.body == body && c.obstacle == obstacle)
+        {
+            Some(c) => {
+                c.points += usize::from(new_point);
+                if c.last != step {
+                    c.steps += 1;
+                    c.last = step;
+                }
+                c.longest_move = c.longest_move.max(moved);
+                c.impact_speed = fastest;
+                c.half_thickness = c.half_thickness.min(half_thickness);
+                c.dt = dt;
+            }
+            None => self.found.push(Crossings {
+                body,
+                obstacle,
+                points: 1,
+                steps: 1,
+                first: step,
+                last: step,
+                longest_move: moved,
+                impact_speed: fastest,
+                half_thickness,
+                dt,
+                point_mass: model.body(body).material.mass,
+            }),
+        }
+    }
+
+    /// The crossings found so far, per body and obstacle, in the order first found.
+    pub fn crossings(&self) -> &[Crossings] {
+        &self.found
+    }
+}
+
+/// The centre of `body`'s active points at positions `pos` (the model's arrays).
+fn centre(body: &Body, pos: &[Vec3]) -> Vec3 {
+    let first = body.points().start;
+    let sum = (0..body.len())
+        .filter(|&q| body.is_active(q))
+        .fold(Vec3::ZERO, |s, q| s + pos[first + q]);
+    sum / body.active_count().max(1) as f64
+}
+
+/// Half the box's size across the axis whose middle plane the segment `a`–`z` crosses inside
+/// the box, where that axis's faces are the nearest; `None` when it crosses none.
+fn box_crossing(bx: &Aabb, a: Vec3, z: Vec3) -> Option<f64> {
+    let (lo, hi) = (bx.min.to_array(), bx.max.to_array());
+    let (a, z) = (a.to_array(), z.to_array());
+    // Quick reject: the segment's bounding box misses the box.
+    if (0..3).any(|k| a[k].max(z[k]) <= lo[k] || a[k].min(z[k]) >= hi[k]) {
+        return None;
+    }
+    (0..3).find_map(|k| {
+        let mid = 0.5 * (lo[k] + hi[k]);
+        if (a[k] < mid) == (z[k] < mid) {
+            return None;
+        }
+        let half = 0.5 * (hi[k] - lo[k]);
+        let t = (mid - a[k]) / (z[k] - a[k]);
+        // Where the segment crosses the middle plane: inside, with the other faces further.
+        let deep_enough = (0..3).filter(|&j| j != k).all(|j| {
+            let c = a[j] + t * (z[j] - a[j]);
+            (c - lo[j]).min(hi[j] - c) >= half
+        });
+        deep_enough.then_some(half)
+    })
+}
+
+/// Half the ball's radius when the segment `a`–`z` passes its centre more than half the radius
+/// deep; `None` otherwise.
+fn ball_crossing(s: &Sphere, a: Vec3, z: Vec3) -> Option<f64> {
+    let (from, to) = (a - s.centre, z - s.centre);
+    if from.dot(to) >= 0.0 {
+        return None;
+    }
+    let d = to - from;
+    let t = (-from.dot(d) / d.length_squared()).clamp(0.0, 1.0);
+    let nearest = (from + d * t).length();
+    let half = 0.5 * s.radius;
+    (s.radius - nearest > half).then_some(half)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn plate() -> Aabb {
+        Aabb::new(Vec3::new(-1.0, -1.0, -0.05), Vec3::new(1.0, 1.0, 0.0)).unwrap()
+    }
+
+    /// A step from above a plate to below it, or from its upper half to its lower half, is a
+    /// crossing; steps into the upper half, along it, or past its edge are not.
+    #[test]
+    fn a_plate_is_crossed_only_through_its_middle() {
+        let p = plate();
+        let at = |x: f64, z: f64| Vec3::new(x, 0.0, z);
+        assert_eq!(box_crossing(&p, at(0.0, 0.01), at(0.0, -0.06)), Some(0.025));
+        assert_eq!(
+            box_crossing(&p, at(0.3, -0.02), at(0.3, -0.03)),
+            Some(0.025)
+        );
+        assert_eq!(box_crossing(&p, at(0.0, 0.01), at(0.0, -0.02)), None);
+        assert_eq!(box_crossing(&p, at(0.0, -0.01), at(0.5, -0.02)), None);
+        assert_eq!(box_crossing(&p, at(1.5, 0.01), at(1.5, -0.06)), None);
+        // Through the very edge, where the side face is nearer than the middle: pushed out
+        // sideways, not through.
+        assert_eq!(box_crossing(&p, at(0.99, 0.01), at(0.99, -0.06)), None);
+    }
+
+    /// A body moved through a plate in one step is counted, each point once over the steps;
+    /// a model with only a plane obstacle has nothing to watch.
+    #[test]
+    fn the_watch_counts_each_point_once_per_obstacle() {
+        use crate::model::ModelBuilder;
+        use crate::state::State;
+        let plate = Aabb::new(Vec3::new(-1.0, -1.0, -0.55), Vec3::new(2.0, 2.0, -0.45)).unwrap();
+        let far = Sphere::new(Vec3::new(5.0, 5.0, 5.0), 0.1).unwrap();
+        let model = ModelBuilder::new()
+            .obstacles(vec![Obstacle::Sphere(far), Obstacle::Box(plate)])
+            .build()
+            .unwrap();
+        let above = State::at_rest(&model).pos;
+        let below: Vec<Vec3> = above
+            .iter()
+            .map(|&p| p - Vec3::new(0.0, 0.0, 2.0))
+            .collect();
+        let mut watch = TunnelWatch::new(&model, &above, 0.0);
+        watch.observe(&model, &above, 0.5);
+        assert!(watch.crossings().is_empty());
+        watch.observe(&model, &below, 1.0);
+        watch.observe(&model, &above, 1.5);
+        let [c] = watch.crossings() else {
+            panic!("{:?}", watch.crossings())
+        };
+        assert_eq!((c.body, c.obstacle, c.points, c.steps), (0, 1, 512, 2));
+        assert_eq!((c.first, c.last), ((0.5, 1.0), (1.0, 1.5)));
+        assert!((c.half_thickness - 0.05).abs() < 1e-12);
+        // The body's centre moved 2 m in a step of 0.5 s, 4 m/s: a step that moves it a
+        // quarter of the 10 cm plate's thickness is 0.025 m / 4 m/s.
+        assert!((c.impact_speed - 4.0).abs() < 1e-9);
+        assert!((c.advised_dt().unwrap() - 0.025 / 4.0).abs() < 1e-12);
+
+        let plane = crate::model::obstacle::Plane::new([0.0, 0.0, 1.0, 0.5]).unwrap();
+        let planar = ModelBuilder::new()
+            .obstacle(Obstacle::Plane(plane))
+            .build()
+            .unwrap();
+        assert!(!TunnelWatch::watches(&planar) && TunnelWatch::watches(&model));
+    }
+
+    #[test]
+    fn a_ball_is_crossed_only_past_its_centre_deep_inside() {
+        let s = Sphere::new(Vec3::ZERO, 0.2).unwrap();
+        let z = |x: f64, z: f64| Vec3::new(x, 0.0, z);
+        assert_eq!(ball_crossing(&s, z(0.0, 0.3), z(0.0, -0.3)), Some(0.1));
+        assert_eq!(ball_crossing(&s, z(0.05, 0.3), z(0.05, -0.3)), Some(0.1));
+        // Grazing past it, and sinking in without passing the centre.
+        assert_eq!(ball_crossing(&s, z(0.15, 0.3), z(0.15, -0.3)), None);
+        assert_eq!(ball_crossing(&s, z(0.0, 0.3), z(0.0, 0.05)), None);
+    }
+}
