@@ -19,12 +19,14 @@
 //! they are in, and until the next sort looks only at those (see [`crate::contact::bodies`]): a
 //! step's stages and the next few steps share one sort and one list.
 //!
-//! Each body's reach is set at each sort from how far it moved since the one before: a tenth of
-//! the longest cell side (the slack) for a body at rest or slow, up to four times that for a
-//! body moving fast, which would otherwise call for a sort every step or two while the rest of
-//! a pile lies still. Larger boxes cost visits only for the pairs of bodies the fast ones are in. The cells looked at for a point are a superset of those a fresh sort gives, in the
-//! same order, and a point's contact is decided by the first of them (in that order) that holds
-//! it: the forces do not depend on when the grid was sorted.
+//! Each body's reach is set at each sort from how far it moved since the one before: 3 % of the
+//! longest cell side for a body at rest or slow, up to 20 % for a body moving fast, which would
+//! otherwise call for a sort every step or two while the rest of a pile lies still. Larger
+//! boxes cost visits only for the pairs of bodies the fast ones are in.
+//!
+//! The cells looked at for a point are a superset of those a fresh sort gives, in the same
+//! order, and a point's contact is decided by the first of them (in that order) that holds it:
+//! the forces do not depend on when the grid was sorted.
 
 use crate::model::contact_surface::map3;
 use crate::model::Model;
@@ -53,7 +55,7 @@ const MAX_REACH: f64 = 0.2;
 const REACH_PER_MOVE: f64 = 1.5;
 
 /// The side of a grid cell, times the longest side of the bodies' cells: so that a cell's box,
-/// grown by twice the slack, overlaps two grid cells along an axis, seldom three.
+/// grown by the reaches, overlaps two grid cells along an axis, seldom three.
 const GRID: f64 = 1.5;
 
 /// The cells of a model's bodies in a hashed uniform grid.
