@@ -217,14 +217,7 @@ impl TriMesh {
     /// # Panics
     /// If a triangle's index is out of range (never for a mesh a reader returned).
     pub fn volume(&self) -> f64 {
-        let (lo, hi) = self.bounds();
-        let centre = lo * 0.5 + hi * 0.5;
-        let mut six = 0.0;
-        for t in &self.triangles {
-            let [a, b, c] = t.map(|i| self.vertices[i as usize] - centre);
-            six += a.dot(b.cross(c));
-        }
-        six / 6.0
+        crate::model::skin::enclosed_volume(&self.vertices, &self.triangles)
     }
 
     /// Smallest and largest coordinates of the vertices.
