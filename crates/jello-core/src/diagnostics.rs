@@ -46,14 +46,16 @@ pub fn energy(model: &Model, state: &State) -> Energy {
             let stretch = (pos[s.a] - pos[s.b]).length() - s.rest;
             spring += 0.5 * s.stiffness * stretch * stretch;
         });
-        // ½ kCollision depth² per contact (walls, plane, obstacles), summed point by point.
+        // ½ kCollision depth² per contact (walls, plane, obstacles; each point's clearance
+        // taken off), summed point by point.
+        let first = body.points().start;
         collision += pos
             .iter()
             .enumerate()
             .filter(active)
-            .map(|(_, &p)| {
+            .map(|(q, &p)| {
                 model
-                    .contacts(p)
+                    .contacts_of(first + q, p)
                     .fold(0.0, |sum, c| sum + c.depth * c.depth)
             })
             .sum::<f64>()

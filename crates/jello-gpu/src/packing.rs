@@ -206,6 +206,23 @@ impl Packed {
             }
         }
 
+        // How far each point rests outside its body's skin (the core's `Model::clearance`), four
+        // to a vec4, when any does.
+        let clearance = model.clearance();
+        header.field_res[1] = if clearance.is_empty() {
+            NONE
+        } else {
+            let at = scene.len();
+            scene.extend(clearance.chunks(4).map(|c| {
+                let mut four = [0.0f32; 4];
+                for (f, &c) in four.iter_mut().zip(c) {
+                    *f = c as f32;
+                }
+                bits(four)
+            }));
+            at as u32
+        };
+
         let control_at = scene.len();
         scene.extend(control_words(model, control, uniform_field));
 
@@ -314,6 +331,7 @@ impl Packed {
                 flag(bodies.iter().any(|b| b.spring_table().is_some())),
             ),
             ("PINS", flag(on_paths)),
+            ("CLEARANCE", flag(!clearance.is_empty())),
         ];
         header.at = [
             0,

@@ -256,3 +256,62 @@ fn contacts_of_every_kind_of_body_give_the_same_bits_every_run() {
     assert_eq!(first.pos, second.pos);
     assert_eq!(first.vel, second.vel);
 }
+
+/// The octahedron turned by 45° and 35° (its cage's corners stick out past its skin) sunk into
+/// the box's floor and a solid box, moving, with friction on both: every point's acceleration as
+/// on the core, which takes each point's clearance off its depth; some points are pushed, and
+/// some that are inside the floor are not (their skin is not).
+#[test]
+fn a_turned_mesh_body_meets_walls_and_obstacles_with_its_skin_as_on_the_core() {
+    use jello_core::{Aabb, Obstacle};
+    let body = octahedron(Vec3::ZERO, 0.3);
+    let turned = body
+        .clone()
+        .placed(body.origin, rotation_xyz([45.0, 35.0, 0.0]));
+    let rest = ModelBuilder::new()
+        .bodies(vec![turned.clone()])
+        .build()
+        .unwrap();
+    let at_rest = State::at_rest(&rest);
+    let lowest = |axis: usize| {
+        (0..rest.point_count())
+            .filter(|&q| rest.body(0).is_active(q))
+            .map(|q| at_rest.pos[q].to_array()[axis])
+            .fold(f64::INFINITY, f64::min)
+    };
+    // The floor 18 cm above the lowest point, a solid box's face 18 cm inside the lowest x: past
+    // the clearance of the cage's corners (14 cm), not of the points beside them.
+    let (floor, side) = (lowest(2) + 0.18, lowest(0) + 0.18);
+    let model = ModelBuilder::new()
+        .bodies(vec![turned])
+        .bounds(Aabb::new(Vec3::new(-2.0, -2.0, floor), Vec3::new(2.0, 2.0, 2.0)).unwrap())
+        .obstacle(Obstacle::Box(
+            Aabb::new(Vec3::new(-2.0, -1.0, -1.0), Vec3::new(side, 1.0, 1.0)).unwrap(),
+        ))
+        .collision(20000.0, 20.0)
+        .friction(0.5)
+        .wall_friction(0.4)
+        .gravity(Vec3::new(0.0, 0.0, -9.81))
+        .dt(0.0001)
+        .integrator(Integrator::Euler)
+        .build()
+        .unwrap();
+    assert!(!model.clearance().is_empty());
+    let mut state = State::at_rest(&model);
+    state
+        .vel
+        .iter_mut()
+        .for_each(|v| *v = Vec3::new(-0.3, 0.2, -0.4));
+    let pushed = assert_same_accelerations(&model, &state, 1e-4, "turned octahedron");
+    let clear = (0..model.point_count())
+        .filter(|&i| {
+            let p = state.pos[i];
+            let depth = (floor - p.z).max(side - p.x);
+            depth > 0.0 && depth < model.clearance_of(i)
+        })
+        .count();
+    assert!(
+        pushed >= 2 && clear >= 1,
+        "{pushed} pushed, {clear} inside but clear"
+    );
+}

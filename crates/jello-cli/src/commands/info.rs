@@ -176,11 +176,17 @@ fn print_body(m: &Model, b: usize, name: &str) {
     let [nx, ny, nz] = body.lattice().counts;
     let by_kind = body.spring_count_by_kind();
     let skin = match &body.skin {
-        Some(skin) => format!(
-            "skin {} vertices, {} triangles",
-            skin.len(),
-            skin.triangles.len()
-        ),
+        Some(skin) => {
+            // How far the cage's points rest outside the skin at most: the walls, the plane and
+            // the obstacles take it off their depth (docs/scenes.md, "Skins, not cages").
+            let clearance = body.clearance().iter().copied().fold(0.0, f64::max);
+            format!(
+                "skin {} vertices, {} triangles (cage up to {:.4} m outside it)",
+                skin.len(),
+                skin.triangles.len(),
+                clearance
+            )
+        }
         None => "no skin (the cage is drawn)".to_string(),
     };
     // Stiffness and mass per point are worked out (modulus × spacing, density × volume / points):

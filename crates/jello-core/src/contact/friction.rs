@@ -181,6 +181,14 @@ impl Surface {
         }
     }
 
+    /// The surface's contact with point `i` at `p`, its clearance taken off the depth (see
+    /// [`Model::contacts_of`]).
+    #[inline]
+    pub fn contact_of(self, model: &Model, i: usize, p: Vec3) -> Option<ObstacleContact> {
+        self.contact(model, p)
+            .and_then(|c| c.less(model.clearance_of(i)))
+    }
+
     /// The surface's friction coefficient.
     #[inline]
     pub fn friction(self, model: &Model) -> f64 {
@@ -302,8 +310,8 @@ impl Anchors {
         for (slot, surface) in anchored_surfaces(model).enumerate() {
             let mu = surface.friction(model);
             let anchors = &mut self.at[slot * self.points..(slot + 1) * self.points];
-            for (anchor, &p) in anchors.iter_mut().zip(pos) {
-                let Some(contact) = surface.contact(model, p) else {
+            for (i, (anchor, &p)) in anchors.iter_mut().zip(pos).enumerate() {
+                let Some(contact) = surface.contact_of(model, i, p) else {
                     *anchor = NONE;
                     continue;
                 };

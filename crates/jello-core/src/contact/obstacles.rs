@@ -52,7 +52,8 @@ pub(crate) fn penalty(
 }
 
 /// Depth (m) of the deepest penetration of any active point into a box wall, the plane or an
-/// obstacle (0 if none).
+/// obstacle (0 if none), each point's clearance taken off (see [`crate::model::clearance`]: for
+/// a body made from a mesh, how deep its skin went rather than its cage).
 pub fn max_penetration(model: &Model, pos: &[Vec3]) -> f64 {
     let depth = |p: Vec3| {
         let wall = model.bounds.excursion(p);
@@ -75,7 +76,7 @@ pub fn max_penetration(model: &Model, pos: &[Vec3]) -> f64 {
             let first = body.points().start;
             (0..body.len())
                 .filter(|&q| body.is_active(q))
-                .map(move |q| depth(pos[first + q]))
+                .map(move |q| depth(pos[first + q]) - model.clearance_of(first + q))
         })
         .fold(0.0, f64::max)
 }

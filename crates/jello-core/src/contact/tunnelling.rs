@@ -15,6 +15,10 @@
 //! - a ball: the segment passes the centre (the old and new positions on opposite sides of it)
 //!   more than half the radius deep.
 //!
+//! A point of a body made from a mesh that rests outside its skin is judged by where its skin
+//! is: it counts only once it is its clearance past the middle (see [`crate::model::clearance`]:
+//! the obstacle pushes it that much later, so its skin is about that far behind it).
+//!
 //! Planes, the classic plane and the box's walls are half-spaces: nothing passes through them
 //! (the blow-up check catches a point far beyond a wall), so they are not watched.
 //!
@@ -125,10 +129,11 @@ impl TunnelWatch {
             for q in (0..body.len()).filter(|&q| body.is_active(q)) {
                 let (a, z) = (self.before[first + q], pos[first + q]);
                 let moved = (z - a).length();
+                let clearance = model.clearance_of(first + q);
                 for (o, obstacle) in model.obstacles.iter().enumerate() {
                     let half = match obstacle {
-                        Obstacle::Box(bx) => box_crossing(bx, a, z),
-                        Obstacle::Sphere(s) => ball_crossing(s, a, z),
+                        Obstacle::Box(bx) => box_crossing(bx, a, z, clearance),
+                        Obstacle::Sphere(s) => ball_crossing(s, a, z, clearance),
                         Obstacle::Plane(_) => None,
                     };
                     if let Some(half_thickness) = half {
@@ -208,8 +213,10 @@ fn centre(body: &Body, pos: &[Vec3]) -> Vec3 {
 }
 
 /// Half the box's size across the axis whose middle plane the segment `a`–`z` crosses inside
-/// the box, where that axis's faces are the nearest; `None` when it crosses none.
-fn box_crossing(bx: &Aabb, a: Vec3, z: Vec3) -> Option<f64> {
+/// the box, where that axis's faces are the nearest; `None` when it crosses none. A point of
+/// clearance `c` crosses the plane `c` past the middle from the side it starts on (none when
+/// that is not inside the box).
+fn box_crossing(bx: &Aabb, a: Vec3, z: Vec3, c: f64) -> Option<f64> {
     let (lo, hi) = (bx.min.to_array(), bx.max.to_array());
     let (a, z) = (a.to_array(), z.to_array());
     // Quick reject: the segment's bounding box misses the box.
@@ -217,11 +224,16 @@ fn box_crossing(bx: &Aabb, a: Vec3, z: Vec3) -> Option<f64> {
         return None;
     }
     (0..3).find_map(|k| {
-        let mid = 0.5 * (lo[k] + hi[k]);
+        let half = 0.5 * (hi[k] - lo[k]);
+        if c >= half {
+            return None;
+        }
+        // The point's skin is on the side it came from, `c` behind it.
+        let middle = 0.5 * (lo[k] + hi[k]);
+        let mid = middle + if a[k] > middle { -c } else { c };
         if (a[k] < mid) == (z[k] < mid) {
             return None;
         }
-        let half = 0.5 * (hi[k] - lo[k]);
         let t = (mid - a[k]) / (z[k] - a[k]);
         // Where the segment crosses the middle plane: inside, with the other faces further.
         let deep_enough = (0..3).filter(|&j| j != k).all(|j| {
@@ -233,8 +245,8 @@ fn box_crossing(bx: &Aabb, a: Vec3, z: Vec3) -> Option<f64> {
 }
 
 /// Half the ball's radius when the segment `a`–`z` passes its centre more than half the radius
-/// deep; `None` otherwise.
-fn ball_crossing(s: &Sphere, a: Vec3, z: Vec3) -> Option<f64> {
+/// (plus the point's clearance `c`) deep; `None` otherwise.
+fn ball_crossing(s: &Sphere, a: Vec3, z: Vec3, c: f64) -> Option<f64> {
     let (from, to) = (a - s.centre, z - s.centre);
     if from.dot(to) >= 0.0 {
         return None;
@@ -243,7 +255,7 @@ fn ball_crossing(s: &Sphere, a: Vec3, z: Vec3) -> Option<f64> {
     let t = (-from.dot(d) / d.length_squared()).clamp(0.0, 1.0);
     let nearest = (from + d * t).length();
     let half = 0.5 * s.radius;
-    (s.radius - nearest > half).then_some(half)
+    (s.radius - nearest - c > half).then_some(half)
 }
 
 #[cfg(test)]
@@ -260,17 +272,38 @@ mod tests {
     fn a_plate_is_crossed_only_through_its_middle() {
         let p = plate();
         let at = |x: f64, z: f64| Vec3::new(x, 0.0, z);
-        assert_eq!(box_crossing(&p, at(0.0, 0.01), at(0.0, -0.06)), Some(0.025));
         assert_eq!(
-            box_crossing(&p, at(0.3, -0.02), at(0.3, -0.03)),
+            box_crossing(&p, at(0.0, 0.01), at(0.0, -0.06), 0.0),
             Some(0.025)
         );
-        assert_eq!(box_crossing(&p, at(0.0, 0.01), at(0.0, -0.02)), None);
-        assert_eq!(box_crossing(&p, at(0.0, -0.01), at(0.5, -0.02)), None);
-        assert_eq!(box_crossing(&p, at(1.5, 0.01), at(1.5, -0.06)), None);
+        assert_eq!(
+            box_crossing(&p, at(0.3, -0.02), at(0.3, -0.03), 0.0),
+            Some(0.025)
+        );
+        assert_eq!(box_crossing(&p, at(0.0, 0.01), at(0.0, -0.02), 0.0), None);
+        assert_eq!(box_crossing(&p, at(0.0, -0.01), at(0.5, -0.02), 0.0), None);
+        assert_eq!(box_crossing(&p, at(1.5, 0.01), at(1.5, -0.06), 0.0), None);
         // Through the very edge, where the side face is nearer than the middle: pushed out
         // sideways, not through.
-        assert_eq!(box_crossing(&p, at(0.99, 0.01), at(0.99, -0.06)), None);
+        assert_eq!(box_crossing(&p, at(0.99, 0.01), at(0.99, -0.06), 0.0), None);
+        // A point resting 1 cm outside its skin counts 1 cm past the middle from the side it
+        // came from (its skin is behind it), however it moves about where it rests; one resting
+        // further out than the plate's half thickness is never pushed back.
+        assert_eq!(box_crossing(&p, at(0.0, -0.02), at(0.0, -0.03), 0.01), None);
+        assert_eq!(
+            box_crossing(&p, at(0.0, -0.02), at(0.0, -0.04), 0.01),
+            Some(0.025)
+        );
+        assert_eq!(box_crossing(&p, at(0.0, -0.03), at(0.0, -0.02), 0.01), None);
+        assert_eq!(
+            box_crossing(&p, at(0.0, -0.017), at(0.0, -0.014), 0.01),
+            None
+        );
+        assert_eq!(
+            box_crossing(&p, at(0.0, -0.06), at(0.0, -0.01), 0.01),
+            Some(0.025)
+        );
+        assert_eq!(box_crossing(&p, at(0.0, 0.01), at(0.0, -0.06), 0.03), None);
     }
 
     /// A body moved through a plate in one step is counted, each point once over the steps;
@@ -318,10 +351,19 @@ mod tests {
     fn a_ball_is_crossed_only_past_its_centre_deep_inside() {
         let s = Sphere::new(Vec3::ZERO, 0.2).unwrap();
         let z = |x: f64, z: f64| Vec3::new(x, 0.0, z);
-        assert_eq!(ball_crossing(&s, z(0.0, 0.3), z(0.0, -0.3)), Some(0.1));
-        assert_eq!(ball_crossing(&s, z(0.05, 0.3), z(0.05, -0.3)), Some(0.1));
+        assert_eq!(ball_crossing(&s, z(0.0, 0.3), z(0.0, -0.3), 0.0), Some(0.1));
+        assert_eq!(
+            ball_crossing(&s, z(0.05, 0.3), z(0.05, -0.3), 0.0),
+            Some(0.1)
+        );
         // Grazing past it, and sinking in without passing the centre.
-        assert_eq!(ball_crossing(&s, z(0.15, 0.3), z(0.15, -0.3)), None);
-        assert_eq!(ball_crossing(&s, z(0.0, 0.3), z(0.0, 0.05)), None);
+        assert_eq!(ball_crossing(&s, z(0.15, 0.3), z(0.15, -0.3), 0.0), None);
+        assert_eq!(ball_crossing(&s, z(0.0, 0.3), z(0.0, 0.05), 0.0), None);
+        // A point resting 6 cm outside its skin: its skin passes 4 cm from the centre.
+        assert_eq!(ball_crossing(&s, z(0.05, 0.3), z(0.05, -0.3), 0.06), None);
+        assert_eq!(
+            ball_crossing(&s, z(0.03, 0.3), z(0.03, -0.3), 0.06),
+            Some(0.1)
+        );
     }
 }

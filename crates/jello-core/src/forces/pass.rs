@@ -210,6 +210,8 @@ impl<U> Pass<'_, U> {
                 mass: self.body.material.mass,
                 active: (!active.is_empty()).then(|| &active[local + t..local + t + n]),
                 contact: self.contact.map(|c| c.range(r.clone())),
+                clearance: (!self.body.clearance().is_empty())
+                    .then(|| &self.model.clearance()[r.clone()]),
                 anchors: self.anchors,
             };
             // The row buffer is free once the chunk's springs are done.

@@ -38,6 +38,10 @@ pub struct PointInputs<'a> {
     /// The obstacles' friction anchors (of every point; see [`crate::contact::friction`]), or `None`
     /// when there are none (friction off, or a force evaluation outside a step).
     pub anchors: Option<&'a Anchors>,
+    /// How far each point of the block rests outside its body's skin (m), taken off its depth
+    /// into the walls, the plane and the obstacles (see [`crate::model::clearance`]), or `None`
+    /// for none (a body without a skin).
+    pub clearance: Option<&'a [f64]>,
 }
 
 crate::compute::simd::multiversion! {
@@ -58,6 +62,7 @@ fn block_accelerations_impl(model: &Model, point: PointInputs<'_>, acc: [&mut [f
     let [vx, vy, vz] = point.vel.map(|c| &c[..len]);
     let [sx, sy, sz] = point.spring.map(|c| &c[..len]);
     let control = point.control.map(|c| &c[..len]);
+    let clearance = point.clearance.map(|c| &c[..len]);
     let (kc, dc, mass) = (model.k_collision, model.d_collision, point.mass);
     let (lo, hi) = (model.bounds.min, model.bounds.max);
     let obstacles = !model.obstacles.is_empty()
@@ -91,7 +96,7 @@ fn block_accelerations_impl(model: &Model, point: PointInputs<'_>, acc: [&mut [f
     // compiler would not split it by its invariant options.)
     // Every point's sum is taken in the same order as ever: spring force plus field, the wall
     // (`kCollision·depth·n − dCollision (v·n) n` with n = ±axis), the plane, the control, then
-    // over the mass.
+    // over the mass. A point with a clearance meets the walls that much further out.
     let walls = [(lo.x, hi.x), (lo.y, hi.y), (lo.z, hi.z)];
     let comps = [
         (&mut *ax, px, vx, sx),
@@ -100,15 +105,29 @@ fn block_accelerations_impl(model: &Model, point: PointInputs<'_>, acc: [&mut [f
     ];
     for (c, ((a, p, v, s), (lo, hi))) in comps.into_iter().zip(walls).enumerate() {
         let (a, p, v, s) = (&mut a[..len], &p[..len], &v[..len], &s[..len]);
-        match constant {
-            Some(field) => {
+        match (constant, clearance) {
+            (Some(field), None) => {
                 let field = field.to_array()[c];
                 for t in 0..len {
                     a[t] = (s[t] + field) + wall_force(p[t], v[t], lo, hi, kc, dc);
                 }
             }
-            None => {
+            (None, None) => {
                 for t in 0..len {
+                    a[t] += wall_force(p[t], v[t], lo, hi, kc, dc);
+                }
+            }
+            (Some(field), Some(out)) => {
+                let (field, out) = (field.to_array()[c], &out[..len]);
+                for t in 0..len {
+                    let (lo, hi) = (lo - out[t], hi + out[t]);
+                    a[t] = (s[t] + field) + wall_force(p[t], v[t], lo, hi, kc, dc);
+                }
+            }
+            (None, Some(out)) => {
+                let out = &out[..len];
+                for t in 0..len {
+                    let (lo, hi) = (lo - out[t], hi + out[t]);
                     a[t] += wall_force(p[t], v[t], lo, hi, kc, dc);
                 }
             }
@@ -122,9 +141,15 @@ fn block_accelerations_impl(model: &Model, point: PointInputs<'_>, acc: [&mut [f
                 Vec3::new(vx[t], vy[t], vz[t]),
             );
             let s = pl.value(pi);
-            let depth = s.abs() / norm;
+            let (depth, touches) = match clearance {
+                None => (s.abs() / norm, s * pl.side < 0.0),
+                Some(out) => {
+                    let depth = s.abs() / norm - out[t];
+                    (depth, s * pl.side < 0.0 && depth > 0.0)
+                }
+            };
             let push = n * (kc * depth) - n * (dc * vi.dot(n));
-            let push = if s * pl.side < 0.0 { push } else { Vec3::ZERO };
+            let push = if touches { push } else { Vec3::ZERO };
             (ax[t], ay[t], az[t]) = (ax[t] + push.x, ay[t] + push.y, az[t] + push.z);
         }
     }
@@ -270,7 +295,7 @@ fn add_friction(
             continue;
         }
         let p = Vec3::new(point.pos[0][t], point.pos[1][t], point.pos[2][t]);
-        let Some(contact) = surface.contact(model, p) else {
+        let Some(contact) = surface.contact_of(model, point.first + t, p) else {
             continue;
         };
         let v = Vec3::new(point.vel[0][t], point.vel[1][t], point.vel[2][t]);
@@ -301,6 +326,9 @@ fn add_contacts(
     for t in 0..len {
         let p = Vec3::new(px[t], py[t], pz[t]);
         let (depth, n) = depth_normal(p);
+        // Less the point's clearance (`x − 0` is `x` to the bit, so a body without one is as
+        // ever).
+        let depth = depth - point.clearance.map_or(0.0, |c| c[t]);
         let anchor = anchors.map_or(friction::NONE, |a| a[t]);
         let f = penalty(
             depth,

@@ -127,26 +127,36 @@ pub struct Body {
     pub(crate) first: usize,
     /// The surface other bodies touch, computed when first asked for (see
     /// [`Body::contact_surface`]).
-    contact: ContactCache,
+    contact: Derived<ContactSurface>,
+    /// How far each lattice point rests outside the skin, computed when first asked for (see
+    /// [`Body::clearance`]).
+    clearance: Derived<Vec<f64>>,
 }
 
-/// A body's [`ContactSurface`], computed once, when contact first asks for it: derived from the
-/// body, so it plays no part in comparing bodies.
-#[derive(Clone, Default)]
-struct ContactCache(OnceLock<Arc<ContactSurface>>);
+/// Something computed from a body once, when first asked for (its [`ContactSurface`], its
+/// points' clearance): derived from the body, so it plays no part in comparing bodies, and
+/// shared by its clones.
+#[derive(Clone)]
+struct Derived<T>(OnceLock<Arc<T>>);
 
-impl PartialEq for ContactCache {
+impl<T> Default for Derived<T> {
+    fn default() -> Self {
+        Derived(OnceLock::new())
+    }
+}
+
+impl<T> PartialEq for Derived<T> {
     fn eq(&self, _: &Self) -> bool {
         true
     }
 }
 
-impl std::fmt::Debug for ContactCache {
+impl<T> std::fmt::Debug for Derived<T> {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.write_str(if self.0.get().is_some() {
-            "ContactCache(computed)"
+            "Derived(computed)"
         } else {
-            "ContactCache(not yet)"
+            "Derived(not yet)"
         })
     }
 }
@@ -188,7 +198,8 @@ impl Body {
             rotation: IDENTITY,
             skin: None,
             first: 0,
-            contact: ContactCache::default(),
+            contact: Derived::default(),
+            clearance: Derived::default(),
         }
     }
 
@@ -276,7 +287,8 @@ impl Body {
     /// The same body carrying `skin` (embedded in this lattice).
     pub fn with_skin(mut self, skin: Skin) -> Self {
         self.skin = Some(skin);
-        self.contact = ContactCache::default();
+        self.contact = Derived::default();
+        self.clearance = Derived::default();
         self
     }
 
@@ -286,6 +298,17 @@ impl Body {
         self.contact
             .0
             .get_or_init(|| Arc::new(ContactSurface::new(self)))
+    }
+
+    /// Per lattice point, how far it rests outside the body's skin (m; 0 on or inside it, and
+    /// for a point of no kept cell), computed on the first call: the walls, the plane and the
+    /// obstacles take it off a point's depth, so that a skin touches them rather than the cage
+    /// of cells around it (see [`crate::model::clearance`]). Empty for a body without a skin,
+    /// or whose lattice points all rest on or inside it.
+    pub fn clearance(&self) -> &[f64] {
+        self.clearance
+            .0
+            .get_or_init(|| Arc::new(crate::model::clearance::rest_clearance(self)))
     }
 
     /// The lattice.

@@ -268,7 +268,8 @@ impl ContactSurface {
             }
         };
         let reach = 2.0 * lattice.spacing().length();
-        let (refined, distance) = signed_distances(lattice, &cells, &vertices, &triangles, reach);
+        let (refined, distance) =
+            signed_distances(lattice, &cells, &vertices, &triangles, reach, REFINE);
         ContactSurface {
             samples,
             distance,
@@ -341,30 +342,32 @@ fn cage_sample(
 }
 
 /// The signed distance (m) to the closed surface `vertices` / `triangles` at the points of a
-/// grid [`REFINE`] times as fine as `lattice`, in the kept cells `cells` (their lower corners'
-/// lattice indices): negative inside; `−reach` for a point further than `reach` from the surface
-/// (inside: every point of a kept cell is within a cell's diagonal of the solid); 0 outside the
-/// kept cells. Returns the grid's points per axis and the distances.
-fn signed_distances(
+/// grid `refine` times as fine as `lattice` ([`REFINE`] for contacts, 1 for the lattice points
+/// themselves), in the kept cells `cells` (their lower corners' lattice indices): negative
+/// inside; `−reach` for a point further than `reach` from the surface (inside: every point of a
+/// kept cell is within a cell's diagonal of the solid); 0 outside the kept cells. Returns the
+/// grid's points per axis and the distances.
+pub(crate) fn signed_distances(
     lattice: &Lattice,
     cells: &[u32],
     vertices: &[Vec3],
     triangles: &[[u32; 3]],
     reach: f64,
+    refine: usize,
 ) -> ([usize; 3], Vec<f64>) {
-    let refined = lattice.counts.map(|n| REFINE * n.saturating_sub(1) + 1);
+    let refined = lattice.counts.map(|n| refine * n.saturating_sub(1) + 1);
     let [rx, ry, rz] = refined;
     let index = |i: usize, j: usize, k: usize| (i * ry + j) * rz + k;
-    let h = lattice.spacing() * (1.0 / REFINE as f64);
+    let h = lattice.spacing() * (1.0 / refine as f64);
     let at =
         |i: usize, j: usize, k: usize| Vec3::new(i as f64 * h.x, j as f64 * h.y, k as f64 * h.z);
     // The grid's points in kept cells.
     let mut used = vec![false; rx * ry * rz];
     for &c in cells {
-        let [ci, cj, ck] = lattice.coords(c as usize).map(|x| REFINE * x);
-        for i in ci..=ci + REFINE {
-            for j in cj..=cj + REFINE {
-                for k in ck..=ck + REFINE {
+        let [ci, cj, ck] = lattice.coords(c as usize).map(|x| refine * x);
+        for i in ci..=ci + refine {
+            for j in cj..=cj + refine {
+                for k in ck..=ck + refine {
                     used[index(i, j, k)] = true;
                 }
             }

@@ -10,6 +10,7 @@
 //! - [`lattice`]: lattice points and the spring stencil;
 //! - [`body`]: a body (its cells, springs, material, placement); [`springs`]: per-spring values;
 //! - [`voxel`]: a closed mesh's cells; [`skin`]: the mesh carried by a body's cells;
+//!   [`clearance`]: how far its lattice points rest outside that mesh;
 //! - [`obstacle`]: the box, planes, spheres and solid boxes, with their contact geometry;
 //! - [`field`]: the force field sampled on a grid; [`field_preset`]: the fields `--field` names;
 //! - [`motion`]: pinned points moved along paths;
@@ -17,6 +18,7 @@
 //! - [`defaults`]: the classic world's values; [`error`]: [`ModelError`] and shared checks.
 
 pub mod body;
+pub mod clearance;
 pub mod contact_surface;
 pub mod defaults;
 pub mod error;
@@ -96,6 +98,10 @@ pub struct Model {
     pub escape_margin: f64,
     /// How closely the implicit integrator solves each step (see [`crate::integrate::implicit`]).
     pub newton: crate::model::solver::Newton,
+    /// Per point (flat index), its body's [`Body::clearance`]: how far it rests outside its
+    /// skin, taken off its depth into the walls, the plane and the obstacles. Empty when no
+    /// point has any (every model without a mesh body).
+    clearance: Vec<f64>,
 }
 
 impl Model {
@@ -126,6 +132,31 @@ impl Model {
             .wall_contacts(p)
             .chain(self.plane.and_then(|pl| pl.contact(p)))
             .chain(self.obstacles.iter().filter_map(move |o| o.contact(p)))
+    }
+
+    /// Per point (flat index), how far it rests outside its body's skin (m), taken off its depth
+    /// into the walls, the plane and the obstacles (see [`crate::model::clearance`]); empty when
+    /// no point has any.
+    pub fn clearance(&self) -> &[f64] {
+        &self.clearance
+    }
+
+    /// Point `i`'s clearance (m; see [`Model::clearance`]).
+    #[inline]
+    pub fn clearance_of(&self, i: usize) -> f64 {
+        self.clearance.get(i).copied().unwrap_or(0.0)
+    }
+
+    /// The contacts of point `i` at `p` with the walls, the inclined plane and the obstacles,
+    /// as [`Model::contacts`] gives them, each with the point's clearance taken off its depth
+    /// (and left out when that leaves none).
+    pub fn contacts_of(
+        &self,
+        i: usize,
+        p: Vec3,
+    ) -> impl Iterator<Item = crate::model::obstacle::ObstacleContact> + '_ {
+        let clearance = self.clearance_of(i);
+        self.contacts(p).filter_map(move |c| c.less(clearance))
     }
 
     /// True when surfaces may touch: the model has several bodies, or self-contact on (see
@@ -492,7 +523,9 @@ impl ModelBuilder {
                 self.newton.cutbacks
             )));
         }
+        let clearance = flat_clearance(&self.bodies);
         Ok(Model {
+            clearance,
             bodies: self.bodies,
             k_collision: self.k_collision,
             d_collision: self.d_collision,
@@ -513,6 +546,22 @@ impl ModelBuilder {
             newton: self.newton,
         })
     }
+}
+
+/// Every body's [`Body::clearance`] one after the other (0 for a body without), or nothing when
+/// no point has any.
+fn flat_clearance(bodies: &[Body]) -> Vec<f64> {
+    if bodies.iter().all(|b| b.clearance().is_empty()) {
+        return Vec::new();
+    }
+    let mut flat = Vec::new();
+    for body in bodies {
+        match body.clearance() {
+            [] => flat.resize(flat.len() + body.len(), 0.0),
+            own => flat.extend_from_slice(own),
+        }
+    }
+    flat
 }
 
 /// The most points one lattice may have: 2²⁷ (512³, the finest `jello create --mesh --cells`

@@ -22,6 +22,17 @@ pub struct ObstacleContact {
 }
 
 impl ObstacleContact {
+    /// This contact with `clearance` (m) taken off its depth, or `None` when that leaves none
+    /// (see [`crate::model::clearance`]).
+    #[inline]
+    pub fn less(self, clearance: f64) -> Option<Self> {
+        let depth = self.depth - clearance;
+        (depth > 0.0).then_some(ObstacleContact {
+            depth,
+            normal: self.normal,
+        })
+    }
+
     /// The penalty spring's force (N) on a point moving at `v`, with stiffness `k` (N/m) and
     /// damping `d` (N·s/m): `k·depth·n − d (v·n) n`.
     #[inline]

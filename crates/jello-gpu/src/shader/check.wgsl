@@ -22,8 +22,8 @@ fn sound(i: u32, p: vec3<f32>, v: vec3<f32>) -> bool {
 }
 
 // Records how deep point i, at p at a step's end, is into a wall (the furthest it is outside on
-// any axis), the plane or an obstacle. A point outside its body (a lattice's corner beyond a
-// mesh) is in no contact, as in the core's max_penetration.
+// any axis), the plane or an obstacle, less its clearance. A point outside its body (a
+// lattice's corner beyond a mesh) is in no contact, as in the core's max_penetration.
 fn record_depth(i: u32, p: vec3<f32>) {
     if ((points[i].y & ACTIVE) == 0u) {
         return;
@@ -38,6 +38,7 @@ fn record_depth(i: u32, p: vec3<f32>) {
             depth = max(depth, obstacle_depth(o, p).w);
         }
     }
+    depth = depth - clearance(i);
     if (depth > 0.0) {
         atomicMax(&status[2], bitcast<u32>(depth));
     }

@@ -173,8 +173,10 @@ fn obstacles_on(i: u32, p: vec3<f32>, v: vec3<f32>, m: f32) -> vec3<f32> {
     let kc = P.law.y;
     let dc = P.law.z;
     let c_max = m / P.law.x;
+    let out = clearance(i);
     for (var o = 0u; o < P.counts.z; o = o + 1u) {
-        let c = obstacle_depth(o, p);
+        var c = obstacle_depth(o, p);
+        c.w = c.w - out;
         if (c.w > 0.0) {
             f = f + c.xyz * (kc * c.w - dc * dot(v, c.xyz));
             if (FRICTION) {
@@ -212,8 +214,10 @@ fn walls_friction_on(i: u32, p: vec3<f32>, v: vec3<f32>, m: f32) -> vec3<f32> {
     if (CLASSIC_PLANE) {
         walls = 7u;
     }
+    let out = clearance(i);
     for (var w = 0u; w < walls; w = w + 1u) {
-        let c = wall_contact(w, p);
+        var c = wall_contact(w, p);
+        c.w = c.w - out;
         if (c.w > 0.0) {
             let anchor = scene_f(anchor_at(wall_slot(w), i));
             f = f + obstacle_friction(p, v, c.w, c.xyz, anchor, c_max, P.flags.y);
@@ -231,11 +235,15 @@ fn finish(i: u32, p: vec3<f32>, v: vec3<f32>, f_springs: vec3<f32>, b: u32) -> v
     }
     let kc = P.law.y;
     let dc = P.law.z;
-    f.x = f.x + wall(p.x, v.x, P.box_lo.x, P.box_hi.x, kc, dc);
-    f.y = f.y + wall(p.y, v.y, P.box_lo.y, P.box_hi.y, kc, dc);
-    f.z = f.z + wall(p.z, v.z, P.box_lo.z, P.box_hi.z, kc, dc);
+    // A point resting outside its skin meets the walls and the plane that much further out.
+    let out = clearance(i);
+    let lo = P.box_lo.xyz - vec3<f32>(out);
+    let hi = P.box_hi.xyz + vec3<f32>(out);
+    f.x = f.x + wall(p.x, v.x, lo.x, hi.x, kc, dc);
+    f.y = f.y + wall(p.y, v.y, lo.y, hi.y, kc, dc);
+    f.z = f.z + wall(p.z, v.z, lo.z, hi.z, kc, dc);
     if (CLASSIC_PLANE) {
-        let depth = plane_depth(p);
+        let depth = plane_depth(p) - out;
         if (depth > 0.0) {
             let n = P.plane.xyz * (P.plane_side.y / P.plane_side.x);
             f = f + n * (kc * depth) - n * (dc * dot(v, n));

@@ -34,7 +34,8 @@ const MAX_BODIES: u32 = 224u;
 // What the model has, fixed when its pipelines are made, so that the code of what it does not
 // have is compiled out: a single body; contacts between bodies; obstacles; friction (on
 // obstacles and between bodies); friction on the walls and the classic plane; a sampled field;
-// the classic plane (CLASSIC_PLANE); per-spring values; pins that move on paths.
+// the classic plane (CLASSIC_PLANE); per-spring values; pins that move on paths; points resting
+// outside their body's skin (CLEARANCE).
 override ONE_BODY: bool = true;
 override CONTACTS: bool = false;
 override OBSTACLES: bool = false;
@@ -44,6 +45,7 @@ override FIELD: bool = false;
 override CLASSIC_PLANE: bool = false;
 override SPRING_VALUES: bool = false;
 override PINS: bool = false;
+override CLEARANCE: bool = false;
 const NONE: u32 = 0xffffffffu;
 
 struct Params {
@@ -65,7 +67,8 @@ struct Params {
     // Where regions start in `scene` (in vec4): obstacles, field nodes, control, friction anchors
     // (NONE without friction on obstacles or walls)
     at: vec4<u32>,
-    // field res, 0, 0, 0
+    // field res, where the points' clearances start in `scene` (vec4; NONE without CLEARANCE),
+    // 0, 0
     field_res: vec4<u32>,
     // Contacts between bodies (CONTACTS; see contact.wgsl and touch.wgsl): the side of a cell
     // grid's cell (m, the largest lattice spacing), its inverse, 0, 0
@@ -101,6 +104,9 @@ struct Params {
 // Params.at and Body.index):
 // - obstacles, three each: [kind, 0, 0, 0], then two vec4 of its shape (see `obstacle_depth`);
 // - field nodes (res³ forces, N; i outermost, k innermost);
+// - clearances (CLEARANCE), four to a vec4: how far each point rests outside its body's skin
+//   (m), taken off its depth into the walls, the plane and the obstacles (the core's
+//   model::clearance);
 // - control, two per point: [control force plus a uniform field's (N), Σ pull damping (N·s/m)],
 //   [Σ pull stiffness × target (N), Σ pull stiffness (N/m)];
 // - per-spring values of bodies that have them: for the point p of a body and stencil entry s,
@@ -142,6 +148,14 @@ fn point_index(gid: vec3<u32>, groups: vec3<u32>) -> u32 {
 
 fn scene_f(at: u32) -> vec4<f32> {
     return bitcast<vec4<f32>>(scene[at]);
+}
+
+// How far point i rests outside its body's skin (m; 0 without CLEARANCE).
+fn clearance(i: u32) -> f32 {
+    if (!CLEARANCE) {
+        return 0.0;
+    }
+    return scene_f(P.field_res.y + i / 4u)[i % 4u];
 }
 
 // Where point i's friction anchor on anchored surface `slot` is in `scene`: the obstacles' slots

@@ -180,12 +180,18 @@ fn anchors(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroup
     if (FRICTION) {
         obstacles = P.counts.z;
     }
+    // The point's clearance, from scene_rw as the obstacles below.
+    var out: f32 = 0.0;
+    if (CLEARANCE) {
+        out = bitcast<vec4<f32>>(scene_rw[P.field_res.y + i / 4u])[i % 4u];
+    }
     for (var o = 0u; o < obstacles; o = o + 1u) {
         let at = anchor_at(o, i);
         // The obstacles from scene_rw: this pass may not bind the scene read-only as well.
         let shape = P.at.x + 3u * o;
-        let c = shape_depth(scene_rw[shape].x, bitcast<vec4<f32>>(scene_rw[shape + 1u]),
+        var c = shape_depth(scene_rw[shape].x, bitcast<vec4<f32>>(scene_rw[shape + 1u]),
             bitcast<vec4<f32>>(scene_rw[shape + 2u]), p);
+        c.w = c.w - out;
         if (!(c.w > 0.0)) {
             scene_rw[at] = vec4<u32>(0u);
             continue;
@@ -203,20 +209,21 @@ fn anchors(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroup
         }
     }
     if (WALL_FRICTION) {
-        wall_anchors(i, p);
+        wall_anchors(i, p, out);
     }
 }
 
 // The walls' and the classic plane's anchors, after the obstacles' (WALL_FRICTION), by the same
-// rule with their own coefficient.
-fn wall_anchors(i: u32, p: vec3<f32>) {
+// rule with their own coefficient; `out` is the point's clearance.
+fn wall_anchors(i: u32, p: vec3<f32>, out: f32) {
     var walls = 6u;
     if (CLASSIC_PLANE) {
         walls = 7u;
     }
     for (var w = 0u; w < walls; w = w + 1u) {
         let at = anchor_at(wall_slot(w), i);
-        let c = wall_contact(w, p);
+        var c = wall_contact(w, p);
+        c.w = c.w - out;
         if (!(c.w > 0.0)) {
             scene_rw[at] = vec4<u32>(0u);
             continue;

@@ -127,7 +127,7 @@ pub(super) fn add_forces(
             let p = at(i);
             let c_max = friction::implicit_cap(mass[i], model.dt, kc);
             for surface in anchored_surfaces(model) {
-                if let Some(c) = surface.contact(model, p) {
+                if let Some(c) = surface.contact_of(model, i, p) {
                     let anchor = anchors.anchor(surface, i);
                     let law = [kc, dc, surface.friction(model)];
                     *f += friction::obstacle(p, v[i], c.depth, c.normal, anchor, law, c_max);

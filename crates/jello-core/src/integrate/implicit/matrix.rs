@@ -119,10 +119,10 @@ pub(super) fn assemble(
                 swirl = swirl.max(h2 * field::swirl(&gradient) / s.mass[i]);
             }
         }
-        let walls = model
-            .bounds
-            .wall_contacts(p)
-            .chain(model.plane.and_then(|pl| pl.contact(p)));
+        let clearance = model.clearance_of(i);
+        let walls = (model.bounds.wall_contacts(p))
+            .chain(model.plane.and_then(|pl| pl.contact(p)))
+            .filter_map(|c| c.less(clearance));
         for c in walls {
             add_outer(e, c.normal, h2 * kc);
         }
@@ -130,7 +130,7 @@ pub(super) fn assemble(
         if model.wall_friction > 0.0 {
             let walls = (0..6).map(Surface::Wall);
             for surface in walls.chain(model.plane.map(|_| Surface::Plane)) {
-                if let Some(c) = surface.contact(model, p) {
+                if let Some(c) = surface.contact_of(model, i, p) {
                     let anchor = anchors.anchor(surface, i);
                     let c_max = friction::implicit_cap(s.mass[i], model.dt, kc);
                     let law = [kc, dc, model.wall_friction];
@@ -145,7 +145,7 @@ pub(super) fn assemble(
             .obstacles
             .iter()
             .enumerate()
-            .filter_map(|(o, ob)| ob.contact(p).map(|c| (o, c)))
+            .filter_map(|(o, ob)| ob.contact(p)?.less(clearance).map(|c| (o, c)))
         {
             add_outer(e, c.normal, h2 * kc);
             // Friction: the tie's spring and damper while it holds, its sliding part once it

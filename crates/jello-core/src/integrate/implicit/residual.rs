@@ -182,7 +182,7 @@ fn fall_by_chunks(
             moved -= 0.5 * s.mass[p] * step.dot((t[p] - v0[p]) + (v[p] - v0[p]));
             moved -= 0.5 * h * step.dot(sym_mul(&s.start_damping[p], t[p] + v[p]));
             if s.free[p] != 0.0 {
-                outside += contact_change(model, at(p, v), at(p, t), step * h);
+                outside += contact_change(model, p, at(p, v), at(p, t), step * h);
                 let mut push = model.gravity * s.mass[p];
                 if let Some(f) = control.forces.get(p) {
                     push += *f;
@@ -222,11 +222,11 @@ fn fall_by_chunks(
     fall - 0.5 * model.k_collision * outside
 }
 
-/// The change of a point's `Σ depth²` over its contacts from `xv` to `xt = xv + step`: for
+/// The change of point `i`'s `Σ depth²` over its contacts from `xv` to `xt = xv + step`: for
 /// contacts with the same flat surface at both (the same normal), `(dₜ − dᵥ)(dₜ + dᵥ)` with
 /// `dₜ − dᵥ = −n·step` exactly; otherwise the difference of the sums.
-fn contact_change(model: &Model, xv: Vec3, xt: Vec3, step: Vec3) -> f64 {
-    let (mut at_v, mut at_t) = (model.contacts(xv), model.contacts(xt));
+fn contact_change(model: &Model, i: usize, xv: Vec3, xt: Vec3, step: Vec3) -> f64 {
+    let (mut at_v, mut at_t) = (model.contacts_of(i, xv), model.contacts_of(i, xt));
     let mut paired = 0.0;
     loop {
         match (at_v.next(), at_t.next()) {
@@ -240,7 +240,7 @@ fn contact_change(model: &Model, xv: Vec3, xt: Vec3, step: Vec3) -> f64 {
     let sum = |c: &mut dyn Iterator<Item = crate::model::obstacle::ObstacleContact>| {
         c.map(|c| c.depth * c.depth).sum::<f64>()
     };
-    let whole_v = sum(&mut model.contacts(xv));
-    let whole_t = sum(&mut model.contacts(xt));
+    let whole_v = sum(&mut model.contacts_of(i, xv));
+    let whole_t = sum(&mut model.contacts_of(i, xt));
     whole_t - whole_v
 }

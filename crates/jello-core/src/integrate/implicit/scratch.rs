@@ -363,12 +363,13 @@ impl ImplicitScratch {
             self.start_touches.clear();
         }
         self.springs.start_dampers(x0, &mut self.start_dir);
-        for ((d, &p), &free) in self.start_damping.iter_mut().zip(x0).zip(&self.free) {
+        let points = self.start_damping.iter_mut().zip(x0).zip(&self.free);
+        for (i, ((d, &p), &free)) in points.enumerate() {
             *d = [0.0; 6];
             if free == 0.0 {
                 continue;
             }
-            for c in model.contacts(p) {
+            for c in model.contacts_of(i, p) {
                 add_outer(d, c.normal, model.d_collision);
             }
         }
