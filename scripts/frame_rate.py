@@ -13,11 +13,8 @@ per wall-clock second) at N = 8, 16, 32.
 import argparse
 import json
 import os
-import re
 import subprocess
 import sys
-import tempfile
-import time
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from bench_sections import failure, fmt_rt, rapier_version, write_section  # noqa: E402
@@ -41,67 +38,41 @@ def log(msg):
     print(msg, file=sys.stderr, flush=True)
 
 
-def scene(tmp, n, job):
-    """A Jello scene of the job, written with `jello create`."""
-    path = os.path.join(tmp, "cube%d-%s.toml" % (n, job))
-    centre = 0.5 if job == "rest" else 1.0
-    subprocess.run([JELLO, "create", path, "--force", "--cube", str(n), "--total-mass", "1",
-                    "--modulus", str(MODULUS), "--viscosity", str(VISCOSITY),
-                    "--field", "gravity", "--plane", "0,0,1,0", "--at", "0,0,%g" % centre],
-                   check=True, capture_output=True, text=True)
-    return path
+def run_jello(n, job, integrator, dt, threads, sim_time, max_wall):
+    """Steps the job with `jello bench --job`; returns a result dict (or one with "error").
+    `dt` None: the bench's own, 90 % of the stable step for an explicit integrator."""
+    base = [JELLO, "bench", "--job", job, "--size", str(n), "--integrator", integrator,
+            "--threads", str(threads), "--json"]
+    if dt is not None:
+        base += ["--dt", repr(dt)]
 
+    def bench(steps):
+        wait_quiet()
+        p = subprocess.run(base + ["--steps", str(steps)], capture_output=True, text=True)
+        if p.returncode != 0:
+            return {"error": failure(p)}
+        return json.loads(p.stdout.strip().splitlines()[-1])
 
-def stable_dt(path, integrator):
-    """The stable step `jello info` estimates for an explicit integrator."""
-    out = subprocess.run([JELLO, "info", path], check=True, capture_output=True, text=True).stdout
-    m = re.search(r"^\s*\*?\s*%s\s+([0-9.eE+-]+) s" % integrator, out, re.M)
-    if not m:
-        raise RuntimeError("no stable dt for %s in `jello info %s`" % (integrator, path))
-    return float(m.group(1))
-
-
-def outcome(path):
-    """Centre-of-mass height and deepest penetration of a saved state (from `jello info`)."""
-    out = subprocess.run([JELLO, "info", path], check=True, capture_output=True, text=True).stdout
-    centre = re.search(r"centre of mass\s+\(([^,]+), ([^,]+), ([^)]+)\)", out)
-    depth = re.search(r"penetration\s+([0-9.eE+-]+) m", out)
-    return (float(centre.group(3)) if centre else None,
-            float(depth.group(1)) if depth else None)
-
-
-def run_jello(tmp, path, integrator, dt, threads, sim_time, max_wall):
-    """Steps `path` with `jello run`; returns a result dict (or one with "error")."""
-    env = dict(os.environ, RAYON_NUM_THREADS=str(threads))
-    steps = max(1, round(sim_time / dt))
     # A short probe first, so that a slow configuration is cut to about `max_wall` seconds
     # (never below 0.6 s simulated, which covers the drop's impact).
-    probe = min(steps, 5)
-    t0 = time.perf_counter()
-    p = subprocess.run([JELLO, "run", path, "--integrator", integrator, "--dt", repr(dt),
-                        "--steps", str(probe), "-q"], env=env, capture_output=True, text=True)
-    rate = probe / max(time.perf_counter() - t0, 1e-6)
-    if p.returncode != 0:
-        return {"error": failure(p)}
+    probe = bench(5)
+    if "error" in probe:
+        return probe
+    dt, rate = probe["dt"], probe["steps_per_s"]
+    steps = max(1, round(sim_time / dt))
     capped = steps > rate * max_wall
     if capped:
         # At least 0.6 s simulated (the drop's impact) when that takes under 3 × max_wall.
         least = round(0.6 / dt) if 0.6 / dt < 3 * rate * max_wall else 5
         steps = min(steps, max(round(rate * max_wall), least))
-    saved = os.path.join(tmp, "out.toml")
-    if os.path.exists(saved):
-        os.remove(saved)
-    wait_quiet()
-    t0 = time.perf_counter()
-    p = subprocess.run([JELLO, "run", path, "--integrator", integrator, "--dt", repr(dt),
-                        "--steps", str(steps), "--save", saved, "-q"],
-                       env=env, capture_output=True, text=True)
-    wall = time.perf_counter() - t0
-    if p.returncode != 0:
-        return {"error": failure(p)}
-    centre, depth = outcome(saved)
-    return {"steps": steps, "sim_time": steps * dt, "wall_s": wall,
-            "realtime": steps * dt / wall, "capped": capped, "centre": centre, "depth": depth}
+    r = bench(steps)
+    if "error" in r:
+        return r
+    return {"steps": r["steps"], "sim_time": r["steps"] * dt, "wall_s": r["seconds"],
+            "realtime": r["real_time"], "capped": capped, "centre": r["end_centre_z"],
+            "depth": r["end_depth"], "dt": dt,
+            "newton_per_step": r.get("newton_iterations_per_step"),
+            "linear_per_step": r.get("linear_iterations_per_step")}
 
 
 def run_rapier(n, job, solver, sim_time, max_wall):
@@ -135,25 +106,20 @@ def main():
         ("Rapier soft body (FEM), 1 thread", ("rapier", "fem")),
     ]
     rows = []
-    with tempfile.TemporaryDirectory() as tmp:
-        for n in sizes:
-            sim_time = SIM_TIME.get(n, 1.0)
-            for job in ("rest", "drop"):
-                path = scene(tmp, n, job)
-                row = {"n": n, "job": job, "cells": []}
-                for label, how in columns:
-                    log("N=%d %s: %s" % (n, job, label))
-                    if how[0] == "jello":
-                        _, integ, dt, threads = how
-                        if dt is None:
-                            dt = 0.9 * stable_dt(path, integ)
-                        r = run_jello(tmp, path, integ, dt, threads, sim_time, args.max_wall)
-                        r["dt"] = dt
-                    else:
-                        r = run_rapier(n, job, how[1], sim_time, args.max_wall)
-                    log("  " + json.dumps(r))
-                    row["cells"].append(r)
-                rows.append(row)
+    for n in sizes:
+        sim_time = SIM_TIME.get(n, 1.0)
+        for job in ("rest", "drop"):
+            row = {"n": n, "job": job, "cells": []}
+            for label, how in columns:
+                log("N=%d %s: %s" % (n, job, label))
+                if how[0] == "jello":
+                    _, integ, dt, threads = how
+                    r = run_jello(n, job, integ, dt, threads, sim_time, args.max_wall)
+                else:
+                    r = run_rapier(n, job, how[1], sim_time, args.max_wall)
+                log("  " + json.dumps(r))
+                row["cells"].append(r)
+            rows.append(row)
 
     info = machine()
     section = render(args, columns, rows, info)
@@ -172,13 +138,13 @@ def render(args, columns, rows, info):
       "the floor). The number is the **real-time factor**: simulated seconds per wall-clock "
       "second of stepping (higher is faster; 1× is real time).")
     w("")
-    w("- **Jello**: a scene from `jello create --cube N --total-mass 1 --modulus %g "
-      "--viscosity %g --field gravity --plane 0,0,1,0` (the same material at every N: the "
-      "8³ cube's springs have the classic kElastic 200 N/m, dElastic 0.25 N·s/m; kCollision "
-      "400 N/m), timed as `jello run SCENE --integrator I --dt DT --steps K` (the process, "
-      "scene loading included), threads set by `RAYON_NUM_THREADS`. The implicit methods "
-      "step at dt = 1/60 s; RK4 at 90 %% of the stable step `jello info` estimates for the "
-      "scene (its dt is in the table below)." % (MODULUS, VISCOSITY))
+    w("- **Jello**: `jello bench --job rest|drop --size N --integrator I --threads T --steps K "
+      "--json`, which steps the scene `jello create --cube N --total-mass 1 --modulus %g "
+      "--viscosity %g --field gravity --plane 0,0,1,0` writes (the same material at every N: "
+      "the 8³ cube's springs have the classic kElastic 200 N/m, dElastic 0.25 N·s/m; "
+      "kCollision 400 N/m) from its start after a warm-up, and times the stepping alone. The "
+      "implicit methods step at dt = 1/60 s; RK4 at 90 %% of the stable step `jello info` "
+      "estimates for the scene (its dt is in the table below)." % (MODULUS, VISCOSITY))
     w("- **Rapier** (PyPI `rapier3d`, %s): `SoftBody.cuboid` with N particles per side, "
       "mass 1 kg, the default material, sleeping off, a half-space floor, dt 1/60 s, its "
       "default solver iterations, one thread (`bench/peers/rapier_peer.py`). Its particles "

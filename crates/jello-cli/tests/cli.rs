@@ -675,12 +675,26 @@ fn bench_job_steps_the_scene_jello_create_makes() {
             json_number(&out, "real_time").is_some_and(|r| r > 0.0),
             "{out}"
         );
+        // After 3 s the 1 m cube rests on the floor, its centre half a metre up (less its
+        // settling), a little into the floor.
+        let centre = json_number(&out, "end_centre_z").unwrap();
+        let depth = json_number(&out, "end_depth").unwrap();
+        assert!((0.45..0.5).contains(&centre), "{out}");
+        assert!(depth > 0.0 && depth < 0.05, "{out}");
     }
     let out = t.succeeds(&[
         "bench", "--job", "drop", "--size", "5", "--steps", "4", "--json",
     ]);
     assert_eq!(json_number(&out, "steps"), Some(4.0), "{out}");
     assert!(out.contains("\"job\": \"drop\""), "{out}");
+    // Four steps into the drop, the cube is still falling from 0.5 m up.
+    assert!(
+        json_number(&out, "end_centre_z").is_some_and(|z| z > 0.9),
+        "{out}"
+    );
+    // The benchmark scene has no floor to end on.
+    let out = t.succeeds(&["bench", "--size", "4", "--steps", "2", "--json"]);
+    assert!(out.contains("\"end_centre_z\": null"), "{out}");
 }
 
 /// `jello bench` and `jello run` report the implicit solver's work per step: Newton

@@ -4,6 +4,7 @@ use std::time::{Duration, Instant};
 
 use clap::Args;
 use jello_core::benchmark::{self, Job};
+use jello_core::diagnostics::{max_penetration, model_centre_of_mass};
 use jello_core::{compute::simd, Integrator, Model, Simulation, SolverStats, State};
 
 use super::{
@@ -142,6 +143,28 @@ struct Measurement {
     tolerance: Option<f64>,
     /// The implicit solver's work over the measured steps; `None` for an explicit integrator.
     solver: Option<SolverStats>,
+    /// Where a frame-rate job ended; `None` for the benchmark scene.
+    end: Option<End>,
+}
+
+/// Where a frame-rate job's cube is after the measured run: so that a table of speeds can say
+/// that the run did the job (the cube rests on the floor rather than through it).
+#[derive(Clone, Copy, Debug)]
+struct End {
+    /// Height of the centre of mass above the floor (m).
+    centre: f64,
+    /// Deepest penetration into the floor (m).
+    depth: f64,
+}
+
+impl End {
+    /// The end of `job` with the points at `pos` (`None` for the benchmark scene).
+    fn of(job: Option<Job>, model: &Model, pos: &[jello_core::Vec3]) -> Option<End> {
+        job.map(|_| End {
+            centre: model_centre_of_mass(model, pos).z,
+            depth: max_penetration(model, pos),
+        })
+    }
 }
 
 /// Runs the benchmark scene (see [`benchmark::scene`]) and prints the rates.
@@ -216,7 +239,8 @@ pub fn bench(args: BenchArgs) -> Result<(), CliError> {
             "{{\"impl\": \"jello\", \"job\": \"{}\", \"size\": {}, \"points\": {}, \"springs\": {}, \"integrator\": \"{}\", \"tolerance\": {}, \
              \"device\": \"{device}\", \"adapter\": {adapter_json}, \"gpu_kernel\": {kernel_json}, \"precision\": \"{precision}\", \
              \"threads\": {threads}, \"simd\": \"{tier}\", \"dt\": {}, \"steps\": {}, \"seconds\": {:.3}, \"steps_per_s\": {:.1}, \
-             \"real_time\": {:.4}, \"split_steps\": {}, {solver_json}, \"spring_evals_per_s\": {}, \"peak_rss_mib\": {}, \"version\": \"{}\"}}",
+             \"real_time\": {:.4}, \"split_steps\": {}, {solver_json}, \"spring_evals_per_s\": {}, \"end_centre_z\": {}, \"end_depth\": {}, \
+             \"peak_rss_mib\": {}, \"version\": \"{}\"}}",
             job.map_or("throw", Job::name),
             args.size,
             m.points,
@@ -230,6 +254,8 @@ pub fn bench(args: BenchArgs) -> Result<(), CliError> {
             real_time,
             m.split_steps,
             evals_per_s.map_or("null".to_string(), |e| format!("{e:.1}")),
+            m.end.map_or("null".to_string(), |e| format!("{:e}", e.centre)),
+            m.end.map_or("null".to_string(), |e| format!("{:e}", e.depth)),
             peak.map_or("null".to_string(), |p| format!("{p:.1}")),
             env!("CARGO_PKG_VERSION")
         );
@@ -245,7 +271,7 @@ pub fn bench(args: BenchArgs) -> Result<(), CliError> {
         };
         println!(
             "{n}³ {what} ({} points, {} springs), {}, dt {} s, {on}: {:.0} steps/s, {:.3}× real time{}{} \
-             ({} steps in {:.2} s{}{})",
+             ({} steps in {:.2} s{}{}){}",
             m.points,
             m.springs,
             match m.tolerance {
@@ -265,6 +291,10 @@ pub fn bench(args: BenchArgs) -> Result<(), CliError> {
                 k => format!(", {k} of them taken in parts"),
             },
             peak.map_or(String::new(), |p| format!(", peak memory {p:.0} MiB")),
+            m.end.map_or(String::new(), |e| format!(
+                "; it ends with its centre of mass {:.4} m above the floor, {:.2e} m deep in it",
+                e.centre, e.depth
+            )),
         );
     }
     Ok(())
@@ -363,6 +393,7 @@ fn measure(
             .is_implicit()
             .then(|| sim.solver_stats() - solver_before),
         tolerance,
+        end: End::of(job, &sim.model, &sim.state.pos),
     })
 }
 
@@ -402,6 +433,10 @@ fn measure_gpu(
         steps += batch;
     }
     let wall = start.elapsed().as_secs_f64();
+    let end = match job {
+        Some(_) => End::of(job, &model, &gpu.read_state(&name)?.pos),
+        None => None,
+    };
     Ok((
         Measurement {
             points,
@@ -412,6 +447,7 @@ fn measure_gpu(
             split_steps: 0,
             tolerance: None,
             solver: None,
+            end,
         },
         gpu.adapter(),
         gpu.kernel(),
