@@ -236,11 +236,18 @@ impl Contacts {
             for (s, cells) in each_active(&chunk.active, &chunk.cells) {
                 let sample = &surface.samples[s];
                 let (points, w, ps) = sample_place(surface, first, sample, at);
-                // The cell that holds the sample, else the nearest: the one whose nearest
-                // point is closest to it.
+                // The cell that holds the sample inside its body's surface; else, of the cells
+                // that hold it outside their body's surface by less than the margin, the one
+                // it is least outside of (another body's cell may hold it inside, as in
+                // `find_touches`); else the nearest cell: the one whose nearest point is
+                // closest to it.
                 let mut found: Option<(f64, Option<Touch>)> = None;
+                let mut clear_of = usize::MAX;
                 visit(cells, ps, |g| {
                     let (b, corner) = grid.cell(g);
+                    if b == clear_of {
+                        return false;
+                    }
                     let other = bodies[b].contact_surface();
                     let h = bodies[b].min_spacing();
                     let corners = map8(other.offsets, |o| at(corner + o));
@@ -257,7 +264,9 @@ impl Contacts {
                         (nearest, rows, ps - cell_map(&corners, nearest))
                     };
                     let far = offset.length();
-                    if found.as_ref().is_some_and(|(nearest, _)| *nearest <= far) {
+                    // A cell that holds the sample is always looked at (it may hold it inside
+                    // its body); one apart from it only when nearer than the nearest so far.
+                    if !inside && found.as_ref().is_some_and(|(nearest, _)| *nearest <= far) {
                         return false;
                     }
                     let cell = bodies[b]
@@ -272,8 +281,25 @@ impl Contacts {
                         (-(phi.max(0.0) + far), offset / far)
                     };
                     if !normal.is_finite() || depth.is_nan() || depth <= -margin {
-                        found = Some((far, None));
-                        return inside;
+                        if inside {
+                            clear_of = b;
+                        } else {
+                            found = Some((far, None));
+                        }
+                        return false;
+                    }
+                    // Held outside this body's surface: kept unless a touch as near is deeper.
+                    let held = inside && depth <= 0.0;
+                    if held {
+                        clear_of = b;
+                        let deeper =
+                            |t: &Option<Touch>| t.as_ref().is_some_and(|t| t.depth >= depth);
+                        if found
+                            .as_ref()
+                            .is_some_and(|(nearest, t)| *nearest == 0.0 && deeper(t))
+                        {
+                            return false;
+                        }
                     }
                     let mut touch_points = points;
                     let mut touch_weights = w;
@@ -289,7 +315,7 @@ impl Contacts {
                         reduced: ma * mb / (ma + mb),
                     };
                     found = Some((far, Some(touch)));
-                    inside
+                    inside && !held
                 });
                 out.extend(found.and_then(|(_, touch)| touch));
             }
@@ -335,15 +361,22 @@ fn find_touches(
     for (s, cells) in each_active(active, cells) {
         let sample = &surface.samples[s];
         let (mut points, mut w, ps) = sample_place(surface, first, sample, at);
+        // The body last found to hold the sample in a cell but outside its surface.
+        let mut clear_of = usize::MAX;
         visit(cells, ps, |g| {
             let (b, corner) = grid.cell(g);
+            if b == clear_of {
+                return false;
+            }
             let other = bodies[b].contact_surface();
             let corners = map8(other.offsets, |o| at(corner + o));
             let Some((uvw, rows)) = locate(&corners, ps) else {
                 return false;
             };
-            // The first cell that holds the sample decides (cells only share faces, where their
-            // distances agree).
+            // The first cell that holds the sample inside its body's surface decides. A cell
+            // that holds it outside that surface (a cage reaches past its skin) does not: the
+            // body's other cells hold it only on a shared face, with the same distance, but
+            // another body's may hold it inside.
             let cell = bodies[b]
                 .lattice()
                 .coords(corner - bodies[b].points().start);
@@ -351,7 +384,8 @@ fn find_touches(
             let gradient = in_space(gu, &rows);
             let length = gradient.length();
             if !(phi < 0.0 && length > 0.0) {
-                return true;
+                clear_of = b;
+                return false;
             }
             let (depth, n) = (-phi / length.max(MIN_GRADIENT), gradient / length);
             for (k, (&o, wb)) in other.offsets.iter().zip(weights(uvw)).enumerate() {
@@ -629,7 +663,8 @@ mod tests {
     }
 
     /// Every touch by a search over every kept cell of every other body, in the cells' order,
-    /// the first cell that holds a sample deciding: the forces the grid's visits must give.
+    /// the first cell that holds a sample inside its body's surface deciding (one that holds it
+    /// outside passes the search on to the next body): the forces the grid's visits must give.
     fn by_every_cell(model: &Model, pos: &[Vec3], vel: &[Vec3]) -> Vec<Vec3> {
         let mut force = vec![Vec3::ZERO; pos.len()];
         let bodies = model.bodies();
@@ -677,8 +712,9 @@ mod tests {
                             for (&o, w) in os.offsets.iter().zip(wb) {
                                 force[corner + o] -= f * w;
                             }
+                            break 'cells;
                         }
-                        break 'cells;
+                        continue 'cells;
                     }
                 }
             }
@@ -762,6 +798,70 @@ mod tests {
             "{} sorts in {rounds} rounds",
             contacts.grid.sorts()
         );
+    }
+
+    /// A small cube inside a third body's corner where that body's cage reaches past its skin
+    /// (an octahedron's box of cells) and inside a cube there: it touches the cube, and the
+    /// octahedron not at all. (The first cell to hold a sample decided whatever the distance
+    /// there, so a cage's corner hid the cube.)
+    #[test]
+    fn a_sample_outside_one_skin_inside_its_cage_still_touches_a_body_there() {
+        let r = 0.3;
+        let vertices: Vec<Vec3> = [
+            [r, 0.0, 0.0],
+            [-r, 0.0, 0.0],
+            [0.0, r, 0.0],
+            [0.0, -r, 0.0],
+            [0.0, 0.0, r],
+            [0.0, 0.0, -r],
+        ]
+        .map(|[x, y, z]| Vec3::new(x, y, z))
+        .to_vec();
+        let mut triangles = Vec::new();
+        for (x, sx) in [(0u32, 1.0), (1, -1.0)] {
+            for (y, sy) in [(2u32, 1.0), (3, -1.0)] {
+                for (z, sz) in [(4u32, 1.0), (5, -1.0)] {
+                    triangles.push(if sx * sy * sz > 0.0 {
+                        [x, y, z]
+                    } else {
+                        [x, z, y]
+                    });
+                }
+            }
+        }
+        // Two cells a side: the cage is the box [−0.3, 0.3]³; its corner (0.3, 0.3, 0.3) is
+        // 0.35 m from the skin (the face x + y + z = 0.3).
+        let octahedron =
+            Body::from_mesh(&vertices, &triangles, 2, 1000, Material::classic()).unwrap();
+        let cube = |n: usize, side: f64, at: f64| {
+            Body::lattice_box(
+                Lattice::new([n; 3], Vec3::new(side, side, side)),
+                Material::classic(),
+            )
+            .placed(Vec3::new(at, at, at), IDENTITY)
+        };
+        // The small cube [0.2, 0.25]³ inside the cube [0.15, 0.35]³, both in the octahedron's
+        // corner cell [0, 0.3]³ and outside its skin.
+        let model = ModelBuilder::new()
+            .bodies(vec![cube(2, 0.05, 0.2), octahedron, cube(3, 0.2, 0.15)])
+            .collision(400.0, 0.3)
+            .build()
+            .unwrap();
+        let pos = State::at_rest(&model).pos;
+        let vel = vec![Vec3::ZERO; pos.len()];
+        let mut contacts = Contacts::new(&model);
+        grid_matches_every_cell(&model, &mut contacts, &pos, &vel, "cube in a corner");
+        let forces = contacts.forces();
+        let on = |b: usize| (model.bodies()[b].points()).fold(Vec3::ZERO, |s, q| s + forces.get(q));
+        // The small cube is 5 to 10 cm inside the big one, nearer its faces at 0.15: pushed out
+        // toward them, with the opposite force on the big cube.
+        let push = on(0);
+        assert!(
+            push.x < -10.0 && push.y < -10.0 && push.z < -10.0,
+            "{push:?}"
+        );
+        assert!((on(0) + on(2)).max_abs() < 1e-9, "{:?} {:?}", on(0), on(2));
+        assert_eq!(on(1), Vec3::ZERO);
     }
 
     /// Heaps of 3 to 5 bodies, boxes and lattices with holes of different spacings, deformed

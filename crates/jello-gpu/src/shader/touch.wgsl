@@ -346,8 +346,9 @@ fn touch_force(n: vec3<f32>, w: vec3<f32>, depth: f32, c_max: f32) -> vec3<f32> 
 }
 
 // Sample s: where it is (its cell's corners' trilinear interpolation), whether it is inside a
-// cell of another body (the first in its grid cell's bucket that holds it decides, as on the
-// core) below that body's surface there, and if so its force, into its record; counted in the
+// cell of another body below that body's surface there (the first in its grid cell's bucket
+// that holds it so decides, as on the core; a cell holding it outside its body's surface passes
+// the search on to other bodies' cells), and if so its force, into its record; counted in the
 // touches of that cell.
 @compute @workgroup_size(64)
 fn touch(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
@@ -376,6 +377,8 @@ fn touch(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups)
     let lo = min(atomicLoad(&grid_rw[P.counts.w + bucket]), room);
     let hi = min(atomicLoad(&grid_rw[P.counts.w + bucket + 1u]), room);
     var previous = NONE;
+    // The body last found to hold the sample in a cell but outside its surface.
+    var clear_of = NONE;
     for (var e = lo; e < hi; e = e + 1u) {
         // The bucket's cells in order, each once (a cell is in a bucket once per grid cell of
         // its box that hashes there; the sample is in its box only if its grid cell is one).
@@ -390,7 +393,7 @@ fn touch(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups)
         }
         let cb = cell_corner(g);
         let b = points[cb].y & BODY_BITS;
-        if (b == a) {
+        if (b == a || b == clear_of) {
             continue;
         }
         var corners: array<vec3<f32>, 8>;
@@ -401,8 +404,9 @@ fn touch(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups)
         if (!at.found) {
             continue;
         }
-        // The first cell that holds the sample decides (cells only share faces, where their
-        // distances agree).
+        // The first cell that holds the sample inside its body's surface decides; one holding it
+        // outside does not (its body's other cells hold it only on a shared face, with the same
+        // distance, but another body's may hold it inside).
         let d = distance_in(g, at.uvw);
         let gradient = at.r0 * d.x + at.r1 * d.y + at.r2 * d.z;
         let l = length(gradient);
@@ -425,8 +429,9 @@ fn touch(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups)
             touched = g;
             uvw = at.uvw;
             atomicAdd(&grid_rw[P.grid_at.z + g], 1u);
+            break;
         }
-        break;
+        clear_of = b;
     }
     store_f(r, force.x);
     store_f(r + 1u, force.y);
