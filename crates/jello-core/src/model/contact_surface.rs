@@ -597,6 +597,27 @@ fn signed_distances(
         })
         .collect();
     let bucket = search / 2.0;
+    // How far `q` is from bucket `key` (0 where it is in it), squared: bucket `k` along an axis
+    // holds from `(k − 1)·bucket` to `k·bucket`, the first and last one beyond as well.
+    let bucket_distance_squared = |key: [i64; 3], q: Vec3| {
+        let q = q.to_array();
+        (0..3)
+            .map(|a| {
+                let lo = if key[a] == 0 {
+                    f64::NEG_INFINITY
+                } else {
+                    (key[a] - 1) as f64 * bucket
+                };
+                let hi = if key[a] == span[a] - 1 {
+                    f64::INFINITY
+                } else {
+                    key[a] as f64 * bucket
+                };
+                let out = (lo - q[a]).max(q[a] - hi).max(0.0);
+                out * out
+            })
+            .sum::<f64>()
+    };
     let mut crossings: Vec<(f64, i32)> = Vec::new();
     for j in 0..ry {
         for k in 0..rz {
@@ -632,6 +653,11 @@ fn signed_distances(
                     for d in shell {
                         let key = [c[0] + d[0], c[1] + d[1], c[2] + d[2]];
                         if (0..3).any(|a| key[a] < 0 || key[a] >= span[a]) {
+                            continue;
+                        }
+                        // A bucket further than the nearest triangle found holds none nearer:
+                        // such a triangle's nearest point is in a bucket at most that far.
+                        if bucket_distance_squared(key, q) >= best {
                             continue;
                         }
                         for &t in &buckets[flat(key)] {
