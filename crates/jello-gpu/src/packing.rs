@@ -4,7 +4,7 @@
 //! their steps, and the bodies' contact surfaces; and the contact buffer's layout. Here is the
 //! only place that knows those layouts on the host.
 
-use jello_core::model::contact_surface::{CORNERS, REFINE};
+use jello_core::model::contact_surface::CORNERS;
 use jello_core::model::lattice::STENCIL;
 use jello_core::{Control, Model, Obstacle, State, Vec3};
 
@@ -414,6 +414,10 @@ impl ContactLayout {
     }
 }
 
+/// Where a cell record's third word keeps its body's distance-grid refinement (see
+/// `contact.wgsl`): the bits from here up; the grid's points along y below.
+const REFINE_SHIFT: usize = 24;
+
 /// The contact surfaces of `model`'s bodies (when it has two or more, and a cell to be inside)
 /// into the scene (see `contact.wgsl`), and where they are into the header; the contact
 /// buffer's layout.
@@ -422,10 +426,6 @@ fn pack_contacts(
     scene: &mut Vec<[u32; 4]>,
     header: &mut Header,
 ) -> Option<ContactLayout> {
-    const _: () = assert!(
-        REFINE == 4,
-        "contact.wgsl's REFINE: the distance grids are that many times as fine as the lattices"
-    );
     let bodies = model.bodies();
     let samples: usize = bodies
         .iter()
@@ -460,24 +460,31 @@ fn pack_contacts(
         .collect();
     push_words(scene, &words);
     // The cells: [lower corner (model index), where its block of distances starts (word), the
-    // distance grid's points along y and z].
+    // distance grid's points along y with its refinement in the top byte (REFINE_SHIFT), its
+    // points along z].
     let cells_at = scene.len();
     let mut point_cells: Vec<(u32, u32)> = Vec::new();
     for (body, start) in bodies.iter().zip(&starts) {
         let surface = body.contact_surface();
         let [_, ny, nz] = body.lattice().counts;
         let (_, [_, ry, rz]) = surface.distance_grid();
+        let refine = surface.refine();
+        assert!(
+            refine < 1 << (32 - REFINE_SHIFT) && ry < 1 << REFINE_SHIFT,
+            "a distance grid too fine to pack ({refine} per cell, {ry} points along y)"
+        );
         let first = body.points().start;
         let offsets = surface.corner_offsets();
         for &c in surface.cells() {
             let c = c as usize;
             let (ci, cj, ck) = (c / (ny * nz), c / nz % ny, c % nz);
-            let base = start + ((REFINE * ci * ry) + REFINE * cj) * rz + REFINE * ck;
+            let base = start + ((refine * ci * ry) + refine * cj) * rz + refine * ck;
             let g = (scene.len() - cells_at) as u32;
             for (k, o) in offsets.iter().enumerate() {
                 point_cells.push(((first + c + o) as u32, 8 * g + k as u32));
             }
-            scene.push([(first + c) as u32, base as u32, ry as u32, rz as u32]);
+            let ry_refine = (ry | refine << REFINE_SHIFT) as u32;
+            scene.push([(first + c) as u32, base as u32, ry_refine, rz as u32]);
         }
     }
     // The samples: [lower corner of its cell (model index), its place (u, v, w)].

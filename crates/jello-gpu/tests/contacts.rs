@@ -5,6 +5,7 @@
 
 use jello_core::contact::overlap;
 use jello_core::model::body::rotation_xyz;
+use jello_core::model::contact_surface::{FINE_REFINE, REFINE};
 use jello_core::{Body, Control, Integrator, Lattice, Material, Model, ModelBuilder, State, Vec3};
 
 mod common;
@@ -40,14 +41,22 @@ fn holey(origin: Vec3) -> Body {
 /// An octahedron of radius `r` about `centre`, voxelised with 5 cells along its side and
 /// carrying its mesh as its skin (samples inside cells, not at their corners).
 fn octahedron(centre: Vec3, r: f64) -> Body {
-    let axes = [
-        Vec3::new(r, 0.0, 0.0),
-        Vec3::new(-r, 0.0, 0.0),
-        Vec3::new(0.0, r, 0.0),
-        Vec3::new(0.0, -r, 0.0),
-        Vec3::new(0.0, 0.0, r),
-        Vec3::new(0.0, 0.0, -r),
-    ];
+    let axis = |x, y, z| Vec3::new(x, y, z);
+    turned_octahedron(
+        centre,
+        r,
+        [
+            axis(1.0, 0.0, 0.0),
+            axis(0.0, 1.0, 0.0),
+            axis(0.0, 0.0, 1.0),
+        ],
+    )
+}
+
+/// An octahedron of radius `r` about `centre`, its tips along the right-handed orthonormal
+/// `frame`, voxelised as `octahedron`.
+fn turned_octahedron(centre: Vec3, r: f64, [ex, ey, ez]: [Vec3; 3]) -> Body {
+    let axes = [ex * r, ex * -r, ey * r, ey * -r, ez * r, ez * -r];
     let vertices: Vec<Vec3> = axes.iter().map(|&a| centre + a).collect();
     let mut triangles = Vec::new();
     for (x, sx) in [(0u32, 1.0), (1, -1.0)] {
@@ -192,6 +201,30 @@ fn contact_forces_agree_with_the_core() {
             assert!(pushed >= least, "{what}: only {pushed} points pushed");
         }
     }
+}
+
+/// An octahedron's tip pressed 5 mm into the upper face of another, turned so that its edges
+/// lie across the lattice's planes, where a grid four times as fine rounds them: its distance
+/// grid is eight times as fine as its lattice, the upper one's four times. The GPU reads each as
+/// the core does.
+#[test]
+fn distance_grids_of_either_fineness_agree_with_the_core() {
+    let r = 0.11;
+    // The lower one's (1, 1, 1) face turned to face up: its frame maps (1, −1, 0)/√2 to x,
+    // (1, 1, −2)/√6 to y and (1, 1, 1)/√3 to z.
+    let (a, b, c) = (0.5f64.sqrt(), (1.0f64 / 6.0).sqrt(), (1.0f64 / 3.0).sqrt());
+    let frame = [
+        Vec3::new(a, b, c),
+        Vec3::new(-a, b, c),
+        Vec3::new(0.0, -2.0 * b, c),
+    ];
+    let below = turned_octahedron(Vec3::ZERO, r, frame);
+    let above = octahedron(Vec3::new(0.004, -0.003, r * c + r - 0.005), r);
+    assert_eq!(below.contact_surface().refine(), FINE_REFINE);
+    assert_eq!(above.contact_surface().refine(), REFINE);
+    let (model, state) = scene(vec![below, above], 0.5, Integrator::Euler);
+    let pushed = assert_same_accelerations(&model, &state, 1e-4, "tip on face");
+    assert!(pushed >= 4, "only {pushed} points pushed");
 }
 
 #[test]

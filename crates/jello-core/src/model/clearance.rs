@@ -47,7 +47,8 @@ pub(crate) fn rest_clearance(body: &Body) -> Vec<f64> {
     let mut vertices = vec![Vec3::ZERO; skin.len()];
     skin.positions(&rest, &mut vertices);
     let reach = 2.0 * lattice.spacing().length();
-    let (_, distance) = signed_distances(lattice, &cells, &vertices, &skin.triangles, reach, 1);
+    let (_, distance) =
+        signed_distances(lattice, &cells, &vertices, &skin.triangles, reach, 1, None);
     if distance.iter().all(|&d| d <= 0.0) {
         return Vec::new();
     }

@@ -20,12 +20,37 @@ use crate::model::lattice::Lattice;
 use crate::model::voxel::ray_crossing;
 use crate::vec3::Vec3;
 
-/// Points of the distance grid per lattice spacing. The interpolated surface strays from a
-/// curved skin (and rounds its edges) by about the grid's spacing squared over the curvature's
-/// radius: on a pile of 0.4 m shapes of 6 cells the skins went 1.7–2.8 mm (2.5–4.2 % of a cell)
-/// into each other at 2 and 2.1–2.5 mm at 3 (whatever the collision stiffness), 0.5–1.0 mm at
-/// 4. A body one cell across still has points in its middle, below its surface.
+/// Points of the distance grid per lattice spacing, at the least. The interpolated surface strays
+/// from a skin (inward where it is convex): at the edges between a mesh's faces by about a
+/// quarter of the grid's spacing times the angle between the faces, over a smooth curve by about
+/// the spacing squared over the curvature's radius. On a pile of 0.4 m shapes of 6 cells the
+/// skins went 1.7–2.8 mm (2.5–4.2 % of a cell) into each other at 2 and 2.1–2.5 mm at 3
+/// (whatever the collision stiffness), 1.0–1.9 mm (1.5–2.8 %) at 4 as the lattices fell on the
+/// meshes; so a skin that this grid rounds by more than [`ROUNDING`] gets one [`FINE_REFINE`]
+/// times as fine. A body one cell across still has points in its middle, below its surface.
 pub const REFINE: usize = 4;
+
+/// Points per lattice spacing of the distance grid of a skin that the grid at [`REFINE`] rounds
+/// by more than [`ROUNDING`] (when it has at most [`GRID_POINTS`] points). Every shape of
+/// `pile.toml` (sphere, ring, L, capsule) gets it: at rest the skins then go 0.6 mm (0.9 % of a
+/// cell) into each other, at most 0.9 mm (1.3 %) with the shapes shifted, turned or at 7 cells
+/// (up to 1.9 mm, 2.8 %, at [`REFINE`]); the pile takes 0.4 s and 10 MB more to load, and no
+/// longer a step.
+pub const FINE_REFINE: usize = 2 * REFINE;
+const _: () = assert!(
+    FINE_REFINE % REFINE == 0,
+    "the finer grid is made from the coarser"
+);
+
+/// How far the distance grid's zero level may stray from a skin, as a fraction of the body's
+/// finest lattice spacing, before the body gets a grid [`FINE_REFINE`] times as fine: measured at
+/// the skin's vertices, edges' middles and triangles' centres (each one's interpolated distance
+/// over its gradient's length).
+pub const ROUNDING: f64 = 0.01;
+
+/// The most points a grid refined past [`REFINE`] may have (8 bytes each, 4 more on the GPU):
+/// a larger body keeps its grid at [`REFINE`].
+pub const GRID_POINTS: usize = 1 << 21;
 
 /// The eight corners of a cell as offsets `(a, b, c)`, in the order of `weights`.
 pub const CORNERS: [[usize; 3]; 8] = [
@@ -97,10 +122,13 @@ pub struct ContactSurface {
     /// The points that press on other bodies.
     pub(crate) samples: Vec<Sample>,
     /// The signed distance at rest to the body's surface (m; negative inside; clamped two cell
-    /// diagonals deep) on a grid [`REFINE`] times as fine as the lattice (points per axis
+    /// diagonals deep) on a grid `refine` times as fine as the lattice (points per axis
     /// `refined`), so that a body one cell thick still has an inside; 0 outside its kept cells.
     pub(crate) distance: Vec<f64>,
     pub(crate) refined: [usize; 3],
+    /// Points of the distance grid per lattice spacing: [`REFINE`], or [`FINE_REFINE`] for a
+    /// skin the coarser grid rounds by more than [`ROUNDING`].
+    pub(crate) refine: usize,
     /// The kept cells, as the lattice indices of their lower corners, in flat order.
     pub(crate) cells: Vec<u32>,
     /// Flat-index offsets of a cell's corners from its lower corner, in the order of
@@ -142,34 +170,26 @@ impl ContactSurface {
         self.offsets
     }
 
-    /// The signed distance at rest to the surface (m) on its grid [`REFINE`] times as fine as
-    /// the lattice, and that grid's points per axis (flat index `(i·ry + j)·rz + k`); empty for
-    /// a body without cells.
+    /// The signed distance at rest to the surface (m) on its grid [`ContactSurface::refine`]
+    /// times as fine as the lattice, and that grid's points per axis (flat index
+    /// `(i·ry + j)·rz + k`; lattice point `(i, j, k)` is grid point `refine·(i, j, k)`); empty
+    /// for a body without cells.
     pub fn distance_grid(&self) -> (&[f64], [usize; 3]) {
         (&self.distance, self.refined)
+    }
+
+    /// Points of the distance grid per lattice spacing: [`REFINE`], or [`FINE_REFINE`] for a
+    /// skin that grid's interpolation rounds by more than [`ROUNDING`] of a cell (when the finer
+    /// grid has at most [`GRID_POINTS`] points).
+    pub fn refine(&self) -> usize {
+        self.refine
     }
 
     /// The interpolated distance in the cell whose lower corner is lattice point `corner`, at
     /// its place `uvw`, and its gradient over `(u, v, w)`.
     #[inline]
-    pub(crate) fn distance_in(&self, [ci, cj, ck]: [usize; 3], uvw: [f64; 3]) -> (f64, [f64; 3]) {
-        let r = REFINE as f64;
-        let sub = map3(uvw, |u| ((u * r).floor() as usize).min(REFINE - 1));
-        let t = map3([0, 1, 2], |a| uvw[a] * r - sub[a] as f64);
-        let [_, ry, rz] = self.refined;
-        let base = ((REFINE * ci + sub[0]) * ry + REFINE * cj + sub[1]) * rz + REFINE * ck + sub[2];
-        let d = map8(CORNERS, |[a, b, c]| {
-            self.distance[base + (a * ry + b) * rz + c]
-        });
-        let w = weights(t);
-        let phi = d.iter().zip(w).map(|(d, w)| d * w).sum();
-        let mut g = [0.0; 3];
-        for (d, dw) in d.iter().zip(weight_derivatives(t)) {
-            for (g, dw) in g.iter_mut().zip(dw) {
-                *g += d * dw * r;
-            }
-        }
-        (phi, g)
+    pub(crate) fn distance_in(&self, corner: [usize; 3], uvw: [f64; 3]) -> (f64, [f64; 3]) {
+        interpolate(&self.distance, self.refined, self.refine, corner, uvw)
     }
 
     /// The surface of `body`.
@@ -204,6 +224,7 @@ impl ContactSurface {
                     })
                     .collect(),
                 offsets: [0; 8],
+                refine: REFINE,
                 ..ContactSurface::default()
             };
         }
@@ -268,12 +289,34 @@ impl ContactSurface {
             }
         };
         let reach = 2.0 * lattice.spacing().length();
-        let (refined, distance) =
-            signed_distances(lattice, &cells, &vertices, &triangles, reach, REFINE);
+        let grid = |refine, coarse: Option<&Coarse>| {
+            signed_distances(
+                lattice, &cells, &vertices, &triangles, reach, refine, coarse,
+            )
+        };
+        let (mut refine, (mut refined, mut distance)) = (REFINE, grid(REFINE, None));
+        // A cage's faces lie on the lattice's planes, where the grid is exact; a skin that curves
+        // or has edges between them is rounded, and a finer grid rounds it less.
+        if body.skin.is_some() && grid_points(lattice.counts, FINE_REFINE) <= GRID_POINTS {
+            let h = lattice.spacing();
+            let probes = skin_probes(lattice, &vertices, &triangles, &kept);
+            let rounding = rounding(&probes, &distance, refined, REFINE, h);
+            if rounding > ROUNDING * h.x.min(h.y).min(h.z) {
+                let coarse = Coarse {
+                    distance: &distance,
+                    refined,
+                    factor: FINE_REFINE / REFINE,
+                    band: (h * (1.0 / REFINE as f64)).length(),
+                };
+                refine = FINE_REFINE;
+                (refined, distance) = grid(refine, Some(&coarse));
+            }
+        }
         ContactSurface {
             samples,
             distance,
             refined,
+            refine,
             cells,
             offsets,
         }
@@ -341,12 +384,124 @@ fn cage_sample(
     })
 }
 
+/// The distance on a grid `refine` times as fine as the lattice (points per axis `refined`),
+/// interpolated in the cell whose lower corner is lattice point `(ci, cj, ck)` at its place
+/// `uvw`, and its gradient over `(u, v, w)`: trilinear on the grid's sub-cell that holds `uvw`.
+#[inline]
+fn interpolate(
+    distance: &[f64],
+    refined: [usize; 3],
+    refine: usize,
+    [ci, cj, ck]: [usize; 3],
+    uvw: [f64; 3],
+) -> (f64, [f64; 3]) {
+    let r = refine as f64;
+    let sub = map3(uvw, |u| ((u * r).floor() as usize).min(refine - 1));
+    let t = map3([0, 1, 2], |a| uvw[a] * r - sub[a] as f64);
+    let [_, ry, rz] = refined;
+    let base = ((refine * ci + sub[0]) * ry + refine * cj + sub[1]) * rz + refine * ck + sub[2];
+    let d = map8(CORNERS, |[a, b, c]| distance[base + (a * ry + b) * rz + c]);
+    let w = weights(t);
+    let phi = d.iter().zip(w).map(|(d, w)| d * w).sum();
+    let mut g = [0.0; 3];
+    for (d, dw) in d.iter().zip(weight_derivatives(t)) {
+        for (g, dw) in g.iter_mut().zip(dw) {
+            *g += d * dw * r;
+        }
+    }
+    (phi, g)
+}
+
+/// The points of a distance grid `refine` times as fine as a lattice of `counts` points per axis.
+fn grid_points(counts: [usize; 3], refine: usize) -> usize {
+    (counts.iter()).fold(1usize, |p, &n| {
+        p.saturating_mul(refine.saturating_mul(n.saturating_sub(1)) + 1)
+    })
+}
+
+/// How far the zero level of the interpolated distance `distance` (a grid `refine` times as
+/// fine as a lattice of spacing `h`, points per axis `refined`) strays from the skin at most:
+/// the largest interpolated distance at `probes`, points of the skin (see `skin_probes`), over
+/// its gradient's length.
+fn rounding(
+    probes: &[([usize; 3], [f64; 3])],
+    distance: &[f64],
+    refined: [usize; 3],
+    refine: usize,
+    h: Vec3,
+) -> f64 {
+    (probes.iter())
+        .map(|&(corner, local)| {
+            let (phi, g) = interpolate(distance, refined, refine, corner, local);
+            let slope = Vec3::new(g[0] / h.x, g[1] / h.y, g[2] / h.z).length();
+            // A distance's gradient is 1 long; interpolated across a crease it can be shorter.
+            phi.abs() / slope.max(0.5)
+        })
+        .fold(0.0, f64::max)
+}
+
+/// Points of the skin `vertices` / `triangles` (in the lattice's frame) to measure the
+/// interpolated distance's rounding at: its vertices, its edges' middles and its triangles'
+/// centres, each as the cell it is in (lower corner's coordinates) and its place there.
+fn skin_probes(
+    lattice: &Lattice,
+    vertices: &[Vec3],
+    triangles: &[[u32; 3]],
+    kept: &impl Fn(usize, usize, usize) -> bool,
+) -> Vec<([usize; 3], [f64; 3])> {
+    let points = (vertices.iter().copied()).chain(triangles.iter().flat_map(|&[a, b, c]| {
+        let [a, b, c] = [a, b, c].map(|v| vertices[v as usize]);
+        [
+            (a + b) * 0.5,
+            (b + c) * 0.5,
+            (c + a) * 0.5,
+            (a + b + c) * (1.0 / 3.0),
+        ]
+    }));
+    points
+        .filter_map(|p| embed(lattice, p, kept))
+        .map(|s| (lattice.coords(s.corner as usize), s.local))
+        .collect()
+}
+
+/// A distance grid `factor` times as coarse as the one being made, to skip the points far from
+/// the surface: its interpolated distance is within a sub-cell's diagonal of the true one (a
+/// distance changes by at most the way moved), so where it is further than `band` (that
+/// diagonal) from 0, its sign is right and its value close enough for a point no contact rests
+/// at; the grid's points it has itself take its values exactly.
+pub(crate) struct Coarse<'a> {
+    distance: &'a [f64],
+    refined: [usize; 3],
+    factor: usize,
+    band: f64,
+}
+
+impl Coarse<'_> {
+    /// The coarse grid's interpolated distance at point `(i, j, k)` of the finer grid, when it
+    /// is further than the band from the surface.
+    fn far_from_surface(&self, fine: [usize; 3]) -> Option<f64> {
+        let m = self.factor;
+        let [_, cy, cz] = self.refined;
+        // The coarse sub-cell holding the point (the last along an axis for a point on its end).
+        let lower = map3([0, 1, 2], |a| (fine[a] / m).min(self.refined[a] - 2));
+        let t = map3([0, 1, 2], |a| (fine[a] - lower[a] * m) as f64 / m as f64);
+        let w = weights(t);
+        let phi: f64 = (CORNERS.iter().zip(w))
+            .map(|(&[a, b, c], w)| {
+                let at = ((lower[0] + a) * cy + lower[1] + b) * cz + lower[2] + c;
+                self.distance[at] * w
+            })
+            .sum();
+        (phi.abs() > self.band).then_some(phi)
+    }
+}
+
 /// The signed distance (m) to the closed surface `vertices` / `triangles` at the points of a
-/// grid `refine` times as fine as `lattice` ([`REFINE`] for contacts, 1 for the lattice points
-/// themselves), in the kept cells `cells` (their lower corners' lattice indices): negative
-/// inside; `−reach` for a point further than `reach` from the surface (inside: every point of a
-/// kept cell is within a cell's diagonal of the solid); 0 outside the kept cells. Returns the
-/// grid's points per axis and the distances.
+/// grid `refine` times as fine as `lattice` ([`REFINE`] or [`FINE_REFINE`] for contacts, 1 for
+/// the lattice points themselves), in the kept cells `cells` (their lower corners' lattice
+/// indices): negative inside; `−reach` for a point further than `reach` from the surface
+/// (inside: every point of a kept cell is within a cell's diagonal of the solid); 0 outside the
+/// kept cells. Returns the grid's points per axis and the distances.
 pub(crate) fn signed_distances(
     lattice: &Lattice,
     cells: &[u32],
@@ -354,6 +509,7 @@ pub(crate) fn signed_distances(
     triangles: &[[u32; 3]],
     reach: f64,
     refine: usize,
+    coarse: Option<&Coarse>,
 ) -> ([usize; 3], Vec<f64>) {
     let refined = lattice.counts.map(|n| refine * n.saturating_sub(1) + 1);
     let [rx, ry, rz] = refined;
@@ -377,7 +533,10 @@ pub(crate) fn signed_distances(
     // searched in shells about a point's own until the rest are further than the nearest found
     // (or than `reach`); each triangle's box kept to pass over those further than that too.
     let mut distance = vec![0.0; rx * ry * rz];
-    let inv = 2.0 / reach;
+    // The nearest triangle is sought within `search`: `reach`, or, where a coarser grid gives
+    // the points further from the surface than its band, within twice the band of the rest.
+    let search = coarse.map_or(reach, |c| (2.0 * c.band).min(reach));
+    let inv = 2.0 / search;
     let corners: Vec<[Vec3; 3]> = (triangles.iter())
         .map(|t| t.map(|v| vertices[v as usize]))
         .collect();
@@ -424,7 +583,7 @@ pub(crate) fn signed_distances(
     }
     // The buckets about a point's own, shell by shell (0: its own; `r`: those `r` buckets away
     // along some axis, whose triangles are at least `r − 1` buckets from the point). Two
-    // shells cover `reach`.
+    // shells cover `search`.
     const SHELLS: i64 = 2;
     let shells: Vec<Vec<[i64; 3]>> = (0..=SHELLS)
         .map(|r| {
@@ -441,7 +600,28 @@ pub(crate) fn signed_distances(
             shell
         })
         .collect();
-    let bucket = reach / 2.0;
+    let bucket = search / 2.0;
+    // How far `q` is from bucket `key` (0 where it is in it), squared: bucket `k` along an axis
+    // holds from `(k − 1)·bucket` to `k·bucket`, the first and last one beyond as well.
+    let bucket_distance_squared = |key: [i64; 3], q: Vec3| {
+        let q = q.to_array();
+        (0..3)
+            .map(|a| {
+                let lo = if key[a] == 0 {
+                    f64::NEG_INFINITY
+                } else {
+                    (key[a] - 1) as f64 * bucket
+                };
+                let hi = if key[a] == span[a] - 1 {
+                    f64::INFINITY
+                } else {
+                    key[a] as f64 * bucket
+                };
+                let out = (lo - q[a]).max(q[a] - hi).max(0.0);
+                out * out
+            })
+            .sum::<f64>()
+    };
     let mut crossings: Vec<(f64, i32)> = Vec::new();
     for j in 0..ry {
         for k in 0..rz {
@@ -461,18 +641,27 @@ pub(crate) fn signed_distances(
                 if !used[p] {
                     continue;
                 }
+                if let Some(far) = coarse.and_then(|c| c.far_from_surface([i, j, k])) {
+                    distance[p] = far;
+                    continue;
+                }
                 let q = at(i, j, k);
                 let c = cell_of(q);
                 let mut best = f64::INFINITY;
                 for (r, shell) in shells.iter().enumerate() {
                     // Every triangle not yet seen is at least `r − 1` buckets away.
                     let beyond = (r as f64 - 1.0).max(0.0) * bucket;
-                    if beyond * beyond >= best || beyond >= reach {
+                    if beyond * beyond >= best || beyond >= search {
                         break;
                     }
                     for d in shell {
                         let key = [c[0] + d[0], c[1] + d[1], c[2] + d[2]];
                         if (0..3).any(|a| key[a] < 0 || key[a] >= span[a]) {
+                            continue;
+                        }
+                        // A bucket further than the nearest triangle found holds none nearer:
+                        // such a triangle's nearest point is in a bucket at most that far.
+                        if bucket_distance_squared(key, q) >= best {
                             continue;
                         }
                         for &t in &buckets[flat(key)] {
@@ -744,6 +933,123 @@ mod tests {
             }
         }
         assert_eq!(surface.samples.len(), 5 * 4 * 6 - 3 * 2 * 4);
+    }
+
+    /// The ring of `examples/pile.toml` (`jello shape torus --detail 6 --size 0.4`, 6 cells),
+    /// and its skin at rest in its lattice's frame.
+    fn small_ring() -> (Body, Vec<Vec3>) {
+        let mesh = crate::TriMesh::shape("torus", 6).expect("a torus");
+        let vertices: Vec<Vec3> = mesh.vertices.iter().map(|&v| v * 0.4).collect();
+        let body = Body::from_mesh(&vertices, &mesh.triangles, 6, 1 << 20, Material::classic())
+            .expect("a ring");
+        let skin = body.skin.as_ref().expect("a skin");
+        let mut rest = vec![Vec3::ZERO; skin.len()];
+        skin.positions(&body.lattice().rest_positions(), &mut rest);
+        (body, rest)
+    }
+
+    /// A ring whose tube is under two cells thick gets the finer grid (the coarser one rounds
+    /// its skin by 4 % of a cell, the finer by half that), a box of cells keeps the coarser (its
+    /// faces are on the lattice's planes), and the lattice points' distances are the same exact
+    /// ones on both grids.
+    #[test]
+    fn a_tight_curve_gets_a_finer_grid_and_the_lattice_points_keep_their_distances() {
+        let (ring, rest) = small_ring();
+        let surface = ContactSurface::new(&ring);
+        assert_eq!(surface.refine(), FINE_REFINE);
+        let lattice = ring.lattice();
+        let h = lattice.spacing();
+        let probes = skin_probes(
+            lattice,
+            &rest,
+            &ring.skin.as_ref().unwrap().triangles,
+            &|_, _, _| true,
+        );
+        let stray = rounding(
+            &probes,
+            &surface.distance,
+            surface.refined,
+            surface.refine,
+            h,
+        );
+        let reach = 2.0 * h.length();
+        let triangles = &ring.skin.as_ref().unwrap().triangles;
+        let (coarse, at_refine) = signed_distances(
+            lattice,
+            &surface.cells,
+            &rest,
+            triangles,
+            reach,
+            REFINE,
+            None,
+        );
+        // The ring's skin is 24 × 12 flat faces, 30° apart across the tube: the distance kinks
+        // at their edges, and the interpolation rounds the kinks by about a quarter of the
+        // grid's spacing times that angle, half as much on a grid twice as fine.
+        let coarse_stray = rounding(&probes, &at_refine, coarse, REFINE, h);
+        assert!(coarse_stray > 4.0 * ROUNDING * h.x, "{coarse_stray} m");
+        assert!(stray < 0.6 * coarse_stray, "{stray} m, {coarse_stray} m");
+        let [nx, ny, nz] = lattice.counts;
+        let [_, fy, fz] = surface.refined;
+        let [_, cy, cz] = coarse;
+        for (i, j, k) in
+            (0..nx).flat_map(|i| (0..ny).flat_map(move |j| (0..nz).map(move |k| (i, j, k))))
+        {
+            let r = FINE_REFINE;
+            let fine = surface.distance[((r * i) * fy + r * j) * fz + r * k];
+            let at = at_refine[((REFINE * i) * cy + REFINE * j) * cz + REFINE * k];
+            assert_eq!(
+                fine.to_bits(),
+                at.to_bits(),
+                "lattice point ({i}, {j}, {k})"
+            );
+        }
+        let cube = Body::lattice_box(
+            Lattice::new([3, 3, 3], Vec3::new(0.2, 0.2, 0.2)),
+            Material::classic(),
+        );
+        assert_eq!(ContactSurface::new(&cube).refine(), REFINE);
+    }
+
+    /// The finer grid, made from the coarser one where that puts a point further than a coarse
+    /// sub-cell's diagonal from the skin, is the grid made in full near the skin (to the bit),
+    /// and within that diagonal, of the same sign, elsewhere.
+    #[test]
+    fn the_finer_grid_is_exact_near_the_skin() {
+        let (ring, rest) = small_ring();
+        let surface = ContactSurface::new(&ring);
+        let lattice = ring.lattice();
+        let triangles = &ring.skin.as_ref().unwrap().triangles;
+        let reach = 2.0 * lattice.spacing().length();
+        let (_, full) = signed_distances(
+            lattice,
+            &surface.cells,
+            &rest,
+            triangles,
+            reach,
+            FINE_REFINE,
+            None,
+        );
+        let band = (lattice.spacing() * (1.0 / REFINE as f64)).length();
+        let mut near = 0;
+        for (made, full) in surface.distance.iter().zip(&full) {
+            if full.abs() <= band {
+                assert!(
+                    (made - full).abs() <= band && made * full >= 0.0,
+                    "{made} against {full}"
+                );
+            }
+            if made.abs() <= band {
+                assert_eq!(made.to_bits(), full.to_bits());
+                near += 1;
+            } else {
+                assert!(
+                    (made - full).abs() <= band && made * full > 0.0,
+                    "{made} against {full}"
+                );
+            }
+        }
+        assert!(near > 1000, "{near} points near the skin");
     }
 
     /// A body one cell thick still has an inside: the middle of its cell.

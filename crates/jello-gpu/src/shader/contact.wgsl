@@ -3,10 +3,11 @@
 //
 // - per body, its cells' eight corners as flat offsets from the lower corner (two vec4, in the
 //   order of the core's CORNERS: corner k is (k >> 2, k >> 1 & 1, k & 1));
-// - the signed distances at rest (f32 words), body after body, on grids REFINE times as fine
-//   as the lattices;
+// - the signed distances at rest (f32 words), body after body, each on a grid `refine` times as
+//   fine as its lattice (the core's ContactSurface::refine: 4, or 8 for a skin that needs it);
 // - the kept cells of every body in order, one vec4 each: [lower corner (model index), where its
-//   block of distances starts (word), the distance grid's points along y, along z];
+//   block of distances starts (word), the distance grid's points along y (low 24 bits) and its
+//   refinement (high 8 bits), its points along z];
 // - the samples of every body in order, one vec4 each: [lower corner of its cell (model index),
 //   its place (u, v, w) in the cell (f32)];
 // - per point, the sample corners it is (8 · sample + corner: the sample's force goes to it by
@@ -18,9 +19,9 @@
 // (NONE: it touches nothing)], [its place (u, v, w) in that cell, 0]; and list the touches in each
 // cell, in the samples' order. A point's contact force is then a gather (`contacts_on`).
 
-// How many times as fine as a lattice its distance grid is (the core's REFINE; jello-gpu checks
-// that they agree).
-const REFINE: f32 = 4.0;
+// Where the third word of a cell record splits: the distance grid's points along y below, its
+// refinement from here up (packing.rs's REFINE_SHIFT).
+const REFINE_SHIFT: u32 = 24u;
 
 // Word `w` of the scene.
 fn scene_word(w: u32) -> u32 {

@@ -310,14 +310,15 @@ fn locate(c: array<vec3<f32>, 8>, p: vec3<f32>) -> Located {
 }
 
 // The interpolated signed distance of cell g at its place uvw (w), and its gradient over (u, v,
-// w) (xyz): trilinear on the sub-cell of the grid REFINE times as fine that holds uvw (the
+// w) (xyz): trilinear on the sub-cell of the grid `refine` times as fine that holds uvw (the
 // core's `distance_in`).
 fn distance_in(g: u32, uvw: vec3<f32>) -> vec4<f32> {
     let record = scene[P.contact_at.y + g];
-    let ry = record.z;
+    let ry = record.z & ((1u << REFINE_SHIFT) - 1u);
+    let refine = f32(record.z >> REFINE_SHIFT);
     let rz = record.w;
-    let sub = clamp(floor(uvw * REFINE), vec3<f32>(0.0), vec3<f32>(REFINE - 1.0));
-    let t = uvw * REFINE - sub;
+    let sub = clamp(floor(uvw * refine), vec3<f32>(0.0), vec3<f32>(refine - 1.0));
+    let t = uvw * refine - sub;
     let s = vec3<u32>(sub);
     let base = record.y + (s.x * ry + s.y) * rz + s.z;
     var phi = 0.0;
@@ -325,7 +326,7 @@ fn distance_in(g: u32, uvw: vec3<f32>) -> vec4<f32> {
     for (var k = 0u; k < 8u; k = k + 1u) {
         let d = bitcast<f32>(scene_word(base + ((k >> 2u) * ry + ((k >> 1u) & 1u)) * rz + (k & 1u)));
         phi = phi + d * corner_weight(k, t);
-        gradient = gradient + d * corner_weight_derivative(k, t) * REFINE;
+        gradient = gradient + d * corner_weight_derivative(k, t) * refine;
     }
     return vec4<f32>(gradient, phi);
 }
