@@ -20,6 +20,12 @@
 //!
 //! The watch goes over the bodies' active points in order on one thread: the same report on any
 //! number of threads.
+//!
+//! States further apart than a step (a GPU's state, read back only now and then) are compared
+//! the same way, by the straight segment between them
+//! ([`TunnelWatch::observe_apart`]): a point that went through the obstacle between them, or
+//! is past its middle at the second, is found; one that went around it in between could be
+//! counted too, so the closer the states the better.
 
 use crate::model::body::Body;
 use crate::model::obstacle::{Aabb, Obstacle, Sphere};
@@ -51,6 +57,9 @@ pub struct Crossings {
     pub half_thickness: f64,
     /// The time step of the crossing steps (s).
     pub dt: f64,
+    /// How many steps apart the states compared were where a crossing was found (the most): 1
+    /// when every step was watched.
+    pub steps_apart: u64,
     /// The mass of one of the body's points (kg).
     pub point_mass: f64,
 }
@@ -58,11 +67,19 @@ pub struct Crossings {
 impl Crossings {
     /// The longest a step should be (s) when a step moved points further than half of
     /// [`Crossings::half_thickness`] (`None` when none did): the CFL-like bound at which the
-    /// crossing points, and the body's centre at its impact speed, move at most that far.
+    /// crossing points, and the body's centre at its impact speed, move at most that far. With
+    /// states several steps apart, a point's move a step is taken as its move between them
+    /// shared evenly over the steps.
     pub fn advised_dt(&self) -> Option<f64> {
         let limit = 0.5 * self.half_thickness;
-        let step = self.longest_move.max(self.impact_speed * self.dt);
+        let step = self.longest_move_a_step().max(self.impact_speed * self.dt);
         (step > limit).then(|| self.dt * limit / step)
+    }
+
+    /// [`Crossings::longest_move`] a step: over the steps between the states compared, shared
+    /// evenly (a lower bound when they are several steps apart).
+    pub fn longest_move_a_step(&self) -> f64 {
+        self.longest_move / self.steps_apart.max(1) as f64
     }
 
     /// The least collision stiffness (N/m) whose penalty spring stops a lone point of the body
@@ -115,12 +132,23 @@ impl TunnelWatch {
     /// Compares the positions `pos` at `time` (one step after the last observed) with the last
     /// observed, records the points that crossed an obstacle between them, and keeps `pos`.
     pub fn observe(&mut self, model: &Model, pos: &[Vec3], time: f64) {
-        let dt = time - self.time;
+        self.observe_apart(model, pos, time, 1);
+    }
+
+    /// [`TunnelWatch::observe`] for positions `steps` steps after the last observed (a GPU's
+    /// state read back now and then): the segment between the two stands for each point's
+    /// path. Nothing is compared when `steps` is 0.
+    pub fn observe_apart(&mut self, model: &Model, pos: &[Vec3], time: f64, steps: u64) {
+        if steps == 0 {
+            return;
+        }
+        let apart = time - self.time;
+        let dt = apart / steps as f64;
         for (b, body) in model.bodies().iter().enumerate() {
             let first = body.points().start;
             let shift = centre(body, pos) - centre(body, &self.before);
-            if dt > 0.0 {
-                self.fastest[b] = self.fastest[b].max(shift.length() / dt);
+            if apart > 0.0 {
+                self.fastest[b] = self.fastest[b].max(shift.length() / apart);
             }
             for q in (0..body.len()).filter(|&q| body.is_active(q)) {
                 let (a, z) = (self.before[first + q], pos[first + q]);
@@ -132,7 +160,14 @@ impl TunnelWatch {
                         Obstacle::Plane(_) => None,
                     };
                     if let Some(half_thickness) = half {
-                        self.record(model, b, first + q, o, half_thickness, moved, dt, time);
+                        let crossing = Crossing {
+                            body: b,
+                            point: first + q,
+                            obstacle: o,
+                            half_thickness,
+                            moved,
+                        };
+                        self.record(model, crossing, dt, steps, time);
                     }
                 }
             }
@@ -141,18 +176,16 @@ impl TunnelWatch {
         self.time = time;
     }
 
-    #[allow(clippy::too_many_arguments)]
-    fn record(
-        &mut self,
-        model: &Model,
-        body: usize,
-        point: usize,
-        obstacle: usize,
-        half_thickness: f64,
-        moved: f64,
-        dt: f64,
-        time: f64,
-    ) {
+    /// Records `crossing`, found between the last state observed and the one at `time`, `steps`
+    /// steps of `dt` later.
+    fn record(&mut self, model: &Model, crossing: Crossing, dt: f64, steps: u64, time: f64) {
+        let Crossing {
+            body,
+            point,
+            obstacle,
+            half_thickness,
+            moved,
+        } = crossing;
         let obstacles = model.obstacles.len();
         if self.crossed.is_empty() {
             self.crossed = vec![false; model.point_count() * obstacles];
@@ -175,6 +208,7 @@ impl TunnelWatch {
                 c.impact_speed = fastest;
                 c.half_thickness = c.half_thickness.min(half_thickness);
                 c.dt = dt;
+                c.steps_apart = c.steps_apart.max(steps);
             }
             None => self.found.push(Crossings {
                 body,
@@ -187,6 +221,7 @@ impl TunnelWatch {
                 impact_speed: fastest,
                 half_thickness,
                 dt,
+                steps_apart: steps,
                 point_mass: model.body(body).material.mass,
             }),
         }
@@ -196,6 +231,18 @@ impl TunnelWatch {
     pub fn crossings(&self) -> &[Crossings] {
         &self.found
     }
+}
+
+/// One point's crossing of one obstacle, as [`TunnelWatch::observe_apart`] finds it.
+struct Crossing {
+    body: usize,
+    /// The point (an index into the model's arrays).
+    point: usize,
+    obstacle: usize,
+    /// Half the obstacle's thickness where it was crossed (m).
+    half_thickness: f64,
+    /// How far the point moved between the two states (m).
+    moved: f64,
 }
 
 /// The centre of `body`'s active points at positions `pos` (the model's arrays).
@@ -312,6 +359,37 @@ mod tests {
             .build()
             .unwrap();
         assert!(!TunnelWatch::watches(&planar) && TunnelWatch::watches(&model));
+    }
+
+    /// States read back 10 steps apart: a body that went through a plate between them is
+    /// counted, its advice taken from its move shared over the 10 steps; nothing is compared
+    /// across no step.
+    #[test]
+    fn states_several_steps_apart_are_compared_by_the_segment_between_them() {
+        use crate::model::ModelBuilder;
+        use crate::state::State;
+        let plate = Aabb::new(Vec3::new(-1.0, -1.0, -0.55), Vec3::new(2.0, 2.0, -0.45)).unwrap();
+        let model = ModelBuilder::new()
+            .obstacle(Obstacle::Box(plate))
+            .build()
+            .unwrap();
+        let above = State::at_rest(&model).pos;
+        let below: Vec<Vec3> = above
+            .iter()
+            .map(|&p| p - Vec3::new(0.0, 0.0, 2.0))
+            .collect();
+        let mut watch = TunnelWatch::new(&model, &above, 0.0);
+        watch.observe_apart(&model, &below, 1.0, 0);
+        assert!(watch.crossings().is_empty());
+        watch.observe_apart(&model, &below, 1.0, 10);
+        let [c] = watch.crossings() else {
+            panic!("{:?}", watch.crossings())
+        };
+        assert_eq!((c.points, c.steps, c.steps_apart), (512, 1, 10));
+        assert_eq!(c.first, (0.0, 1.0));
+        assert!((c.dt - 0.1).abs() < 1e-12 && (c.longest_move_a_step() - 0.2).abs() < 1e-12);
+        // 2 m in 1 s, 0.2 m a step of 0.1 s: a step that moves it 0.025 m is 0.0125 s.
+        assert!((c.advised_dt().unwrap() - 0.0125).abs() < 1e-12);
     }
 
     #[test]
