@@ -113,13 +113,14 @@ impl Mirror {
     }
 
     /// `n` steps on the GPU with the GIL released, in chunks of at most about [`CHUNK_TIME`]
-    /// after each of which the state is read back into `sim` and Ctrl-C is looked for; on a
-    /// blow-up, `sim` holds the last good step.
+    /// after each of which the state is read back into `sim`, `after_chunk` is called with it
+    /// and Ctrl-C is looked for; on a blow-up, `sim` holds the last good step.
     pub(crate) fn advance(
         &mut self,
         py: Python<'_>,
         sim: &mut jello_core::Simulation,
         n: u64,
+        after_chunk: impl FnMut(&jello_core::Simulation),
     ) -> Result<(), Stopped> {
         if let Some(gpu) = &mut self.0 {
             gpu.reset_max_penetration();
@@ -129,7 +130,7 @@ impl Mirror {
             return Ok(());
         }
         let gpu = self.make(py, sim).map_err(Stopped::Raised)?;
-        let result = chunks(py, gpu, sim, n);
+        let result = chunks(py, gpu, sim, n, after_chunk);
         if let Err(Stopped::Raised(_)) = &result {
             // A failed device (or Ctrl-C): the copy is made anew from the core's state, read
             // back at the last good chunk, on the next step.
@@ -145,6 +146,7 @@ fn chunks(
     gpu: &mut GpuSimulation,
     sim: &mut jello_core::Simulation,
     n: u64,
+    mut after_chunk: impl FnMut(&jello_core::Simulation),
 ) -> Result<(), Stopped> {
     let (mut left, mut chunk) = (n, 8);
     while left > 0 {
@@ -161,6 +163,7 @@ fn chunks(
         });
         let (blow_up, state) = outcome.map_err(|e| Stopped::Raised(gpu_error(e)))?;
         sim.state = state;
+        after_chunk(sim);
         if let Some(b) = blow_up {
             return Err(Stopped::BlowUp(Box::new(b)));
         }

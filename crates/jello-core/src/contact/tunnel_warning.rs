@@ -97,7 +97,7 @@ pub fn crossing_warning(model: &Model, c: &Crossings, names: &[String], knobs: &
     } else {
         (
             format!(
-                "between two states read back {} steps apart {they} went",
+                "between states read back up to {} steps apart {they} went",
                 c.steps_apart
             ),
             format!(
@@ -178,7 +178,7 @@ mod tests {
         assert!(
             text.contains(
                 "(the first of 2 intervals that did, the last ending at t = 0.124 s): between \
-                 two states read back 10 steps apart they went past its middle"
+                 states read back up to 10 steps apart they went past its middle"
             ),
             "{text}"
         );
