@@ -111,13 +111,16 @@ impl Simulation {
         self.tunnel.start(&self.sim);
         // Out of `self` while stepping, which borrows `self` whole.
         let mut tunnel = std::mem::take(&mut self.tunnel);
+        let watching = tunnel.watching();
         let mut watched = |sim: &jello_core::Simulation| {
             tunnel.observe(sim);
             after_step(sim);
         };
         let result = match self.device {
             Device::Cpu => self.step_cpu(py, n, &mut watched),
-            Device::Gpu => self.gpu.advance(py, &mut self.sim, n, &mut watched),
+            Device::Gpu => self
+                .gpu
+                .advance(py, &mut self.sim, n, watching, &mut watched),
         };
         self.tunnel = tunnel;
         // Warned of even when stepping stopped: the state is the last good step's.

@@ -55,9 +55,14 @@ impl Watch {
     /// Ready to observe the steps taken from `sim`'s state.
     pub(crate) fn start(&mut self, sim: &jello_core::Simulation) {
         if self.watch.is_none() && TunnelWatch::watches(&sim.model) {
-            self.watch = Some(TunnelWatch::new(&sim.model, &sim.state.pos, sim.state.time));
+            self.watch = Some(TunnelWatch::new(&sim.model, &sim.state));
             self.steps = sim.state.steps;
         }
+    }
+
+    /// Whether the states are compared (the model has a box or ball obstacle).
+    pub(crate) fn watching(&self) -> bool {
+        self.watch.is_some()
     }
 
     /// Compares `sim`'s state with the last observed, however many steps later (none: nothing
@@ -65,7 +70,7 @@ impl Watch {
     pub(crate) fn observe(&mut self, sim: &jello_core::Simulation) {
         if let Some(watch) = &mut self.watch {
             let apart = sim.state.steps.saturating_sub(self.steps);
-            watch.observe_apart(&sim.model, &sim.state.pos, sim.state.time, apart);
+            watch.observe_apart(&sim.model, &sim.state, apart);
             self.steps = sim.state.steps;
         }
     }

@@ -30,6 +30,7 @@
 use crate::model::body::Body;
 use crate::model::obstacle::{Aabb, Obstacle, Sphere};
 use crate::model::Model;
+use crate::state::State;
 use crate::vec3::Vec3;
 
 /// The crossings of one body through one obstacle over the steps watched.
@@ -50,7 +51,7 @@ pub struct Crossings {
     /// The longest move of a crossing point in its crossing step (m).
     pub longest_move: f64,
     /// The fastest the body's centre of mass moved over the steps watched up to the last
-    /// crossing (m/s): the speed it may have hit the obstacle with.
+    /// crossing, or went in a state watched (m/s): the speed it may have hit the obstacle with.
     pub impact_speed: f64,
     /// Half the obstacle's thickness where it was crossed (m): half the box's size across the
     /// crossing axis, half a ball's radius.
@@ -101,7 +102,8 @@ pub struct TunnelWatch {
     before: Vec<Vec3>,
     /// Its time (s).
     time: f64,
-    /// Per body, the fastest its centre of mass moved in a step so far (m/s).
+    /// Per body, the fastest its centre of mass moved between two states so far, or went in one
+    /// (m/s): between states far apart its mean speed, so its velocity in them counts too.
     fastest: Vec<f64>,
     /// Per (point, obstacle), whether the point has crossed it: allocated at the first crossing.
     crossed: Vec<bool>,
@@ -109,12 +111,16 @@ pub struct TunnelWatch {
 }
 
 impl TunnelWatch {
-    /// A watch starting from positions `pos` at time `time`.
-    pub fn new(model: &Model, pos: &[Vec3], time: f64) -> Self {
+    /// A watch starting from `state`.
+    pub fn new(model: &Model, state: &State) -> Self {
         TunnelWatch {
-            before: pos.to_vec(),
-            time,
-            fastest: vec![0.0; model.bodies().len()],
+            before: state.pos.clone(),
+            time: state.time,
+            fastest: model
+                .bodies()
+                .iter()
+                .map(|body| centre(body, &state.vel).length())
+                .collect(),
             crossed: Vec::new(),
             found: Vec::new(),
         }
@@ -129,19 +135,20 @@ impl TunnelWatch {
             .any(|o| matches!(o, Obstacle::Box(_) | Obstacle::Sphere(_)))
     }
 
-    /// Compares the positions `pos` at `time` (one step after the last observed) with the last
-    /// observed, records the points that crossed an obstacle between them, and keeps `pos`.
-    pub fn observe(&mut self, model: &Model, pos: &[Vec3], time: f64) {
-        self.observe_apart(model, pos, time, 1);
+    /// Compares `state` (one step after the last observed) with the last observed, records
+    /// the points that crossed an obstacle between them, and keeps its positions.
+    pub fn observe(&mut self, model: &Model, state: &State) {
+        self.observe_apart(model, state, 1);
     }
 
-    /// [`TunnelWatch::observe`] for positions `steps` steps after the last observed (a GPU's
+    /// [`TunnelWatch::observe`] for a state `steps` steps after the last observed (a GPU's
     /// state read back now and then): the segment between the two stands for each point's
     /// path. Nothing is compared when `steps` is 0.
-    pub fn observe_apart(&mut self, model: &Model, pos: &[Vec3], time: f64, steps: u64) {
+    pub fn observe_apart(&mut self, model: &Model, state: &State, steps: u64) {
         if steps == 0 {
             return;
         }
+        let (pos, time) = (&state.pos, state.time);
         let apart = time - self.time;
         let dt = apart / steps as f64;
         for (b, body) in model.bodies().iter().enumerate() {
@@ -150,6 +157,7 @@ impl TunnelWatch {
             if apart > 0.0 {
                 self.fastest[b] = self.fastest[b].max(shift.length() / apart);
             }
+            self.fastest[b] = self.fastest[b].max(centre(body, &state.vel).length());
             for q in (0..body.len()).filter(|&q| body.is_active(q)) {
                 let (a, z) = (self.before[first + q], pos[first + q]);
                 let moved = (z - a).length();
@@ -332,16 +340,17 @@ mod tests {
             .obstacles(vec![Obstacle::Sphere(far), Obstacle::Box(plate)])
             .build()
             .unwrap();
-        let above = State::at_rest(&model).pos;
-        let below: Vec<Vec3> = above
-            .iter()
-            .map(|&p| p - Vec3::new(0.0, 0.0, 2.0))
-            .collect();
-        let mut watch = TunnelWatch::new(&model, &above, 0.0);
-        watch.observe(&model, &above, 0.5);
+        let at = |time: f64, drop: f64| {
+            let mut s = State::at_rest(&model);
+            s.pos.iter_mut().for_each(|p| p.z -= drop);
+            s.time = time;
+            s
+        };
+        let mut watch = TunnelWatch::new(&model, &at(0.0, 0.0));
+        watch.observe(&model, &at(0.5, 0.0));
         assert!(watch.crossings().is_empty());
-        watch.observe(&model, &below, 1.0);
-        watch.observe(&model, &above, 1.5);
+        watch.observe(&model, &at(1.0, 2.0));
+        watch.observe(&model, &at(1.5, 0.0));
         let [c] = watch.crossings() else {
             panic!("{:?}", watch.crossings())
         };
@@ -373,15 +382,14 @@ mod tests {
             .obstacle(Obstacle::Box(plate))
             .build()
             .unwrap();
-        let above = State::at_rest(&model).pos;
-        let below: Vec<Vec3> = above
-            .iter()
-            .map(|&p| p - Vec3::new(0.0, 0.0, 2.0))
-            .collect();
-        let mut watch = TunnelWatch::new(&model, &above, 0.0);
-        watch.observe_apart(&model, &below, 1.0, 0);
+        let above = State::at_rest(&model);
+        let mut below = above.clone();
+        below.pos.iter_mut().for_each(|p| p.z -= 2.0);
+        below.time = 1.0;
+        let mut watch = TunnelWatch::new(&model, &above);
+        watch.observe_apart(&model, &below, 0);
         assert!(watch.crossings().is_empty());
-        watch.observe_apart(&model, &below, 1.0, 10);
+        watch.observe_apart(&model, &below, 10);
         let [c] = watch.crossings() else {
             panic!("{:?}", watch.crossings())
         };
@@ -390,6 +398,14 @@ mod tests {
         assert!((c.dt - 0.1).abs() < 1e-12 && (c.longest_move_a_step() - 0.2).abs() < 1e-12);
         // 2 m in 1 s, 0.2 m a step of 0.1 s: a step that moves it 0.025 m is 0.0125 s.
         assert!((c.advised_dt().unwrap() - 0.0125).abs() < 1e-12);
+
+        // A body that went at 10 m/s in a state watched hit the plate at that speed, whatever
+        // its mean speed between the states.
+        let mut fast = above.clone();
+        fast.vel.iter_mut().for_each(|v| v.z = -10.0);
+        let mut watch = TunnelWatch::new(&model, &fast);
+        watch.observe_apart(&model, &below, 10);
+        assert!((watch.crossings()[0].impact_speed - 10.0).abs() < 1e-9);
     }
 
     #[test]
