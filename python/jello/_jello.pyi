@@ -38,7 +38,7 @@ class TunnellingWarning(UserWarning):
 
     body: int
     obstacle: int
-    points: int
+    points: int | None
     time: tuple[float, float]
     suggested_dt: float | None
     suggested_collision_stiffness: float | None

@@ -3,7 +3,9 @@
 //! said once per body and obstacle with the command line's facts and advice, the Python way
 //! (`sim.dt = …`, `sim.set_collision(stiffness=…)`).
 
-use jello_core::diagnostics::{crossing_warning, Crossings, Knobs, TunnelWatch};
+use jello_core::diagnostics::{
+    crossing_warning, obstacles_through, through_warning, Crossings, Knobs, Through, TunnelWatch,
+};
 use pyo3::create_exception;
 use pyo3::exceptions::PyUserWarning;
 use pyo3::prelude::*;
@@ -14,12 +16,15 @@ create_exception!(
     PyUserWarning,
     "Points of a body passed through a box or ball obstacle: a step (on the GPU, the steps \
      between two states read back) carried them past its middle, where the contact pushes them \
-     out of the far side, so the body may end up through or impaled on it. Warned once per body \
-     and obstacle after the call that found it, until the model changes. The message says how \
-     many points, when, and what to try; attributes: body (its index in `bodies`), obstacle \
-     (the index of the obstacle, 0 for the first), points, time (the start and end (s) of the \
-     first step that did), suggested_dt and suggested_collision_stiffness (None when that \
-     would not help)."
+     out of the far side, so the body may end up through or impaled on it; or, at the end of a \
+     call, an obstacle is through a body (edges of its lattice cross the obstacle's middle) \
+     that no point was seen passing. Warned once per body and obstacle after the call that \
+     found it, until the model changes. The message says how many points, when, and what to \
+     try; attributes: body (its index in `bodies`), obstacle (the index of the obstacle, 0 for \
+     the first), points (None for an obstacle found through the body), time (the start and \
+     end (s) of the first step that did; the state's time twice for an obstacle found \
+     through the body), suggested_dt and suggested_collision_stiffness (None when that would \
+     not help)."
 );
 
 /// The knobs as Python sets them.
@@ -75,8 +80,9 @@ impl Watch {
         }
     }
 
-    /// `warnings.warn`s a `jello.TunnellingWarning` for each crossing not warned of yet, its
-    /// message starting with `source`; `Err` when a warnings filter turned one into an error.
+    /// `warnings.warn`s a `jello.TunnellingWarning` for each body and obstacle not warned of
+    /// yet: points seen passing through, else (at `sim`'s state) the obstacle through the body;
+    /// the message starts with `source`. `Err` when a warnings filter made one an error.
     pub(crate) fn warn(
         &mut self,
         py: Python<'_>,
@@ -87,24 +93,24 @@ impl Watch {
         let Some(watch) = &self.watch else {
             return Ok(());
         };
-        let new: Vec<Crossings> = watch
-            .crossings()
-            .iter()
-            .filter(|c| !self.warned.contains(&(c.body, c.obstacle)))
-            .copied()
+        let crossings: Vec<Crossings> = watch.crossings().to_vec();
+        // An obstacle through a body that no point was seen passing (it passed between the
+        // body's points, or between two states read back from a GPU).
+        let through: Vec<Through> = obstacles_through(&sim.model, &sim.state.pos)
+            .into_iter()
+            .filter(|t| {
+                !crossings
+                    .iter()
+                    .any(|c| (c.body, c.obstacle) == (t.body, t.obstacle))
+            })
             .collect();
-        if new.is_empty() {
-            return Ok(());
-        }
-        let warn = py.import("warnings")?.getattr("warn")?;
-        for c in new {
+        for c in crossings {
+            if self.warned.contains(&(c.body, c.obstacle)) {
+                continue;
+            }
             self.warned.push((c.body, c.obstacle));
             let text = crossing_warning(&sim.model, &c, body_names, &PYTHON);
-            let warning = py
-                .get_type::<TunnellingWarning>()
-                .call1((format!("{source}: {text}"),))?;
-            warning.setattr("body", c.body)?;
-            warning.setattr("obstacle", c.obstacle)?;
+            let warning = new_warning(py, format!("{source}: {text}"), c.body, c.obstacle)?;
             warning.setattr("points", c.points)?;
             warning.setattr("time", c.first)?;
             warning.setattr("suggested_dt", c.advised_dt())?;
@@ -112,10 +118,43 @@ impl Watch {
                 "suggested_collision_stiffness",
                 c.advised_stiffness(&sim.model),
             )?;
-            // Attributed to the caller's line (`sim.run(…)`), as a warning from Python code
-            // called there would be.
-            warn.call1((warning, py.None(), 1))?;
+            warn(py, warning)?;
+        }
+        for t in through {
+            if self.warned.contains(&(t.body, t.obstacle)) {
+                continue;
+            }
+            self.warned.push((t.body, t.obstacle));
+            let text = through_warning(&sim.model, &t, body_names);
+            let warning = new_warning(py, format!("{source}: {text}"), t.body, t.obstacle)?;
+            warning.setattr("points", py.None())?;
+            warning.setattr("time", (sim.state.time, sim.state.time))?;
+            warning.setattr("suggested_dt", py.None())?;
+            warning.setattr("suggested_collision_stiffness", py.None())?;
+            warn(py, warning)?;
         }
         Ok(())
     }
+}
+
+/// A `jello.TunnellingWarning` with `message`, its `body` and `obstacle` set.
+fn new_warning(
+    py: Python<'_>,
+    message: String,
+    body: usize,
+    obstacle: usize,
+) -> PyResult<Bound<'_, PyAny>> {
+    let warning = py.get_type::<TunnellingWarning>().call1((message,))?;
+    warning.setattr("body", body)?;
+    warning.setattr("obstacle", obstacle)?;
+    Ok(warning)
+}
+
+/// `warnings.warn(warning)`, attributed to the caller's line (`sim.run(…)`), as a warning from
+/// Python code called there would be.
+fn warn(py: Python<'_>, warning: Bound<'_, PyAny>) -> PyResult<()> {
+    py.import("warnings")?
+        .getattr("warn")?
+        .call1((warning, py.None(), 1))?;
+    Ok(())
 }

@@ -133,3 +133,17 @@ def test_on_the_gpu_the_states_read_back_are_compared() -> None:
     [w] = tunnelling(record)
     assert (w.body, w.obstacle) == (0, 0) and w.points == 27, str(w)
     assert w.suggested_collision_stiffness is not None, str(w)
+
+
+def test_an_obstacle_through_a_coarse_body_is_warned_of_after_the_call() -> None:
+    """A cube of 4³ points (13 cm apart) dropped on an upright 5 cm blade: the blade passes
+    between its points without touching one; after the call, the cube has it through it."""
+    blade = jello.box((-0.025, -1, -2), (0.025, 1, 0))
+    cube = jello.cube(4, 0.4, centre=(0, 0, 0.5), name="cube")
+    sim = jello.create([cube], obstacles=[blade], collision_stiffness=1e4, collision_damping=5)
+    with pytest.warns(jello.TunnellingWarning, match="ends with obstacle 1 .* through it") as record:
+        sim.run(3000)
+    [w] = tunnelling(record)
+    assert (w.body, w.obstacle, w.points) == (0, 0, None)
+    assert w.time == (sim.time, sim.time)
+    assert "thinner than the body's lattice spacing" in str(w)

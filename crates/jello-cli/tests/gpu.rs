@@ -267,4 +267,43 @@ fn a_cube_impaled_on_a_plate_on_the_gpu_is_reported_as_on_the_core() {
         &["run", "rest.toml", "--time", "2", "-q", "--device", "gpu"],
     );
     assert!(rest.is_empty(), "{rest}");
+
+    // A blade thinner than a coarse cube's lattice spacing passes between its points: the end
+    // state read back shows it through the cube.
+    dir.succeeds(&[
+        "create",
+        "blade.toml",
+        "--cube",
+        "4",
+        "--size",
+        "0.4",
+        "--centre",
+        "0,0,0.5",
+        "--name",
+        "cube",
+        "--collision-stiffness",
+        "1e4",
+        "--collision-damping",
+        "5",
+        "--box=-0.025,-1,-2,0.025,1,0",
+    ]);
+    let cut = run_warnings(
+        &dir,
+        &[
+            "run",
+            "blade.toml",
+            "--time",
+            "1.5",
+            "-q",
+            "--device",
+            "gpu",
+        ],
+    );
+    assert!(
+        cut.starts_with(
+            "warning: blade.toml: body 'cube' ends with obstacle 1 (box, 5 cm thick there) \
+             through it"
+        ),
+        "{cut}"
+    );
 }

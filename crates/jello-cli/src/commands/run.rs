@@ -4,7 +4,7 @@ use std::path::PathBuf;
 use std::time::Instant;
 
 use clap::Args;
-use jello_core::diagnostics::{energy, max_penetration, TunnelWatch};
+use jello_core::diagnostics::{energy, max_penetration, obstacles_through, TunnelWatch};
 use jello_core::Integrator;
 
 use super::{
@@ -295,11 +295,25 @@ pub fn run(args: RunArgs) -> Result<(), CliError> {
     println!("{summary}");
     // Warnings after the summary, on stderr: the run itself succeeded.
     let names = body_names(&source, &sim.model);
-    for c in watch.iter().flat_map(|w| w.crossings()) {
+    let crossings = watch.as_ref().map_or(&[][..], |w| w.crossings());
+    for c in crossings {
         eprintln!(
             "warning: {name}: {}",
             super::tunnelling::crossing_warning(&sim.model, c, &names)
         );
+    }
+    // An obstacle through a body at the end that no point was seen passing (it passed between
+    // the body's points, or between two states read back from a GPU).
+    for t in obstacles_through(&sim.model, &sim.state.pos) {
+        if !crossings
+            .iter()
+            .any(|c| (c.body, c.obstacle) == (t.body, t.obstacle))
+        {
+            eprintln!(
+                "warning: {name}: {}",
+                jello_core::diagnostics::through_warning(&sim.model, &t, &names)
+            );
+        }
     }
     Ok(())
 }

@@ -3,7 +3,7 @@
 //! as the reader sets them ([`Knobs`]: the command line's flags, Python's attributes). One
 //! wording for `jello run` and the Python package, on the CPU and on a GPU.
 
-use crate::contact::tunnelling::Crossings;
+use crate::contact::tunnelling::{Crossings, Through};
 use crate::model::obstacle::Obstacle;
 use crate::model::Model;
 use crate::vec3::significant;
@@ -117,6 +117,34 @@ pub fn crossing_warning(model: &Model, c: &Crossings, names: &[String], knobs: &
         significant(c.first.1, 6),
         length(c.half_thickness),
         significant(c.impact_speed, 3),
+    )
+}
+
+/// The warning for an obstacle through a body at the end of a run (`t`), when no point of the
+/// body was seen passing through it; `names` are the bodies' names.
+pub fn through_warning(model: &Model, t: &Through, names: &[String]) -> String {
+    let edges = if t.edges == 1 {
+        "1 edge of its lattice crosses".to_string()
+    } else {
+        format!("{} edges of its lattice cross", t.edges)
+    };
+    let why = if t.thinner_than_lattice() {
+        format!(
+            "the obstacle is thinner than the body's lattice spacing ({}), so it passes between \
+             the body's points without touching them: try a finer lattice (a spacing under {}) \
+             or a thicker obstacle",
+            length(t.spacing),
+            length(2.0 * t.half_thickness)
+        )
+    } else {
+        "its points went past the obstacle's middle between the states compared".to_string()
+    };
+    format!(
+        "body '{}' ends with {} through it: {edges} the obstacle's middle, {} from its faces, \
+         where the contact pushes the two ends out on opposite sides; {why}",
+        names[t.body],
+        obstacle(model, t.obstacle, t.half_thickness),
+        length(t.half_thickness),
     )
 }
 

@@ -15,6 +15,12 @@
 //! - a ball: the segment passes the centre (the old and new positions on opposite sides of it)
 //!   more than half the radius deep.
 //!
+//! A state alone shows an obstacle through a body ([`obstacles_through`]): an edge of the body's
+//! lattice (a structural spring) that crosses the obstacle's middle, as a step would, has its
+//! ends pushed out on opposite sides. That is a body left impaled by points that passed through,
+//! or one whose lattice is coarser than the obstacle, which then passes between its points
+//! without any point touching it, which no watch of points sees.
+//!
 //! Planes, the classic plane and the box's walls are half-spaces: nothing passes through them
 //! (the blow-up check catches a point far beyond a wall), so they are not watched.
 //!
@@ -28,6 +34,7 @@
 //! counted too, so the closer the states the better.
 
 use crate::model::body::Body;
+use crate::model::lattice::SpringKind;
 use crate::model::obstacle::{Aabb, Obstacle, Sphere};
 use crate::model::Model;
 use crate::state::State;
@@ -241,6 +248,102 @@ impl TunnelWatch {
     }
 }
 
+/// An obstacle through a body at a state, found by [`obstacles_through`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Through {
+    /// The body (an index into the model's bodies).
+    pub body: usize,
+    /// The obstacle (an index into the model's obstacles).
+    pub obstacle: usize,
+    /// How many of the body's lattice edges (structural springs) cross the obstacle's middle.
+    pub edges: usize,
+    /// Half the obstacle's thickness where the first was found (m), as in
+    /// [`Crossings::half_thickness`].
+    pub half_thickness: f64,
+    /// The body's lattice spacing (m, the finest across its axes).
+    pub spacing: f64,
+}
+
+impl Through {
+    /// Whether the obstacle is thinner there than the body's lattice spacing, so that it can
+    /// pass between the body's points.
+    pub fn thinner_than_lattice(&self) -> bool {
+        2.0 * self.half_thickness < self.spacing
+    }
+}
+
+/// The obstacles (boxes and balls) through the bodies at positions `pos`: per body and
+/// obstacle, the body's lattice edges (its structural springs between active points) that
+/// cross the obstacle's middle, as a step does in [`TunnelWatch`]; in the order of the bodies,
+/// then the obstacles.
+pub fn obstacles_through(model: &Model, pos: &[Vec3]) -> Vec<Through> {
+    let mut found = Vec::new();
+    if !TunnelWatch::watches(model) {
+        return found;
+    }
+    for (b, body) in model.bodies().iter().enumerate() {
+        let first = body.points().start;
+        // Only the obstacles the body's bounding box meets (most often none: the springs are
+        // not gone over).
+        let (lo, hi) = (first..first + body.len())
+            .filter(|&p| body.is_active(p - first))
+            .fold(
+                (
+                    Vec3::new(f64::INFINITY, f64::INFINITY, f64::INFINITY),
+                    -Vec3::new(f64::INFINITY, f64::INFINITY, f64::INFINITY),
+                ),
+                |(lo, hi), p| (lo.min(pos[p]), hi.max(pos[p])),
+            );
+        let meets = |min: Vec3, max: Vec3| {
+            let (min, max, lo, hi) = (min.to_array(), max.to_array(), lo.to_array(), hi.to_array());
+            (0..3).all(|k| min[k] <= hi[k] && lo[k] <= max[k])
+        };
+        let near: Vec<usize> = (0..model.obstacles.len())
+            .filter(|&o| match &model.obstacles[o] {
+                Obstacle::Box(bx) => meets(bx.min, bx.max),
+                Obstacle::Sphere(s) => {
+                    let r = Vec3::new(s.radius, s.radius, s.radius);
+                    meets(s.centre - r, s.centre + r)
+                }
+                Obstacle::Plane(_) => false,
+            })
+            .collect();
+        if near.is_empty() {
+            continue;
+        }
+        let mut per_obstacle: Vec<Option<(usize, f64)>> = vec![None; model.obstacles.len()];
+        body.for_each_spring(|spring| {
+            if spring.kind != SpringKind::Structural {
+                return;
+            }
+            let (a, z) = (pos[first + spring.a], pos[first + spring.b]);
+            for &o in &near {
+                let half = match &model.obstacles[o] {
+                    Obstacle::Box(bx) => box_crossing(bx, a, z),
+                    Obstacle::Sphere(s) => ball_crossing(s, a, z),
+                    Obstacle::Plane(_) => None,
+                };
+                if let Some(half) = half {
+                    let entry = per_obstacle[o].get_or_insert((0, half));
+                    entry.0 += 1;
+                }
+            }
+        });
+        for (o, entry) in per_obstacle.into_iter().enumerate() {
+            if let Some((edges, half_thickness)) = entry {
+                found.push(Through {
+                    body: b,
+                    obstacle: o,
+                    edges,
+                    half_thickness,
+                    spacing: body.min_spacing(),
+                });
+            }
+        }
+    }
+    found
+}
+
 /// One point's crossing of one obstacle, as [`TunnelWatch::observe_apart`] finds it.
 struct Crossing {
     body: usize,
@@ -406,6 +509,35 @@ mod tests {
         let mut watch = TunnelWatch::new(&model, &fast);
         watch.observe_apart(&model, &below, 10);
         assert!((watch.crossings()[0].impact_speed - 10.0).abs() < 1e-9);
+    }
+
+    /// A thin plate between two layers of the classic cube's points crosses the 64 edges
+    /// between them; below the cube it crosses none.
+    #[test]
+    fn a_plate_between_two_layers_of_points_is_through_the_body() {
+        use crate::model::ModelBuilder;
+        use crate::state::State;
+        let plate_at = |z: f64| {
+            let plate = Aabb::new(
+                Vec3::new(-5.0, -5.0, z - 0.01),
+                Vec3::new(5.0, 5.0, z + 0.01),
+            );
+            ModelBuilder::new()
+                .obstacle(Obstacle::Box(plate.unwrap()))
+                .build()
+                .unwrap()
+        };
+        let pos = State::at_rest(&plate_at(0.0)).pos;
+        let mut zs: Vec<f64> = pos.iter().map(|p| p.z).collect();
+        zs.sort_by(f64::total_cmp);
+        zs.dedup();
+        let between = 0.5 * (zs[3] + zs[4]);
+        let [t] = obstacles_through(&plate_at(between), &pos)[..] else {
+            panic!()
+        };
+        assert_eq!((t.body, t.obstacle, t.edges), (0, 0, 64));
+        assert!((t.half_thickness - 0.01).abs() < 1e-12 && t.thinner_than_lattice());
+        assert!(obstacles_through(&plate_at(zs[0] - 0.5), &pos).is_empty());
     }
 
     #[test]
