@@ -33,6 +33,16 @@ class WorldError(ValueError):
 class GpuError(RuntimeError):
     """No usable GPU for ``device="gpu"``, or the GPU failed while stepping."""
 
+class TunnellingWarning(UserWarning):
+    """Points of a body passed through a box or ball obstacle; warned once per pair."""
+
+    body: int
+    obstacle: int
+    points: int | None
+    time: tuple[float, float]
+    suggested_dt: float | None
+    suggested_collision_stiffness: float | None
+
 @final
 class Energy:
     """Kinetic, spring and collision energy (J)."""

@@ -113,13 +113,17 @@ impl Mirror {
     }
 
     /// `n` steps on the GPU with the GIL released, in chunks of at most about [`CHUNK_TIME`]
-    /// after each of which the state is read back into `sim` and Ctrl-C is looked for; on a
-    /// blow-up, `sim` holds the last good step.
+    /// after each of which the state is read back into `sim`, `after_chunk` is called with it
+    /// and Ctrl-C is looked for; on a blow-up, `sim` holds the last good step. `watched`: the
+    /// states are compared for points passing through obstacles, so a chunk is at most one
+    /// submission of the GPU's (after which it waits for its status anyway).
     pub(crate) fn advance(
         &mut self,
         py: Python<'_>,
         sim: &mut jello_core::Simulation,
         n: u64,
+        watched: bool,
+        after_chunk: impl FnMut(&jello_core::Simulation),
     ) -> Result<(), Stopped> {
         if let Some(gpu) = &mut self.0 {
             gpu.reset_max_penetration();
@@ -129,7 +133,12 @@ impl Mirror {
             return Ok(());
         }
         let gpu = self.make(py, sim).map_err(Stopped::Raised)?;
-        let result = chunks(py, gpu, sim, n);
+        let max_chunk = if watched {
+            gpu.batch_steps().min(MAX_CHUNK)
+        } else {
+            MAX_CHUNK
+        };
+        let result = chunks(py, gpu, sim, n, max_chunk, after_chunk);
         if let Err(Stopped::Raised(_)) = &result {
             // A failed device (or Ctrl-C): the copy is made anew from the core's state, read
             // back at the last good chunk, on the next step.
@@ -139,14 +148,16 @@ impl Mirror {
     }
 }
 
-/// [`Mirror::advance`] on the copy `gpu`.
+/// [`Mirror::advance`] on the copy `gpu`, in chunks of at most `max_chunk` steps.
 fn chunks(
     py: Python<'_>,
     gpu: &mut GpuSimulation,
     sim: &mut jello_core::Simulation,
     n: u64,
+    max_chunk: u64,
+    mut after_chunk: impl FnMut(&jello_core::Simulation),
 ) -> Result<(), Stopped> {
-    let (mut left, mut chunk) = (n, 8);
+    let (mut left, mut chunk) = (n, 8.min(max_chunk));
     while left > 0 {
         let take = chunk.min(left);
         let start = Instant::now();
@@ -161,12 +172,13 @@ fn chunks(
         });
         let (blow_up, state) = outcome.map_err(|e| Stopped::Raised(gpu_error(e)))?;
         sim.state = state;
+        after_chunk(sim);
         if let Some(b) = blow_up {
             return Err(Stopped::BlowUp(Box::new(b)));
         }
         left -= take;
         if start.elapsed() < CHUNK_TIME / 2 {
-            chunk = (chunk * 2).min(MAX_CHUNK);
+            chunk = (chunk * 2).min(max_chunk);
         } else if start.elapsed() > CHUNK_TIME * 2 && chunk > 1 {
             chunk /= 2;
         }

@@ -9,6 +9,7 @@ mod build;
 mod errors;
 mod gpu;
 mod simulation;
+mod tunnelling;
 
 use pyo3::prelude::*;
 
@@ -38,6 +39,10 @@ fn _jello(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("BlowUp", py.get_type::<errors::BlowUp>())?;
     m.add("WorldError", py.get_type::<errors::WorldError>())?;
     m.add("GpuError", py.get_type::<errors::GpuError>())?;
+    m.add(
+        "TunnellingWarning",
+        py.get_type::<tunnelling::TunnellingWarning>(),
+    )?;
     m.add_class::<simulation::Simulation>()?;
     m.add_class::<simulation::Energy>()?;
     m.add_class::<simulation::SolverStats>()?;

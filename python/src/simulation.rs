@@ -17,6 +17,7 @@ use crate::active::ActivePoints;
 use crate::arrays::{from_array, to_array};
 use crate::errors::{blow_up_error, unreadable, world_error, write_error};
 use crate::gpu::{Device, Mirror};
+use crate::tunnelling::Watch;
 
 /// How long a step call runs with the GIL released before it takes the GIL back to look for
 /// Ctrl-C (and lets other Python threads run their Python code).
@@ -50,6 +51,8 @@ pub struct Simulation {
     /// Where `step` and `run` compute, and the GPU's copy when that is the GPU.
     device: Device,
     gpu: Mirror,
+    /// Points passing through obstacles, watched over every call that steps.
+    tunnel: Watch,
 }
 
 impl Simulation {
@@ -70,6 +73,7 @@ impl Simulation {
             active,
             device: Device::Cpu,
             gpu: Mirror::default(),
+            tunnel: Watch::default(),
         }
     }
 
@@ -90,6 +94,60 @@ impl Simulation {
                 err
             }
             Stopped::Raised(e) => e,
+        }
+    }
+
+    /// `n` steps on the device, `after_step` called with the state after each step on the CPU
+    /// (after each chunk read back on the GPU), each state watched for points passing through
+    /// obstacles, and the `jello.TunnellingWarning`s found warned of. Returns why stepping
+    /// stopped, if it did, for [`Simulation::finish`], with the error a warnings filter made of
+    /// a warning, if any.
+    fn advance_watched(
+        &mut self,
+        py: Python<'_>,
+        n: u64,
+        mut after_step: impl FnMut(&jello_core::Simulation) + Send,
+    ) -> (Result<(), Stopped>, PyResult<()>) {
+        self.tunnel.start(&self.sim);
+        // Out of `self` while stepping, which borrows `self` whole.
+        let mut tunnel = std::mem::take(&mut self.tunnel);
+        let watching = tunnel.watching();
+        let mut watched = |sim: &jello_core::Simulation| {
+            tunnel.observe(sim);
+            after_step(sim);
+        };
+        let result = match self.device {
+            Device::Cpu => self.step_cpu(py, n, &mut watched),
+            Device::Gpu => self
+                .gpu
+                .advance(py, &mut self.sim, n, watching, &mut watched),
+        };
+        self.tunnel = tunnel;
+        // Warned of even when stepping stopped: the state is the last good step's.
+        let warned = self
+            .tunnel
+            .warn(py, &self.sim, &self.name, &self.body_names);
+        (result, warned)
+    }
+
+    /// The outcome of [`Simulation::advance_watched`]: the exception of stepping that stopped
+    /// (see [`Simulation::raise`]; `deepest` as there), else the warning made an error, if any.
+    fn finish(
+        &self,
+        py: Python<'_>,
+        (result, warned): (Result<(), Stopped>, PyResult<()>),
+        deepest: Option<f64>,
+    ) -> PyResult<()> {
+        match result {
+            Ok(()) => warned,
+            Err(stop) => {
+                let err = self.raise(py, stop, deepest);
+                // A warning a filter made an error is not lost: it caused the raise to follow.
+                if let Err(w) = warned {
+                    err.set_cause(py, Some(w));
+                }
+                Err(err)
+            }
         }
     }
 
@@ -166,6 +224,7 @@ impl Simulation {
             }
         }
         self.gpu.clear();
+        self.tunnel.reset();
         let control = std::mem::take(&mut self.sim.control);
         let state = self.sim.state.clone();
         self.sim = jello_core::Simulation::new(model, state);
@@ -179,15 +238,13 @@ impl Simulation {
 impl Simulation {
     /// Advances `n` steps with the GIL released. Raises `jello.BlowUp` at the first step that
     /// blows up, leaving the state at the last good step (`steps` says how many were taken);
-    /// Ctrl-C stops between steps, leaving a whole step too.
+    /// Ctrl-C stops between steps, leaving a whole step too. Warns `jello.TunnellingWarning`
+    /// when points passed through an obstacle (once per body and obstacle).
     #[pyo3(signature = (n = 1))]
     fn step(&mut self, py: Python<'_>, n: i64) -> PyResult<()> {
         let n = step_count(n)?;
-        let result = match self.device {
-            Device::Cpu => self.step_cpu(py, n, |_| {}),
-            Device::Gpu => self.gpu.advance(py, &mut self.sim, n),
-        };
-        result.map_err(|stop| self.raise(py, stop, None))
+        let outcome = self.advance_watched(py, n, |_| {});
+        self.finish(py, outcome, None)
     }
 
     /// Advances `n` steps: `step(n)` under the Rust core's name (`Simulation::advance`), so
@@ -202,19 +259,17 @@ impl Simulation {
     fn run(&mut self, py: Python<'_>, n: i64) -> PyResult<f64> {
         let n = step_count(n)?;
         let mut deepest = max_penetration(&self.sim.model, &self.sim.state.pos);
-        let result = match self.device {
-            Device::Cpu => self.step_cpu(py, n, |sim| {
+        // Read off every step on the CPU; on the GPU the shaders track it.
+        let on_cpu = self.device == Device::Cpu;
+        let outcome = self.advance_watched(py, n, |sim| {
+            if on_cpu {
                 deepest = deepest.max(max_penetration(&sim.model, &sim.state.pos));
-            }),
-            Device::Gpu => {
-                let result = self.gpu.advance(py, &mut self.sim, n);
-                deepest = deepest.max(self.gpu.deepest());
-                result
             }
-        };
-        result
-            .map(|()| deepest)
-            .map_err(|stop| self.raise(py, stop, Some(deepest)))
+        });
+        if !on_cpu {
+            deepest = deepest.max(self.gpu.deepest());
+        }
+        self.finish(py, outcome, Some(deepest)).map(|()| deepest)
     }
 
     /// Sets the springs' stiffness (N/m) and damping (N·s/m), a number or one per kind
@@ -292,6 +347,7 @@ impl Simulation {
         let values = from_array(value, self.active.len(), "positions")?;
         self.active.scatter(values, &mut self.sim.state.pos);
         self.gpu.state_changed(&self.sim.state);
+        self.tunnel.restart();
         Ok(())
     }
 

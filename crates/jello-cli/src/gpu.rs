@@ -58,6 +58,12 @@ impl Gpu {
     pub fn max_penetration(&self) -> f64 {
         self.0.max_penetration()
     }
+
+    /// Steps in one submission, after which the GPU waits for its status anyway: reading the
+    /// state back every this many steps costs little more.
+    pub fn batch_steps(&self) -> u64 {
+        self.0.batch_steps()
+    }
 }
 
 #[cfg(not(feature = "gpu"))]
@@ -92,6 +98,11 @@ impl Gpu {
 
     /// Never called: no `Gpu` exists in this build.
     pub fn max_penetration(&self) -> f64 {
+        match *self {}
+    }
+
+    /// Never called: no `Gpu` exists in this build.
+    pub fn batch_steps(&self) -> u64 {
         match *self {}
     }
 }

@@ -175,3 +175,135 @@ fn a_blow_up_on_the_gpu_is_reported_like_the_cores() {
     assert!(err.contains("blew up at step"), "{err}");
     assert!(!dir.path("never.w").exists(), "no file from a failed run");
 }
+
+/// The warnings of a successful run (its stderr, without the Vulkan loader's complaints).
+fn run_warnings(dir: &TempDir, args: &[&str]) -> String {
+    let out = dir.run(args);
+    let err = String::from_utf8_lossy(&out.stderr).into_owned();
+    assert!(out.status.success(), "{err}");
+    err.lines()
+        .filter(|l| l.starts_with("warning:"))
+        .collect::<Vec<_>>()
+        .join("\n")
+}
+
+/// A cube thrown at 60 m/s at a 5 cm plate with a soft contact ends impaled on it: its bottom
+/// layer goes through. On the GPU the states read back (once a submission of steps) are
+/// compared, and the run warns as on the CPU, with the same advice; a cube resting on the plate
+/// is not reported.
+#[test]
+fn a_cube_impaled_on_a_plate_on_the_gpu_is_reported_as_on_the_core() {
+    let dir = TempDir::new("gpu-tunnel");
+    dir.succeeds(&[
+        "create",
+        "thrown.toml",
+        "--cube",
+        "3",
+        "--size",
+        "0.2",
+        "--centre",
+        "0,0,0.5",
+        "--velocity",
+        "0,0,-60",
+        "--name",
+        "cube",
+        "--collision-stiffness",
+        "1e3",
+        "--collision-damping",
+        "5",
+        "--box=-1,-1,-0.05,1,1,0",
+        "--integrator",
+        "SymplecticEuler",
+        "--dt",
+        "0.0005",
+    ]);
+    let run = |device: &str| {
+        run_warnings(
+            &dir,
+            &[
+                "run",
+                "thrown.toml",
+                "--time",
+                "1",
+                "-q",
+                "--device",
+                device,
+            ],
+        )
+    };
+    let (gpu, cpu) = (run("gpu"), run("cpu"));
+    let through = "warning: thrown.toml: 9 points of body 'cube' passed through obstacle 1 (box, \
+                   5 cm thick there) between t = ";
+    assert!(
+        gpu.starts_with(through) && cpu.starts_with(through),
+        "{gpu}\n{cpu}"
+    );
+    assert!(
+        gpu.contains("between states read back up to 512 steps apart they went past its middle"),
+        "{gpu}"
+    );
+    // The body's speed is read off the states' velocities: the advice is the CPU's.
+    let advice = |w: &str| w[w.find("; try").expect(w)..].to_string();
+    assert_eq!(advice(&gpu), advice(&cpu));
+    assert!(gpu.contains("try --dt 0.00021 or less"), "{gpu}");
+
+    dir.succeeds(&[
+        "create",
+        "rest.toml",
+        "--cube",
+        "3",
+        "--size",
+        "0.2",
+        "--centre",
+        "0,0,0.11",
+        "--collision-stiffness",
+        "1e4",
+        "--collision-damping",
+        "5",
+        "--box=-1,-1,-0.05,1,1,0",
+    ]);
+    let rest = run_warnings(
+        &dir,
+        &["run", "rest.toml", "--time", "2", "-q", "--device", "gpu"],
+    );
+    assert!(rest.is_empty(), "{rest}");
+
+    // A blade thinner than a coarse cube's lattice spacing passes between its points: the end
+    // state read back shows it through the cube.
+    dir.succeeds(&[
+        "create",
+        "blade.toml",
+        "--cube",
+        "4",
+        "--size",
+        "0.4",
+        "--centre",
+        "0,0,0.5",
+        "--name",
+        "cube",
+        "--collision-stiffness",
+        "1e4",
+        "--collision-damping",
+        "5",
+        "--box=-0.025,-1,-2,0.025,1,0",
+    ]);
+    let cut = run_warnings(
+        &dir,
+        &[
+            "run",
+            "blade.toml",
+            "--time",
+            "1.5",
+            "-q",
+            "--device",
+            "gpu",
+        ],
+    );
+    assert!(
+        cut.starts_with(
+            "warning: blade.toml: body 'cube' ends with obstacle 1 (box, 5 cm thick there) \
+             through it"
+        ),
+        "{cut}"
+    );
+}

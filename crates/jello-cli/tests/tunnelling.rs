@@ -116,3 +116,60 @@ fn a_cube_resting_on_a_plate_is_not_reported() {
     // It rests on the plate (its centre at its half size, 0.1 m, less the contact's give).
     assert!((centre_z(&dir, "after.toml") - 0.1).abs() < 1e-3);
 }
+
+/// A cube of 4³ points (13 cm apart) dropped on the edge of an upright 5 cm blade: the blade
+/// passes between its points, none touching it, and it ends on the floor with the blade through
+/// it. No point passed through, so the end state says so; a cube of 11³ (4 cm apart) rests on
+/// the edge.
+#[test]
+fn a_blade_between_a_coarse_lattices_points_is_reported_at_the_end() {
+    let dir = TempDir::new("blade");
+    let create = |file: &str, n: &str| {
+        dir.succeeds(&[
+            "create",
+            file,
+            "--cube",
+            n,
+            "--size",
+            "0.4",
+            "--centre",
+            "0,0,0.5",
+            "--name",
+            "cube",
+            "--collision-stiffness",
+            "1e4",
+            "--collision-damping",
+            "5",
+            "--box=-0.025,-1,-2,0.025,1,0",
+        ])
+    };
+    create("coarse.toml", "4");
+    create("fine.toml", "11");
+    let run = |file: &str, saved: &str| {
+        let out = dir.run(&["run", file, "--time", "1.5", "-q", "--save", saved]);
+        assert!(out.status.success(), "{}", stderr(&out));
+        stderr(&out)
+    };
+    let cut = run("coarse.toml", "cut.toml");
+    assert_eq!(
+        cut.lines().count(),
+        1,
+        "one warning, for the end state: {cut}"
+    );
+    assert!(
+        cut.starts_with(
+            "warning: coarse.toml: body 'cube' ends with obstacle 1 (box, 5 cm thick there) \
+             through it: 16 edges of its lattice cross the obstacle's middle"
+        ),
+        "{cut}"
+    );
+    assert!(
+        cut.contains("thinner than the body's lattice spacing (13.3 cm)"),
+        "{cut}"
+    );
+    assert!(centre_z(&dir, "cut.toml") < -1.5);
+
+    let rests = run("fine.toml", "rests.toml");
+    assert!(rests.is_empty(), "{rests}");
+    assert!(centre_z(&dir, "rests.toml") > 0.1);
+}

@@ -6,7 +6,8 @@ use crate::state::State;
 use crate::vec3::Vec3;
 
 pub use crate::contact::obstacles::max_penetration;
-pub use crate::contact::tunnelling::{Crossings, TunnelWatch};
+pub use crate::contact::tunnel_warning::{crossing_warning, through_warning, Knobs};
+pub use crate::contact::tunnelling::{obstacles_through, Crossings, Through, TunnelWatch};
 
 /// Mechanical energy (J) of a state. The force field is not a potential, so its work is not part
 /// of it: with a field, the total changes by the work the field does.

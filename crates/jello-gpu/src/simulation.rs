@@ -656,6 +656,12 @@ impl GpuSimulation {
         Ok(unsound == 0)
     }
 
+    /// Steps in one submission, at most: the status is read back after each, so reading the
+    /// state back there too (every this many steps) costs little more than a copy.
+    pub fn batch_steps(&self) -> u64 {
+        self.batch
+    }
+
     /// Simulated time (s) of the state on the device, as the core counts it.
     pub fn time(&self) -> f64 {
         self.time

@@ -4,7 +4,7 @@ use std::path::PathBuf;
 use std::time::Instant;
 
 use clap::Args;
-use jello_core::diagnostics::{energy, max_penetration, TunnelWatch};
+use jello_core::diagnostics::{energy, max_penetration, obstacles_through, TunnelWatch};
 use jello_core::Integrator;
 
 use super::{
@@ -22,7 +22,8 @@ use jello_io::{check_writable_target, is_scene, load, write_atomic, Source};
 const DEFAULT_TIME: f64 = 1.0;
 
 /// Steps on the GPU between two readbacks of the state when no frame falls due sooner (the
-/// progress bar is updated there).
+/// progress bar is updated there), in a model without obstacles to watch for points passing
+/// through.
 const GPU_READBACK_STEPS: u64 = 2000;
 
 /// Arguments of `jello run`.
@@ -164,10 +165,16 @@ pub fn run(args: RunArgs) -> Result<(), CliError> {
     if let Some(x) = export.as_mut() {
         x.record(&sim.model, &sim.state)?;
     }
-    // On the CPU each step is compared with the last for points that passed through an obstacle
-    // (the GPU's state is read back only now and then: too seldom to tell).
-    let mut watch = (gpu.is_none() && TunnelWatch::watches(&sim.model))
-        .then(|| TunnelWatch::new(&sim.model, &sim.state.pos, sim.state.time));
+    // Each state is compared with the last for points that passed through an obstacle: every
+    // step on the CPU; on a GPU every state read back, the straight segment between two standing
+    // for the points' paths, so then the state is read back after every submission of steps
+    // (the GPU waits for its status there anyway).
+    let mut watch =
+        TunnelWatch::watches(&sim.model).then(|| TunnelWatch::new(&sim.model, &sim.state));
+    let readback_steps = match (&gpu, &watch) {
+        (Some(gpu), Some(_)) => gpu.batch_steps().min(GPU_READBACK_STEPS),
+        _ => GPU_READBACK_STEPS,
+    };
     let start = Instant::now();
     let mut done = 0;
     while done < total {
@@ -178,7 +185,7 @@ pub fn run(args: RunArgs) -> Result<(), CliError> {
                 .map_err(|blow_up| CliError::blow_up(format!("{name}: {blow_up}"))),
             Some(gpu) => {
                 // Up to the next step where a frame or an export frame is due.
-                let mut next = (done + GPU_READBACK_STEPS).min(total);
+                let mut next = (done + readback_steps).min(total);
                 if frames.is_some() {
                     next = next.min((done / every + 1) * every);
                 }
@@ -193,15 +200,16 @@ pub fn run(args: RunArgs) -> Result<(), CliError> {
                     })
             }
         };
-        match stepped {
-            Ok(k) => done += k,
+        let taken = match stepped {
+            Ok(k) => k,
             Err(e) => {
                 progress.finish();
                 return Err(e);
             }
-        }
+        };
+        done += taken;
         if let Some(w) = watch.as_mut() {
-            w.observe(&sim.model, &sim.state.pos, sim.state.time);
+            w.observe_apart(&sim.model, &sim.state, taken);
         }
         deepest = match &gpu {
             None => deepest.max(max_penetration(&sim.model, &sim.state.pos)),
@@ -287,11 +295,25 @@ pub fn run(args: RunArgs) -> Result<(), CliError> {
     println!("{summary}");
     // Warnings after the summary, on stderr: the run itself succeeded.
     let names = body_names(&source, &sim.model);
-    for c in watch.iter().flat_map(|w| w.crossings()) {
+    let crossings = watch.as_ref().map_or(&[][..], |w| w.crossings());
+    for c in crossings {
         eprintln!(
             "warning: {name}: {}",
             super::tunnelling::crossing_warning(&sim.model, c, &names)
         );
+    }
+    // An obstacle through a body at the end that no point was seen passing (it passed between
+    // the body's points, or between two states read back from a GPU).
+    for t in obstacles_through(&sim.model, &sim.state.pos) {
+        if !crossings
+            .iter()
+            .any(|c| (c.body, c.obstacle) == (t.body, t.obstacle))
+        {
+            eprintln!(
+                "warning: {name}: {}",
+                jello_core::diagnostics::through_warning(&sim.model, &t, &names)
+            );
+        }
     }
     Ok(())
 }

@@ -6,7 +6,8 @@
 //!   law and the overlap diagnostics;
 //! - [`broad_phase`]: the hashed uniform grid that finds the cells of bodies near a point;
 //! - [`friction`]: Coulomb friction, on obstacles (anchored ties) and between bodies (sliding);
-//! - [`tunnelling`]: points a step carried through an obstacle, read off two successive states.
+//! - [`tunnelling`]: points a step carried through an obstacle, read off two successive states;
+//!   [`tunnel_warning`], the warning that says so and what to try.
 //!
 //! Contact reads the model; the force pass ([`crate::forces`]) and the implicit integrators
 //! call it.
@@ -15,6 +16,7 @@ pub mod bodies;
 pub mod broad_phase;
 pub mod friction;
 pub mod obstacles;
+pub mod tunnel_warning;
 pub mod tunnelling;
 
 pub use bodies::{closest, overlap, touch_force, Closest, Contacts};

@@ -19,15 +19,29 @@
 //! is: it counts only once it is its clearance past the middle (see [`crate::model::clearance`]:
 //! the obstacle pushes it that much later, so its skin is about that far behind it).
 //!
+//! A state alone shows an obstacle through a body ([`obstacles_through`]): an edge of the body's
+//! lattice (a structural spring) that crosses the obstacle's middle, as a step would, has its
+//! ends pushed out on opposite sides. That is a body left impaled by points that passed through,
+//! or one whose lattice is coarser than the obstacle, which then passes between its points
+//! without any point touching it, which no watch of points sees.
+//!
 //! Planes, the classic plane and the box's walls are half-spaces: nothing passes through them
 //! (the blow-up check catches a point far beyond a wall), so they are not watched.
 //!
 //! The watch goes over the bodies' active points in order on one thread: the same report on any
 //! number of threads.
+//!
+//! States further apart than a step (a GPU's state, read back only now and then) are compared
+//! the same way, by the straight segment between them
+//! ([`TunnelWatch::observe_apart`]): a point that went through the obstacle between them, or
+//! is past its middle at the second, is found; one that went around it in between could be
+//! counted too, so the closer the states the better.
 
 use crate::model::body::Body;
+use crate::model::lattice::SpringKind;
 use crate::model::obstacle::{Aabb, Obstacle, Sphere};
 use crate::model::Model;
+use crate::state::State;
 use crate::vec3::Vec3;
 
 /// The crossings of one body through one obstacle over the steps watched.
@@ -48,13 +62,16 @@ pub struct Crossings {
     /// The longest move of a crossing point in its crossing step (m).
     pub longest_move: f64,
     /// The fastest the body's centre of mass moved over the steps watched up to the last
-    /// crossing (m/s): the speed it may have hit the obstacle with.
+    /// crossing, or went in a state watched (m/s): the speed it may have hit the obstacle with.
     pub impact_speed: f64,
     /// Half the obstacle's thickness where it was crossed (m): half the box's size across the
     /// crossing axis, half a ball's radius.
     pub half_thickness: f64,
     /// The time step of the crossing steps (s).
     pub dt: f64,
+    /// How many steps apart the states compared were where a crossing was found (the most): 1
+    /// when every step was watched.
+    pub steps_apart: u64,
     /// The mass of one of the body's points (kg).
     pub point_mass: f64,
 }
@@ -62,11 +79,19 @@ pub struct Crossings {
 impl Crossings {
     /// The longest a step should be (s) when a step moved points further than half of
     /// [`Crossings::half_thickness`] (`None` when none did): the CFL-like bound at which the
-    /// crossing points, and the body's centre at its impact speed, move at most that far.
+    /// crossing points, and the body's centre at its impact speed, move at most that far. With
+    /// states several steps apart, a point's move a step is taken as its move between them
+    /// shared evenly over the steps.
     pub fn advised_dt(&self) -> Option<f64> {
         let limit = 0.5 * self.half_thickness;
-        let step = self.longest_move.max(self.impact_speed * self.dt);
+        let step = self.longest_move_a_step().max(self.impact_speed * self.dt);
         (step > limit).then(|| self.dt * limit / step)
+    }
+
+    /// [`Crossings::longest_move`] a step: over the steps between the states compared, shared
+    /// evenly (a lower bound when they are several steps apart).
+    pub fn longest_move_a_step(&self) -> f64 {
+        self.longest_move / self.steps_apart.max(1) as f64
     }
 
     /// The least collision stiffness (N/m) whose penalty spring stops a lone point of the body
@@ -88,7 +113,8 @@ pub struct TunnelWatch {
     before: Vec<Vec3>,
     /// Its time (s).
     time: f64,
-    /// Per body, the fastest its centre of mass moved in a step so far (m/s).
+    /// Per body, the fastest its centre of mass moved between two states so far, or went in one
+    /// (m/s): between states far apart its mean speed, so its velocity in them counts too.
     fastest: Vec<f64>,
     /// Per (point, obstacle), whether the point has crossed it: allocated at the first crossing.
     crossed: Vec<bool>,
@@ -96,12 +122,16 @@ pub struct TunnelWatch {
 }
 
 impl TunnelWatch {
-    /// A watch starting from positions `pos` at time `time`.
-    pub fn new(model: &Model, pos: &[Vec3], time: f64) -> Self {
+    /// A watch starting from `state`.
+    pub fn new(model: &Model, state: &State) -> Self {
         TunnelWatch {
-            before: pos.to_vec(),
-            time,
-            fastest: vec![0.0; model.bodies().len()],
+            before: state.pos.clone(),
+            time: state.time,
+            fastest: model
+                .bodies()
+                .iter()
+                .map(|body| centre(body, &state.vel).length())
+                .collect(),
             crossed: Vec::new(),
             found: Vec::new(),
         }
@@ -116,16 +146,29 @@ impl TunnelWatch {
             .any(|o| matches!(o, Obstacle::Box(_) | Obstacle::Sphere(_)))
     }
 
-    /// Compares the positions `pos` at `time` (one step after the last observed) with the last
-    /// observed, records the points that crossed an obstacle between them, and keeps `pos`.
-    pub fn observe(&mut self, model: &Model, pos: &[Vec3], time: f64) {
-        let dt = time - self.time;
+    /// Compares `state` (one step after the last observed) with the last observed, records
+    /// the points that crossed an obstacle between them, and keeps its positions.
+    pub fn observe(&mut self, model: &Model, state: &State) {
+        self.observe_apart(model, state, 1);
+    }
+
+    /// [`TunnelWatch::observe`] for a state `steps` steps after the last observed (a GPU's
+    /// state read back now and then): the segment between the two stands for each point's
+    /// path. Nothing is compared when `steps` is 0.
+    pub fn observe_apart(&mut self, model: &Model, state: &State, steps: u64) {
+        if steps == 0 {
+            return;
+        }
+        let (pos, time) = (&state.pos, state.time);
+        let apart = time - self.time;
+        let dt = apart / steps as f64;
         for (b, body) in model.bodies().iter().enumerate() {
             let first = body.points().start;
             let shift = centre(body, pos) - centre(body, &self.before);
-            if dt > 0.0 {
-                self.fastest[b] = self.fastest[b].max(shift.length() / dt);
+            if apart > 0.0 {
+                self.fastest[b] = self.fastest[b].max(shift.length() / apart);
             }
+            self.fastest[b] = self.fastest[b].max(centre(body, &state.vel).length());
             for q in (0..body.len()).filter(|&q| body.is_active(q)) {
                 let (a, z) = (self.before[first + q], pos[first + q]);
                 let moved = (z - a).length();
@@ -137,7 +180,14 @@ impl TunnelWatch {
                         Obstacle::Plane(_) => None,
                     };
                     if let Some(half_thickness) = half {
-                        self.record(model, b, first + q, o, half_thickness, moved, dt, time);
+                        let crossing = Crossing {
+                            body: b,
+                            point: first + q,
+                            obstacle: o,
+                            half_thickness,
+                            moved,
+                        };
+                        self.record(model, crossing, dt, steps, time);
                     }
                 }
             }
@@ -146,18 +196,16 @@ impl TunnelWatch {
         self.time = time;
     }
 
-    #[allow(clippy::too_many_arguments)]
-    fn record(
-        &mut self,
-        model: &Model,
-        body: usize,
-        point: usize,
-        obstacle: usize,
-        half_thickness: f64,
-        moved: f64,
-        dt: f64,
-        time: f64,
-    ) {
+    /// Records `crossing`, found between the last state observed and the one at `time`, `steps`
+    /// steps of `dt` later.
+    fn record(&mut self, model: &Model, crossing: Crossing, dt: f64, steps: u64, time: f64) {
+        let Crossing {
+            body,
+            point,
+            obstacle,
+            half_thickness,
+            moved,
+        } = crossing;
         let obstacles = model.obstacles.len();
         if self.crossed.is_empty() {
             self.crossed = vec![false; model.point_count() * obstacles];
@@ -180,6 +228,7 @@ impl TunnelWatch {
                 c.impact_speed = fastest;
                 c.half_thickness = c.half_thickness.min(half_thickness);
                 c.dt = dt;
+                c.steps_apart = c.steps_apart.max(steps);
             }
             None => self.found.push(Crossings {
                 body,
@@ -192,6 +241,7 @@ impl TunnelWatch {
                 impact_speed: fastest,
                 half_thickness,
                 dt,
+                steps_apart: steps,
                 point_mass: model.body(body).material.mass,
             }),
         }
@@ -201,6 +251,121 @@ impl TunnelWatch {
     pub fn crossings(&self) -> &[Crossings] {
         &self.found
     }
+}
+
+/// An obstacle through a body at a state, found by [`obstacles_through`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Through {
+    /// The body (an index into the model's bodies).
+    pub body: usize,
+    /// The obstacle (an index into the model's obstacles).
+    pub obstacle: usize,
+    /// How many of the body's lattice edges (structural springs) cross the obstacle's middle.
+    pub edges: usize,
+    /// Half the obstacle's thickness where the first was found (m), as in
+    /// [`Crossings::half_thickness`].
+    pub half_thickness: f64,
+    /// The body's lattice spacing (m, the finest across its axes).
+    pub spacing: f64,
+}
+
+impl Through {
+    /// Whether the obstacle is thinner there than the body's lattice spacing, so that it can
+    /// pass between the body's points.
+    pub fn thinner_than_lattice(&self) -> bool {
+        2.0 * self.half_thickness < self.spacing
+    }
+}
+
+/// The obstacles (boxes and balls) through the bodies at positions `pos`: per body and
+/// obstacle, the body's lattice edges (its structural springs between active points) that
+/// cross the obstacle's middle, as a step does in [`TunnelWatch`]; in the order of the bodies,
+/// then the obstacles.
+pub fn obstacles_through(model: &Model, pos: &[Vec3]) -> Vec<Through> {
+    let mut found = Vec::new();
+    if !TunnelWatch::watches(model) {
+        return found;
+    }
+    for (b, body) in model.bodies().iter().enumerate() {
+        let first = body.points().start;
+        // Only the obstacles the body's bounding box meets (most often none: the springs are
+        // not gone over).
+        let (lo, hi) = (first..first + body.len())
+            .filter(|&p| body.is_active(p - first))
+            .fold(
+                (
+                    Vec3::new(f64::INFINITY, f64::INFINITY, f64::INFINITY),
+                    -Vec3::new(f64::INFINITY, f64::INFINITY, f64::INFINITY),
+                ),
+                |(lo, hi), p| (lo.min(pos[p]), hi.max(pos[p])),
+            );
+        let meets = |min: Vec3, max: Vec3| {
+            let (min, max, lo, hi) = (min.to_array(), max.to_array(), lo.to_array(), hi.to_array());
+            (0..3).all(|k| min[k] <= hi[k] && lo[k] <= max[k])
+        };
+        let near: Vec<usize> = (0..model.obstacles.len())
+            .filter(|&o| match &model.obstacles[o] {
+                Obstacle::Box(bx) => meets(bx.min, bx.max),
+                Obstacle::Sphere(s) => {
+                    let r = Vec3::new(s.radius, s.radius, s.radius);
+                    meets(s.centre - r, s.centre + r)
+                }
+                Obstacle::Plane(_) => false,
+            })
+            .collect();
+        if near.is_empty() {
+            continue;
+        }
+        let mut per_obstacle: Vec<Option<(usize, f64)>> = vec![None; model.obstacles.len()];
+        body.for_each_spring(|spring| {
+            if spring.kind != SpringKind::Structural {
+                return;
+            }
+            // An edge with an end outside the body's skin may pass an obstacle that the skin
+            // does not (a turned cage's corner through a plate the skin rests on): only edges
+            // on or inside the skin tell.
+            let outside = |q: usize| model.clearance_of(first + q) > 0.0;
+            if outside(spring.a) || outside(spring.b) {
+                return;
+            }
+            let (a, z) = (pos[first + spring.a], pos[first + spring.b]);
+            for &o in &near {
+                let half = match &model.obstacles[o] {
+                    Obstacle::Box(bx) => box_crossing(bx, a, z, 0.0),
+                    Obstacle::Sphere(s) => ball_crossing(s, a, z, 0.0),
+                    Obstacle::Plane(_) => None,
+                };
+                if let Some(half) = half {
+                    let entry = per_obstacle[o].get_or_insert((0, half));
+                    entry.0 += 1;
+                }
+            }
+        });
+        for (o, entry) in per_obstacle.into_iter().enumerate() {
+            if let Some((edges, half_thickness)) = entry {
+                found.push(Through {
+                    body: b,
+                    obstacle: o,
+                    edges,
+                    half_thickness,
+                    spacing: body.min_spacing(),
+                });
+            }
+        }
+    }
+    found
+}
+
+/// One point's crossing of one obstacle, as [`TunnelWatch::observe_apart`] finds it.
+struct Crossing {
+    body: usize,
+    /// The point (an index into the model's arrays).
+    point: usize,
+    obstacle: usize,
+    /// Half the obstacle's thickness where it was crossed (m).
+    half_thickness: f64,
+    /// How far the point moved between the two states (m).
+    moved: f64,
 }
 
 /// The centre of `body`'s active points at positions `pos` (the model's arrays).
@@ -318,16 +483,17 @@ mod tests {
             .obstacles(vec![Obstacle::Sphere(far), Obstacle::Box(plate)])
             .build()
             .unwrap();
-        let above = State::at_rest(&model).pos;
-        let below: Vec<Vec3> = above
-            .iter()
-            .map(|&p| p - Vec3::new(0.0, 0.0, 2.0))
-            .collect();
-        let mut watch = TunnelWatch::new(&model, &above, 0.0);
-        watch.observe(&model, &above, 0.5);
+        let at = |time: f64, drop: f64| {
+            let mut s = State::at_rest(&model);
+            s.pos.iter_mut().for_each(|p| p.z -= drop);
+            s.time = time;
+            s
+        };
+        let mut watch = TunnelWatch::new(&model, &at(0.0, 0.0));
+        watch.observe(&model, &at(0.5, 0.0));
         assert!(watch.crossings().is_empty());
-        watch.observe(&model, &below, 1.0);
-        watch.observe(&model, &above, 1.5);
+        watch.observe(&model, &at(1.0, 2.0));
+        watch.observe(&model, &at(1.5, 0.0));
         let [c] = watch.crossings() else {
             panic!("{:?}", watch.crossings())
         };
@@ -345,6 +511,73 @@ mod tests {
             .build()
             .unwrap();
         assert!(!TunnelWatch::watches(&planar) && TunnelWatch::watches(&model));
+    }
+
+    /// States read back 10 steps apart: a body that went through a plate between them is
+    /// counted, its advice taken from its move shared over the 10 steps; nothing is compared
+    /// across no step.
+    #[test]
+    fn states_several_steps_apart_are_compared_by_the_segment_between_them() {
+        use crate::model::ModelBuilder;
+        use crate::state::State;
+        let plate = Aabb::new(Vec3::new(-1.0, -1.0, -0.55), Vec3::new(2.0, 2.0, -0.45)).unwrap();
+        let model = ModelBuilder::new()
+            .obstacle(Obstacle::Box(plate))
+            .build()
+            .unwrap();
+        let above = State::at_rest(&model);
+        let mut below = above.clone();
+        below.pos.iter_mut().for_each(|p| p.z -= 2.0);
+        below.time = 1.0;
+        let mut watch = TunnelWatch::new(&model, &above);
+        watch.observe_apart(&model, &below, 0);
+        assert!(watch.crossings().is_empty());
+        watch.observe_apart(&model, &below, 10);
+        let [c] = watch.crossings() else {
+            panic!("{:?}", watch.crossings())
+        };
+        assert_eq!((c.points, c.steps, c.steps_apart), (512, 1, 10));
+        assert_eq!(c.first, (0.0, 1.0));
+        assert!((c.dt - 0.1).abs() < 1e-12 && (c.longest_move_a_step() - 0.2).abs() < 1e-12);
+        // 2 m in 1 s, 0.2 m a step of 0.1 s: a step that moves it 0.025 m is 0.0125 s.
+        assert!((c.advised_dt().unwrap() - 0.0125).abs() < 1e-12);
+
+        // A body that went at 10 m/s in a state watched hit the plate at that speed, whatever
+        // its mean speed between the states.
+        let mut fast = above.clone();
+        fast.vel.iter_mut().for_each(|v| v.z = -10.0);
+        let mut watch = TunnelWatch::new(&model, &fast);
+        watch.observe_apart(&model, &below, 10);
+        assert!((watch.crossings()[0].impact_speed - 10.0).abs() < 1e-9);
+    }
+
+    /// A thin plate between two layers of the classic cube's points crosses the 64 edges
+    /// between them; below the cube it crosses none.
+    #[test]
+    fn a_plate_between_two_layers_of_points_is_through_the_body() {
+        use crate::model::ModelBuilder;
+        use crate::state::State;
+        let plate_at = |z: f64| {
+            let plate = Aabb::new(
+                Vec3::new(-5.0, -5.0, z - 0.01),
+                Vec3::new(5.0, 5.0, z + 0.01),
+            );
+            ModelBuilder::new()
+                .obstacle(Obstacle::Box(plate.unwrap()))
+                .build()
+                .unwrap()
+        };
+        let pos = State::at_rest(&plate_at(0.0)).pos;
+        let mut zs: Vec<f64> = pos.iter().map(|p| p.z).collect();
+        zs.sort_by(f64::total_cmp);
+        zs.dedup();
+        let between = 0.5 * (zs[3] + zs[4]);
+        let [t] = obstacles_through(&plate_at(between), &pos)[..] else {
+            panic!()
+        };
+        assert_eq!((t.body, t.obstacle, t.edges), (0, 0, 64));
+        assert!((t.half_thickness - 0.01).abs() < 1e-12 && t.thinner_than_lattice());
+        assert!(obstacles_through(&plate_at(zs[0] - 0.5), &pos).is_empty());
     }
 
     #[test]
