@@ -173,3 +173,68 @@ fn a_blade_between_a_coarse_lattices_points_is_reported_at_the_end() {
     assert!(rests.is_empty(), "{rests}");
     assert!(centre_z(&dir, "rests.toml") > 0.1);
 }
+
+/// A small cube thrown at 60 m/s into a big one in empty space, at a contact too soft to stop
+/// it: after 20 ms it is 7 cm inside, and the run says so with a stiffness to try; the same
+/// bodies side by side at rest, a millimetre apart, are not reported.
+#[test]
+fn bodies_that_end_inside_each_other_are_reported() {
+    let dir = TempDir::new("sunk");
+    let two = |file: &str, small_at: &str, velocity: &str| {
+        dir.succeeds(&[
+            "create",
+            file,
+            "--field",
+            "uniform:0,0,0",
+            "--collision-stiffness",
+            "2000",
+            "--dt",
+            "0.0001",
+            "--cube",
+            "5",
+            "--size",
+            "0.5",
+            "--at",
+            "0,0,0",
+            "--total-mass",
+            "10",
+            "--name",
+            "block",
+            "--cube",
+            "3",
+            "--size",
+            "0.1",
+            "--at",
+            small_at,
+            "--velocity",
+            velocity,
+            "--total-mass",
+            "0.5",
+            "--name",
+            "bullet",
+        ])
+    };
+    two("thrown.toml", "-0.8,0,0", "60,0,0");
+    let out = dir.run(&["run", "thrown.toml", "--time", "0.02", "-q"]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let said = stderr(&out);
+    assert!(
+        said.starts_with(
+            "warning: thrown.toml: bodies 'block' and 'bullet' end 7.23 cm inside each other"
+        ),
+        "{said}"
+    );
+    assert!(
+        said.contains("more than half the finer of their cells (5 cm)")
+            && said.contains("try a collision stiffness of about 140000 N/m"),
+        "{said}"
+    );
+    // The same, at rest side by side with a millimetre between them: nothing to say.
+    two("apart.toml", "0.301,0,0", "0,0,0");
+    let out = dir.run(&["run", "apart.toml", "--time", "0.02", "-q"]);
+    assert!(
+        out.status.success() && stderr(&out).is_empty(),
+        "{}",
+        stderr(&out)
+    );
+}

@@ -6,8 +6,10 @@ use crate::state::State;
 use crate::vec3::Vec3;
 
 pub use crate::contact::obstacles::max_penetration;
-pub use crate::contact::tunnel_warning::{crossing_warning, through_warning, Knobs};
-pub use crate::contact::tunnelling::{obstacles_through, Crossings, Through, TunnelWatch};
+pub use crate::contact::tunnel_warning::{crossing_warning, sunk_warning, through_warning, Knobs};
+pub use crate::contact::tunnelling::{
+    bodies_sunk, obstacles_through, Crossings, Sunk, Through, TunnelWatch,
+};
 
 /// Mechanical energy (J) of a state. The force field is not a potential, so its work is not part
 /// of it: with a field, the total changes by the work the field does.

@@ -4,7 +4,9 @@ use std::path::PathBuf;
 use std::time::Instant;
 
 use clap::Args;
-use jello_core::diagnostics::{energy, max_penetration, obstacles_through, TunnelWatch};
+use jello_core::diagnostics::{
+    bodies_sunk, energy, max_penetration, obstacles_through, TunnelWatch,
+};
 use jello_core::Integrator;
 
 use super::{
@@ -314,6 +316,13 @@ pub fn run(args: RunArgs) -> Result<(), CliError> {
                 jello_core::diagnostics::through_warning(&sim.model, &t, &names)
             );
         }
+    }
+    // Bodies that end deep inside each other (one thrown into another, or a contact too soft).
+    for s in bodies_sunk(&sim.model, &sim.state.pos) {
+        eprintln!(
+            "warning: {name}: {}",
+            super::tunnelling::sunk_warning(&sim.model, &s, &names)
+        );
     }
     Ok(())
 }

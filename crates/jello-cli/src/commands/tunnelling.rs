@@ -2,7 +2,7 @@
 //! `jello_core::contact::tunnelling`), with a time step and a collision stiffness to try, named
 //! as the command line sets them.
 
-use jello_core::diagnostics::{Crossings, Knobs};
+use jello_core::diagnostics::{Crossings, Knobs, Sunk};
 use jello_core::Model;
 
 /// The command line's knobs: `--dt`, and the scene's or `jello create`'s collision stiffness.
@@ -14,4 +14,9 @@ const COMMAND_LINE: Knobs = Knobs {
 /// The warning for one body's crossings of one obstacle, with what to try.
 pub(crate) fn crossing_warning(model: &Model, c: &Crossings, names: &[String]) -> String {
     jello_core::diagnostics::crossing_warning(model, c, names, &COMMAND_LINE)
+}
+
+/// The warning for two bodies that end inside each other, with what to try.
+pub(crate) fn sunk_warning(model: &Model, s: &Sunk, names: &[String]) -> String {
+    jello_core::diagnostics::sunk_warning(model, s, names, &COMMAND_LINE)
 }

@@ -3,7 +3,7 @@
 //! as the reader sets them ([`Knobs`]: the command line's flags, Python's attributes). One
 //! wording for `jello run` and the Python package, on the CPU and on a GPU.
 
-use crate::contact::tunnelling::{Crossings, Through};
+use crate::contact::tunnelling::{Crossings, Sunk, Through};
 use crate::model::obstacle::Obstacle;
 use crate::model::Model;
 use crate::vec3::significant;
@@ -145,6 +145,28 @@ pub fn through_warning(model: &Model, t: &Through, names: &[String]) -> String {
         names[t.body],
         obstacle(model, t.obstacle, t.half_thickness),
         length(t.half_thickness),
+    )
+}
+
+/// The warning for two bodies that end inside each other (`s`), with what to try; `names` are
+/// the bodies' names.
+pub fn sunk_warning(model: &Model, s: &Sunk, names: &[String], knobs: &Knobs) -> String {
+    // At rest a penalty contact's depth goes as one over its stiffness: the stiffness that
+    // would hold them 2 % of a cell into each other.
+    let k = significant(model.k_collision * s.depth / (0.02 * s.spacing), 2);
+    format!(
+        "bodies '{}' and '{}' end {} inside each other (at ({}, {}, {})), more than half the \
+         finer of their cells ({}): a contact too soft for their weight, or a body thrown into \
+         the other faster than the contact stops it within a step; try a collision stiffness of \
+         about {k} N/m ({}), and for a fast body a shorter step",
+        names[s.bodies[0]],
+        names[s.bodies[1]],
+        length(s.depth),
+        significant(s.at.x, 3),
+        significant(s.at.y, 3),
+        significant(s.at.z, 3),
+        length(s.spacing),
+        (knobs.stiffness)(&k),
     )
 }
 

@@ -356,6 +356,46 @@ pub fn obstacles_through(model: &Model, pos: &[Vec3]) -> Vec<Through> {
     found
 }
 
+/// How deep two bodies may be inside each other at the end of a run, as a share of the finer of
+/// their cells, before it is news: resting bodies press into each other by their weight over
+/// the contact's stiffness, millimetres at sensible stiffnesses (docs/scenes.md).
+pub const SUNK_SHARE: f64 = 0.5;
+
+/// Two bodies deeper inside each other than [`SUNK_SHARE`] of the finer of their cells, found by
+/// [`bodies_sunk`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Sunk {
+    /// The bodies (indices into the model's bodies, the lower first).
+    pub bodies: [usize; 2],
+    /// How deep a surface point of one is inside the other, at the deepest (m).
+    pub depth: f64,
+    /// Where (m).
+    pub at: Vec3,
+    /// The finer of the two bodies' lattice spacings (m).
+    pub spacing: f64,
+}
+
+/// The pairs of bodies at positions `pos` whose surfaces are inside each other by more than
+/// [`SUNK_SHARE`] of the finer of their cells (by [`crate::contact::closest`]): a body thrown into
+/// another faster than the contact stops it within a step, or a contact too soft for the
+/// bodies' weight. A body's surface inside itself (under self-contact) is not counted.
+pub fn bodies_sunk(model: &Model, pos: &[Vec3]) -> Vec<Sunk> {
+    crate::contact::closest(model, pos)
+        .into_iter()
+        .filter(|c| c.bodies[0] != c.bodies[1])
+        .filter_map(|c| {
+            let [a, b] = c.bodies;
+            let spacing = model.body(a).min_spacing().min(model.body(b).min_spacing());
+            (c.depth > SUNK_SHARE * spacing).then_some(Sunk {
+                bodies: c.bodies,
+                depth: c.depth,
+                at: c.at,
+                spacing,
+            })
+        })
+        .collect()
+}
+
 /// One point's crossing of one obstacle, as [`TunnelWatch::observe_apart`] finds it.
 struct Crossing {
     body: usize,
