@@ -181,6 +181,24 @@ impl Surface {
         }
     }
 
+    /// False when the surface cannot touch a point at `p` (one test of a coordinate for a wall of
+    /// the box, which touches only points past it); true otherwise (then [`Surface::contact`]
+    /// decides).
+    #[inline(always)]
+    pub fn may_touch(self, model: &Model, p: Vec3) -> bool {
+        match self {
+            Surface::Wall(w) => {
+                let (axis, c) = (w / 2, p.to_array()[w / 2]);
+                if w % 2 == 1 {
+                    c > model.bounds.max.to_array()[axis]
+                } else {
+                    c < model.bounds.min.to_array()[axis]
+                }
+            }
+            _ => true,
+        }
+    }
+
     /// The surface's contact with point `i` at `p`, its clearance taken off the depth (see
     /// [`Model::contacts_of`]).
     #[inline]
@@ -311,7 +329,13 @@ impl Anchors {
             let mu = surface.friction(model);
             let anchors = &mut self.at[slot * self.points..(slot + 1) * self.points];
             for (i, (anchor, &p)) in anchors.iter_mut().zip(pos).enumerate() {
-                let Some(contact) = surface.contact_of(model, i, p) else {
+                // Most points are far from most walls: a coordinate's test first.
+                let contact = if surface.may_touch(model, p) {
+                    surface.contact_of(model, i, p)
+                } else {
+                    None
+                };
+                let Some(contact) = contact else {
                     *anchor = NONE;
                     continue;
                 };
