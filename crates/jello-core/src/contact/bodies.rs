@@ -806,29 +806,7 @@ mod tests {
     /// there, so a cage's corner hid the cube.)
     #[test]
     fn a_sample_outside_one_skin_inside_its_cage_still_touches_a_body_there() {
-        let r = 0.3;
-        let vertices: Vec<Vec3> = [
-            [r, 0.0, 0.0],
-            [-r, 0.0, 0.0],
-            [0.0, r, 0.0],
-            [0.0, -r, 0.0],
-            [0.0, 0.0, r],
-            [0.0, 0.0, -r],
-        ]
-        .map(|[x, y, z]| Vec3::new(x, y, z))
-        .to_vec();
-        let mut triangles = Vec::new();
-        for (x, sx) in [(0u32, 1.0), (1, -1.0)] {
-            for (y, sy) in [(2u32, 1.0), (3, -1.0)] {
-                for (z, sz) in [(4u32, 1.0), (5, -1.0)] {
-                    triangles.push(if sx * sy * sz > 0.0 {
-                        [x, y, z]
-                    } else {
-                        [x, z, y]
-                    });
-                }
-            }
-        }
+        let (vertices, triangles) = crate::model::test_meshes::octahedron(Vec3::ZERO, 0.3);
         // Two cells a side: the cage is the box [−0.3, 0.3]³; its corner (0.3, 0.3, 0.3) is
         // 0.35 m from the skin (the face x + y + z = 0.3).
         let octahedron =

@@ -59,37 +59,14 @@ pub(crate) fn rest_clearance(body: &Body) -> Vec<f64> {
 mod tests {
     use super::*;
     use crate::model::body::{rotation_xyz, Material};
-
-    /// An octahedron of "radius" 1 about (1, 1, 1): its corners touch the faces of its
-    /// bounding box, whose corners lie outside it.
-    fn octahedron() -> (Vec<Vec3>, Vec<[u32; 3]>) {
-        let c = Vec3::new(1.0, 1.0, 1.0);
-        let v = vec![
-            c + Vec3::new(1.0, 0.0, 0.0),
-            c + Vec3::new(-1.0, 0.0, 0.0),
-            c + Vec3::new(0.0, 1.0, 0.0),
-            c + Vec3::new(0.0, -1.0, 0.0),
-            c + Vec3::new(0.0, 0.0, 1.0),
-            c + Vec3::new(0.0, 0.0, -1.0),
-        ];
-        let t = vec![
-            [0, 2, 4],
-            [2, 1, 4],
-            [1, 3, 4],
-            [3, 0, 4],
-            [2, 0, 5],
-            [1, 2, 5],
-            [3, 1, 5],
-            [0, 3, 5],
-        ];
-        (v, t)
-    }
+    use crate::model::test_meshes::octahedron;
 
     /// A lattice corner outside the skin is as far from it as the nearest face; points inside
     /// have none, and placement changes nothing.
     #[test]
     fn a_cage_corner_is_as_far_out_as_the_skin_is_away() {
-        let (v, t) = octahedron();
+        // An octahedron of "radius" 1 about (1, 1, 1).
+        let (v, t) = octahedron(Vec3::new(1.0, 1.0, 1.0), 1.0);
         // Two cells a side: all eight hold some of it, so the body is a full box.
         let body = Body::from_mesh(&v, &t, 2, 1000, Material::classic()).unwrap();
         assert!(body.cells().is_none());

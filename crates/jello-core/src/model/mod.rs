@@ -31,6 +31,8 @@ pub mod obstacle;
 pub mod skin;
 pub mod solver;
 pub mod springs;
+#[cfg(test)]
+pub(crate) mod test_meshes;
 pub mod voxel;
 
 pub use error::ModelError;
