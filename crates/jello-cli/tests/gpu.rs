@@ -247,21 +247,7 @@ fn a_cube_impaled_on_a_plate_on_the_gpu_is_reported_as_on_the_core() {
     assert_eq!(advice(&gpu), advice(&cpu));
     assert!(gpu.contains("try --dt 0.00021 or less"), "{gpu}");
 
-    dir.succeeds(&[
-        "create",
-        "rest.toml",
-        "--cube",
-        "3",
-        "--size",
-        "0.2",
-        "--centre",
-        "0,0,0.11",
-        "--collision-stiffness",
-        "1e4",
-        "--collision-damping",
-        "5",
-        "--box=-1,-1,-0.05,1,1,0",
-    ]);
+    dir.succeeds(common::CUBE_RESTING_ON_A_PLATE);
     let rest = run_warnings(
         &dir,
         &["run", "rest.toml", "--time", "2", "-q", "--device", "gpu"],

@@ -84,21 +84,7 @@ fn a_cube_thrown_through_a_plate_is_reported_and_the_advised_dt_stops_it() {
 #[test]
 fn a_cube_resting_on_a_plate_is_not_reported() {
     let dir = TempDir::new("rest");
-    dir.succeeds(&[
-        "create",
-        "rest.toml",
-        "--cube",
-        "3",
-        "--size",
-        "0.2",
-        "--centre",
-        "0,0,0.11",
-        "--collision-stiffness",
-        "1e4",
-        "--collision-damping",
-        "5",
-        "--box=-1,-1,-0.05,1,1,0",
-    ]);
+    dir.succeeds(common::CUBE_RESTING_ON_A_PLATE);
     let out = dir.run(&[
         "run",
         "rest.toml",

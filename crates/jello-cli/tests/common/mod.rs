@@ -6,6 +6,24 @@ use std::path::PathBuf;
 use std::process::{Command, Output};
 use std::sync::atomic::{AtomicUsize, Ordering};
 
+/// `jello create` of a 0.2 m cube of 3³ points resting on a 5 cm plate (`rest.toml`): a scene
+/// no warning should be about.
+pub const CUBE_RESTING_ON_A_PLATE: &[&str] = &[
+    "create",
+    "rest.toml",
+    "--cube",
+    "3",
+    "--size",
+    "0.2",
+    "--centre",
+    "0,0,0.11",
+    "--collision-stiffness",
+    "1e4",
+    "--collision-damping",
+    "5",
+    "--box=-1,-1,-0.05,1,1,0",
+];
+
 /// A fresh folder under the system temp dir, removed when dropped. Each test binary adds the
 /// helpers it needs in an `impl TempDir` of its own.
 pub struct TempDir(pub PathBuf);
