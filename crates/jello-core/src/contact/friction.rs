@@ -24,7 +24,7 @@
 //! [`sliding`] friction until the step ends. Anchors live in the step's scratch, not in the state:
 //! a run resumed from a saved state ties its touching points afresh where they are.
 
-use crate::model::obstacle::ObstacleContact;
+use crate::model::obstacle::{Obstacle, ObstacleContact};
 use crate::model::Model;
 use crate::vec3::Vec3;
 
@@ -182,17 +182,41 @@ impl Surface {
     }
 
     /// False when the surface cannot touch a point at `p` (one test of a coordinate for a wall of
-    /// the box, which touches only points past it); true otherwise (then [`Surface::contact`]
-    /// decides).
+    /// the box, which touches only points past it; the sign of a plane's equation); true
+    /// otherwise (then [`Surface::contact`] decides).
     #[inline(always)]
     pub fn may_touch(self, model: &Model, p: Vec3) -> bool {
         match self {
+            Surface::Plane => model.plane.is_some_and(|pl| pl.on_forbidden_side(p)),
+            Surface::Obstacle(o) => match model.obstacles[o] {
+                Obstacle::Plane(pl) => pl.on_forbidden_side(p),
+                _ => true,
+            },
             Surface::Wall(w) => {
                 let (axis, c) = (w / 2, p.to_array()[w / 2]);
                 if w % 2 == 1 {
                     c > model.bounds.max.to_array()[axis]
                 } else {
                     c < model.bounds.min.to_array()[axis]
+                }
+            }
+        }
+    }
+
+    /// False when the surface cannot touch any of the points whose coordinates are `xyz` (for a
+    /// wall of the box, none is past it: one pass over a coordinate that vectorises); true
+    /// otherwise.
+    pub fn may_touch_any(self, model: &Model, xyz: [&[f64]; 3]) -> bool {
+        match self {
+            Surface::Wall(w) => {
+                let axis = w / 2;
+                let c = xyz[axis];
+                if w % 2 == 1 {
+                    let bound = model.bounds.max.to_array()[axis];
+                    c.iter().fold(f64::NEG_INFINITY, |m, &c| m.max(c)) > bound
+                } else {
+                    let bound = model.bounds.min.to_array()[axis];
+                    c.iter().fold(f64::INFINITY, |m, &c| m.min(c)) < bound
                 }
             }
             _ => true,

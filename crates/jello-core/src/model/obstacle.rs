@@ -215,6 +215,13 @@ impl Plane {
         a * p.x + b * p.y + c * p.z + d
     }
 
+    /// Whether `p` is strictly on the forbidden side: the sign of [`Plane::value`] alone, a
+    /// test that [`Plane::contact`] passes before it finds a contact.
+    #[inline]
+    pub fn on_forbidden_side(&self, p: Vec3) -> bool {
+        self.value(p) * self.side < 0.0
+    }
+
     /// `|(a, b, c)|`.
     #[inline]
     pub fn normal_length(&self) -> f64 {

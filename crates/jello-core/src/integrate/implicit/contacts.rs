@@ -10,6 +10,7 @@
 //! is assembled with the rest (`matrix.rs`).
 
 use crate::compute::soa::Soa;
+use crate::compute::team;
 use crate::contact::bodies::Touch;
 use crate::contact::friction::{self, anchored_surfaces, Anchors};
 use crate::contact::Contacts;
@@ -120,20 +121,31 @@ pub(super) fn add_forces(
     let (px, py, pz) = (x_soa.x(), x_soa.y(), x_soa.z());
     let at = |i: usize| Vec3::new(px[i], py[i], pz[i]);
     if anchored_surfaces(model).next().is_some() {
-        for (i, f) in force.iter_mut().enumerate() {
-            if free[i] == 0.0 {
-                continue;
-            }
-            let p = at(i);
-            let c_max = friction::implicit_cap(mass[i], model.dt, kc);
-            for surface in anchored_surfaces(model) {
-                if let Some(c) = surface.contact_of(model, i, p) {
-                    let anchor = anchors.anchor(surface, i);
-                    let law = [kc, dc, surface.friction(model)];
-                    *f += friction::obstacle(p, v[i], c.depth, c.normal, anchor, law, c_max);
+        // Each point's friction is its own: the points in chunks over the team. A wall is asked
+        // about a point only once a coordinate's test finds the point past it (with every wall
+        // asked, this loop was a tenth of a resting 32³ cube's step on one thread).
+        // Surface by surface over a chunk, each point's friction still added in the surfaces'
+        // order.
+        let size = super::chunk_size(force.len());
+        team::for_each_chunk([force], size, &|chunk, [force]| {
+            let points = chunk * size..chunk * size + force.len();
+            let xyz = [&px[points.clone()], &py[points.clone()], &pz[points]];
+            for surface in anchored_surfaces(model).filter(|s| s.may_touch_any(model, xyz)) {
+                let law = [kc, dc, surface.friction(model)];
+                for (j, f) in force.iter_mut().enumerate() {
+                    let i = chunk * size + j;
+                    let p = at(i);
+                    if free[i] == 0.0 || !surface.may_touch(model, p) {
+                        continue;
+                    }
+                    if let Some(c) = surface.contact_of(model, i, p) {
+                        let anchor = anchors.anchor(surface, i);
+                        let c_max = friction::implicit_cap(mass[i], model.dt, kc);
+                        *f += friction::obstacle(p, v[i], c.depth, c.normal, anchor, law, c_max);
+                    }
                 }
             }
-        }
+        });
     }
     add_touches(model, touches, at, x0, v, free, force);
 }

@@ -7,9 +7,10 @@ use crate::model::Model;
 use crate::state::Control;
 use crate::vec3::Vec3;
 
+use super::cg::sum_chunk;
 use super::contacts;
 use super::sym::sym_mul;
-use super::ImplicitScratch;
+use super::{chunk_size, ImplicitScratch};
 
 /// Points, and springs, per chunk of [`potential_fall`]'s sums (fixed: the chunks decide the
 /// order of the additions).
@@ -36,11 +37,14 @@ pub(super) fn residual(
 ) -> f64 {
     {
         let v = if trial { &s.trial } else { &s.v };
-        let [xx, xy, xz] = s.x_soa.parts_mut();
-        for (i, (&x, &v)) in x0.iter().zip(v).enumerate() {
-            let p = x + v * h;
-            (xx[i], xy[i], xz[i]) = (p.x, p.y, p.z);
-        }
+        let size = chunk_size(x0.len());
+        team::for_each_chunk(s.x_soa.parts_mut(), size, &|chunk, [xx, xy, xz]| {
+            let at = chunk * size;
+            for (i, (&x, &v)) in x0[at..].iter().zip(&v[at..]).take(xx.len()).enumerate() {
+                let p = x + v * h;
+                (xx[i], xy[i], xz[i]) = (p.x, p.y, p.z);
+            }
+        });
         // The field at the end positions, for the line search's work of the field.
         let field = if trial {
             &mut s.field_trial
@@ -88,16 +92,22 @@ pub(super) fn residual(
         &s.free,
         &mut g,
     );
+    // `g` and `|g|²_M`, over the team: each chunk of `sum_chunk` points summed in order, then
+    // the chunks' sums in order (the same bits on any number of threads).
     let (ax, ay, az) = (s.acc.x(), s.acc.y(), s.acc.z());
-    for i in 0..g.len() {
-        let a = Vec3::new(ax[i], ay[i], az[i]) + g[i] * (s.free[i] / s.mass[i]);
-        g[i] = v[i] - v0[i] - a * h;
-    }
-    let norm: f64 = g
-        .iter()
-        .zip(&s.mass)
-        .map(|(g, m)| m * g.length_squared())
-        .sum();
+    let (mass, free) = (&s.mass[..], &s.free[..]);
+    let size = sum_chunk(g.len());
+    team::for_each_chunk_into([&mut g[..]], size, &mut s.dots, &|chunk, [g]| {
+        let mut norm = 0.0;
+        for (j, g) in g.iter_mut().enumerate() {
+            let i = chunk * size + j;
+            let a = Vec3::new(ax[i], ay[i], az[i]) + *g * (free[i] / mass[i]);
+            *g = v[i] - v0[i] - a * h;
+            norm += mass[i] * g.length_squared();
+        }
+        norm
+    });
+    let norm: f64 = s.dots.iter().sum();
     if trial {
         s.g_trial = g;
     } else {
