@@ -1,6 +1,7 @@
 //! The Newton direction: `A = M + h·D₀ + h²·K` assembled at the iterate (with a
 //! Levenberg–Marquardt shift where the true stiffness leaves it indefinite) and solved for.
 
+use crate::compute::team;
 use crate::contact::friction::{self, Anchors, Surface};
 use crate::model::field;
 use crate::model::Model;
@@ -90,26 +91,35 @@ pub(super) fn assemble(
         Curvature::Clamped => (true, 0.0),
     };
     let at = |p: usize, v: &[Vec3]| x0[p] + v[p] * h;
-    for (i, e) in s.extra.iter_mut().enumerate() {
-        *e = [0.0; 6];
-        e[..3].fill(s.mass[i] * (1.0 + shift));
-    }
     let floor = if clamp { 0.0 } else { f64::MIN };
     s.springs.assemble(x0, &s.v, h, floor, &mut s.spring_blocks);
-    // Penalty springs of walls, plane and obstacles where the iterate is, their dampers as at
-    // the start, friction along the obstacles' surfaces at the iterate, and pulls.
-    let (kc, dc) = (model.k_collision, model.d_collision);
+    // Each point's mass (scaled by the shift), the penalty springs of walls, plane and obstacles
+    // where the iterate is, their dampers as at the start, and friction along the surfaces at
+    // the iterate: each point's own, so the points in chunks over the team.
+    let (mass, free, v, start_damping) = (&s.mass[..], &s.free[..], &s.v[..], &s.start_damping[..]);
+    let size = super::chunk_size(s.extra.len());
+    team::for_each_chunk([&mut s.extra[..]], size, &|chunk, [extra]| {
+        for (j, e) in extra.iter_mut().enumerate() {
+            let i = chunk * size + j;
+            *e = [0.0; 6];
+            e[..3].fill(mass[i] * (1.0 + shift));
+            if free[i] == 0.0 {
+                continue;
+            }
+            for (e, d) in e.iter_mut().zip(&start_damping[i]) {
+                *e += h * d;
+            }
+            add_surfaces(model, anchors, i, x0[i] + v[i] * h, v[i], mass[i], h, e);
+        }
+    });
+    // A field that is not uniform: its gradient's stiffness, and its swirl.
     let mut swirl: f64 = 0.0;
-    for (i, e) in s.extra.iter_mut().enumerate() {
-        if s.free[i] == 0.0 {
-            continue;
-        }
-        for (e, d) in e.iter_mut().zip(&s.start_damping[i]) {
-            *e += h * d;
-        }
-        let p = at(i, &s.v);
-        if let Some(field) = model.field.as_ref().filter(|f| f.uniform().is_none()) {
-            let gradient = field.gradient(p);
+    if let Some(field) = model.field.as_ref().filter(|f| f.uniform().is_none()) {
+        for (i, e) in s.extra.iter_mut().enumerate() {
+            if s.free[i] == 0.0 {
+                continue;
+            }
+            let gradient = field.gradient(at(i, &s.v));
             let k = field_stiffness(&gradient);
             for (e, k) in e.iter_mut().zip(k) {
                 *e += h2 * k;
@@ -117,49 +127,6 @@ pub(super) fn assemble(
             if let Some(c) = s.field_correction.get_mut(i) {
                 *c = field_correction(&gradient, &k).map(|c| h2 * c);
                 swirl = swirl.max(h2 * field::swirl(&gradient) / s.mass[i]);
-            }
-        }
-        let clearance = model.clearance_of(i);
-        let walls = (model.bounds.wall_contacts(p))
-            .chain(model.plane.and_then(|pl| pl.contact(p)))
-            .filter_map(|c| c.less(clearance));
-        for c in walls {
-            add_outer(e, c.normal, h2 * kc);
-        }
-        // The walls' and the plane's friction, as the obstacles' below.
-        if model.wall_friction > 0.0 {
-            let walls = (0..6).map(Surface::Wall);
-            for surface in walls.chain(model.plane.map(|_| Surface::Plane)) {
-                if let Some(c) = surface.contact_of(model, i, p) {
-                    let anchor = anchors.anchor(surface, i);
-                    let c_max = friction::implicit_cap(s.mass[i], model.dt, kc);
-                    let law = [kc, dc, model.wall_friction];
-                    let (depth, n) = (c.depth, c.normal);
-                    let tangent =
-                        friction::obstacle_tangent(p, s.v[i], depth, n, anchor, law, c_max, h);
-                    add_tangent(e, n, tangent);
-                }
-            }
-        }
-        for (o, c) in model
-            .obstacles
-            .iter()
-            .enumerate()
-            .filter_map(|(o, ob)| ob.contact(p)?.less(clearance).map(|c| (o, c)))
-        {
-            add_outer(e, c.normal, h2 * kc);
-            // Friction: the tie's spring and damper while it holds, its sliding part once it
-            // slides (a tie that slides with its holding stiffness in `A` cut Newton's steps
-            // along the slide to `m/(m + h²·kc)`, and scenes with friction crept to a
-            // standstill); sliding friction where the point has no anchor yet.
-            if model.friction > 0.0 {
-                let anchor = anchors.of(o).get(i).copied().unwrap_or(friction::NONE);
-                let c_max = friction::implicit_cap(s.mass[i], model.dt, kc);
-                let law = [kc, dc, model.friction];
-                let (depth, n) = (c.depth, c.normal);
-                let tangent =
-                    friction::obstacle_tangent(p, s.v[i], depth, n, anchor, law, c_max, h);
-                add_tangent(e, n, tangent);
             }
         }
     }
@@ -192,6 +159,64 @@ pub(super) fn assemble(
     s.springs.diagonal(&s.extra, &mut s.diag_inv);
     Operator::add_and_invert((&s.pair_rows, &s.pair_blocks), &mut s.diag_inv);
     s.multigrid.assemble(&fine_operator!(s));
+}
+
+/// Point `i`'s part of `A` from the walls, the plane and the obstacles at `p` (its end position
+/// at the iterate, `v` its velocity there) into `e`: each penalty spring's `h²·kCollision·nnᵀ`
+/// and its friction's, the walls' and plane's before the obstacles'.
+#[allow(clippy::too_many_arguments)]
+fn add_surfaces(
+    model: &Model,
+    anchors: &Anchors,
+    i: usize,
+    p: Vec3,
+    v: Vec3,
+    mass: f64,
+    h: f64,
+    e: &mut Sym,
+) {
+    let (kc, dc, h2) = (model.k_collision, model.d_collision, h * h);
+    let clearance = model.clearance_of(i);
+    let walls = (model.bounds.wall_contacts(p))
+        .chain(model.plane.and_then(|pl| pl.contact(p)))
+        .filter_map(|c| c.less(clearance));
+    for c in walls {
+        add_outer(e, c.normal, h2 * kc);
+    }
+    let c_max = friction::implicit_cap(mass, model.dt, kc);
+    // The walls' and the plane's friction, as the obstacles' below.
+    if model.wall_friction > 0.0 {
+        let walls = (0..6).map(Surface::Wall);
+        let surfaces = walls.chain(model.plane.map(|_| Surface::Plane));
+        for surface in surfaces.filter(|s| s.may_touch(model, p)) {
+            if let Some(c) = surface.contact_of(model, i, p) {
+                let anchor = anchors.anchor(surface, i);
+                let law = [kc, dc, model.wall_friction];
+                let (depth, n) = (c.depth, c.normal);
+                let tangent = friction::obstacle_tangent(p, v, depth, n, anchor, law, c_max, h);
+                add_tangent(e, n, tangent);
+            }
+        }
+    }
+    for (o, c) in model
+        .obstacles
+        .iter()
+        .enumerate()
+        .filter_map(|(o, ob)| ob.contact(p)?.less(clearance).map(|c| (o, c)))
+    {
+        add_outer(e, c.normal, h2 * kc);
+        // Friction: the tie's spring and damper while it holds, its sliding part once it
+        // slides (a tie that slides with its holding stiffness in `A` cut Newton's steps
+        // along the slide to `m/(m + h²·kc)`, and scenes with friction crept to a
+        // standstill); sliding friction where the point has no anchor yet.
+        if model.friction > 0.0 {
+            let anchor = anchors.of(o).get(i).copied().unwrap_or(friction::NONE);
+            let law = [kc, dc, model.friction];
+            let (depth, n) = (c.depth, c.normal);
+            let tangent = friction::obstacle_tangent(p, v, depth, n, anchor, law, c_max, h);
+            add_tangent(e, n, tangent);
+        }
+    }
 }
 
 /// A block `K` on the displacement of a touch's sample relative to the other body,

@@ -11,6 +11,7 @@ use super::stencil::SpringMatrix;
 use super::sym::{add_outer, Sym};
 use super::SolverStats;
 use crate::compute::soa::Soa;
+use crate::compute::team;
 use crate::contact::bodies::Touch;
 use crate::contact::Contacts;
 use crate::model::body::Body;
@@ -363,15 +364,19 @@ impl ImplicitScratch {
             self.start_touches.clear();
         }
         self.springs.start_dampers(x0, &mut self.start_dir);
-        let points = self.start_damping.iter_mut().zip(x0).zip(&self.free);
-        for (i, ((d, &p), &free)) in points.enumerate() {
-            *d = [0.0; 6];
-            if free == 0.0 {
-                continue;
+        let free = &self.free[..];
+        let size = super::chunk_size(x0.len());
+        team::for_each_chunk([&mut self.start_damping[..]], size, &|chunk, [damping]| {
+            for (j, d) in damping.iter_mut().enumerate() {
+                let i = chunk * size + j;
+                *d = [0.0; 6];
+                if free[i] == 0.0 {
+                    continue;
+                }
+                for c in model.contacts_of(i, x0[i]) {
+                    add_outer(d, c.normal, model.d_collision);
+                }
             }
-            for c in model.contacts_of(i, p) {
-                add_outer(d, c.normal, model.d_collision);
-            }
-        }
+        });
     }
 }

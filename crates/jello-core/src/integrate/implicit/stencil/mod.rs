@@ -269,13 +269,21 @@ impl SpringMatrix {
                 &mut uy[at..at + len],
                 &mut uz[at..at + len],
             ];
-            spring_directions(u, part(xs, q, len), part(xs, q + o, len));
+            // The run in chunks over the team, as in `assemble`.
+            let size = team::chunk_size(len, MIN_POINTS_PER_RANGE);
+            team::for_each_chunk(u, size, &|chunk, u| {
+                let (q, len) = (q + chunk * size, u[0].len());
+                spring_directions(u, part(xs, q, len), part(xs, q + o, len));
+            });
         });
-        let [ux, uy, uz, _] = &self.dampers;
-        for (u, &slot) in directions.iter_mut().zip(&self.slot) {
-            let slot = slot as usize;
-            *u = Vec3::new(ux[slot], uy[slot], uz[slot]);
-        }
+        let ([ux, uy, uz, _], slots) = (&self.dampers, &self.slot);
+        let size = team::chunk_size(directions.len(), MIN_POINTS_PER_RANGE);
+        team::for_each_chunk([directions], size, &|chunk, [directions]| {
+            for (u, &slot) in directions.iter_mut().zip(&slots[chunk * size..]) {
+                let slot = slot as usize;
+                *u = Vec3::new(ux[slot], uy[slot], uz[slot]);
+            }
+        });
     }
 
     /// The springs' blocks of `A` at the end positions `x0 + h·v` (see
