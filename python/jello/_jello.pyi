@@ -43,6 +43,14 @@ class TunnellingWarning(UserWarning):
     suggested_dt: float | None
     suggested_collision_stiffness: float | None
 
+class OverlapWarning(UserWarning):
+    """Two bodies end ``run`` deep inside each other; warned once per pair."""
+
+    bodies: tuple[int, int]
+    depth: float
+    at: tuple[float, float, float]
+    suggested_collision_stiffness: float
+
 @final
 class Energy:
     """Kinetic, spring and collision energy (J)."""

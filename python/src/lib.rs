@@ -43,6 +43,10 @@ fn _jello(m: &Bound<'_, PyModule>) -> PyResult<()> {
         "TunnellingWarning",
         py.get_type::<tunnelling::TunnellingWarning>(),
     )?;
+    m.add(
+        "OverlapWarning",
+        py.get_type::<tunnelling::OverlapWarning>(),
+    )?;
     m.add_class::<simulation::Simulation>()?;
     m.add_class::<simulation::Energy>()?;
     m.add_class::<simulation::SolverStats>()?;

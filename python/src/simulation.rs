@@ -255,7 +255,9 @@ impl Simulation {
 
     /// Steps `n` times as `step` does and returns the deepest penetration (m) into a wall, the
     /// plane or an obstacle at the start and after every step, as `jello run` reports it. A
-    /// `jello.BlowUp` carries it as `max_penetration`, up to the last good step.
+    /// `jello.BlowUp` carries it as `max_penetration`, up to the last good step. At its end, as
+    /// `jello run` at its end, warns `jello.OverlapWarning` for two bodies deeper inside each
+    /// other than half the finer of their cells (once per pair until the model changes).
     fn run(&mut self, py: Python<'_>, n: i64) -> PyResult<f64> {
         let n = step_count(n)?;
         let mut deepest = max_penetration(&self.sim.model, &self.sim.state.pos);
@@ -269,7 +271,10 @@ impl Simulation {
         if !on_cpu {
             deepest = deepest.max(self.gpu.deepest());
         }
-        self.finish(py, outcome, Some(deepest)).map(|()| deepest)
+        self.finish(py, outcome, Some(deepest))?;
+        (self.tunnel)
+            .warn_overlaps(py, &self.sim, &self.name, &self.body_names)
+            .map(|()| deepest)
     }
 
     /// Sets the springs' stiffness (N/m) and damping (N·s/m), a number or one per kind

@@ -4,7 +4,8 @@
 //! (`sim.dt = …`, `sim.set_collision(stiffness=…)`).
 
 use jello_core::diagnostics::{
-    crossing_warning, obstacles_through, through_warning, Crossings, Knobs, Through, TunnelWatch,
+    bodies_sunk, crossing_warning, obstacles_through, sunk_warning, through_warning, Crossings,
+    Knobs, Through, TunnelWatch,
 };
 use pyo3::create_exception;
 use pyo3::exceptions::PyUserWarning;
@@ -27,6 +28,19 @@ create_exception!(
      not help)."
 );
 
+create_exception!(
+    jello,
+    OverlapWarning,
+    PyUserWarning,
+    "Two bodies end a call of `run` deeper inside each other than half the finer of their \
+     cells, as `jello run` warns at its end: a contact too soft for their weight, or a body \
+     thrown into the other faster than the contact stops it within a step. Warned once per pair \
+     of bodies until the model changes. The message says how deep, where, and what to try; \
+     attributes: bodies (their indices in `bodies`, the lower first), depth (m), at (where, m), \
+     suggested_collision_stiffness (N/m: the stiffness that would hold them 2 % of a cell into \
+     each other at rest)."
+);
+
 /// The knobs as Python sets them.
 const PYTHON: Knobs = Knobs {
     dt: |dt| format!("sim.dt = {dt}"),
@@ -43,6 +57,8 @@ pub(crate) struct Watch {
     steps: u64,
     /// The (body, obstacle) pairs warned of.
     warned: Vec<(usize, usize)>,
+    /// The pairs of bodies warned of as overlapping.
+    overlaps_warned: Vec<[usize; 2]>,
 }
 
 impl Watch {
@@ -131,6 +147,42 @@ impl Watch {
             warning.setattr("time", (sim.state.time, sim.state.time))?;
             warning.setattr("suggested_dt", py.None())?;
             warning.setattr("suggested_collision_stiffness", py.None())?;
+            warn(py, warning)?;
+        }
+        Ok(())
+    }
+}
+
+impl Watch {
+    /// `warnings.warn`s a `jello.OverlapWarning` for each pair of bodies at `sim`'s state deeper
+    /// inside each other than half the finer of their cells, not warned of yet; the message
+    /// starts with `source`. `Err` when a warnings filter made one an error.
+    pub(crate) fn warn_overlaps(
+        &mut self,
+        py: Python<'_>,
+        sim: &jello_core::Simulation,
+        source: &str,
+        body_names: &[String],
+    ) -> PyResult<()> {
+        if sim.model.bodies().len() < 2 {
+            return Ok(());
+        }
+        for s in bodies_sunk(&sim.model, &sim.state.pos) {
+            if self.overlaps_warned.contains(&s.bodies) {
+                continue;
+            }
+            self.overlaps_warned.push(s.bodies);
+            let text = sunk_warning(&sim.model, &s, body_names, &PYTHON);
+            let warning = py
+                .get_type::<OverlapWarning>()
+                .call1((format!("{source}: {text}"),))?;
+            warning.setattr("bodies", (s.bodies[0], s.bodies[1]))?;
+            warning.setattr("depth", s.depth)?;
+            warning.setattr("at", (s.at.x, s.at.y, s.at.z))?;
+            warning.setattr(
+                "suggested_collision_stiffness",
+                s.advised_stiffness(&sim.model),
+            )?;
             warn(py, warning)?;
         }
         Ok(())

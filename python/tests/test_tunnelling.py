@@ -147,3 +147,55 @@ def test_an_obstacle_through_a_coarse_body_is_warned_of_after_the_call() -> None
     assert (w.body, w.obstacle, w.points) == (0, 0, None)
     assert w.time == (sim.time, sim.time)
     assert "thinner than the body's lattice spacing" in str(w)
+
+
+def two_cubes(small_at: tuple[float, float, float], velocity: tuple[float, float, float]):
+    """The command line's test: a 0.1 m cube of 3³ points and a 0.5 m cube of 5³, without
+    gravity, at a contact too soft to stop the small one at 60 m/s."""
+    block = jello.cube(5, 0.5, centre=(0, 0, 0), total_mass=10, name="block")
+    bullet = jello.cube(3, 0.1, centre=small_at, velocity=velocity, total_mass=0.5, name="bullet")
+    return jello.create(
+        [block, bullet],
+        gravity=(0, 0, 0),
+        collision_stiffness=2000,
+        dt=0.0001,
+        name="thrown",
+    )
+
+
+def overlaps(record: Iterable[warnings.WarningMessage]) -> list[jello.OverlapWarning]:
+    """The overlap warnings among those recorded."""
+    return [w.message for w in record if isinstance(w.message, jello.OverlapWarning)]
+
+
+def test_bodies_that_end_a_run_inside_each_other_are_warned_of_once_with_a_stiffness() -> None:
+    sim = two_cubes((-0.8, 0, 0), (60, 0, 0))
+    with pytest.warns(jello.OverlapWarning) as record:
+        sim.run(200)
+    [w] = overlaps(record)
+    text = str(w)
+    assert text.startswith(
+        "thrown: bodies 'block' and 'bullet' end 7.23 cm inside each other"
+    ), text
+    assert "`sim.set_collision(stiffness=140000)`" in text and "--collision" not in text, text
+    assert w.bodies == (0, 1)
+    assert w.depth == pytest.approx(0.0723, abs=5e-5)
+    assert w.suggested_collision_stiffness == 140000
+    assert record[0].filename == __file__
+    # Still inside after the next call: not warned again.
+    with warnings.catch_warnings(record=True) as again:
+        warnings.simplefilter("always")
+        sim.run(1)
+    assert not overlaps(again)
+    # `step` does not look (a loop of single steps would pay a contact search each).
+    sim = two_cubes((-0.8, 0, 0), (60, 0, 0))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", jello.OverlapWarning)
+        sim.step(200)
+
+
+def test_bodies_side_by_side_at_rest_are_not_warned_of() -> None:
+    sim = two_cubes((0.301, 0, 0), (0, 0, 0))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", jello.OverlapWarning)
+        sim.run(200)

@@ -151,9 +151,7 @@ pub fn through_warning(model: &Model, t: &Through, names: &[String]) -> String {
 /// The warning for two bodies that end inside each other (`s`), with what to try; `names` are
 /// the bodies' names.
 pub fn sunk_warning(model: &Model, s: &Sunk, names: &[String], knobs: &Knobs) -> String {
-    // At rest a penalty contact's depth goes as one over its stiffness: the stiffness that
-    // would hold them 2 % of a cell into each other.
-    let k = significant(model.k_collision * s.depth / (0.02 * s.spacing), 2);
+    let k = significant(s.advised_stiffness(model), 2);
     format!(
         "bodies '{}' and '{}' end {} inside each other (at ({}, {}, {})), more than half the \
          finer of their cells ({}): a contact too soft for their weight, or a body thrown into \

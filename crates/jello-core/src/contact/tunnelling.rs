@@ -375,6 +375,16 @@ pub struct Sunk {
     pub spacing: f64,
 }
 
+impl Sunk {
+    /// The collision stiffness (N/m, to two significant digits) that would hold the bodies 2 %
+    /// of the finer cell into each other at rest: a penalty contact's depth at rest goes as one
+    /// over its stiffness.
+    pub fn advised_stiffness(&self, model: &Model) -> f64 {
+        let k = model.k_collision * self.depth / (0.02 * self.spacing);
+        format!("{k:.1e}").parse().unwrap_or(k)
+    }
+}
+
 /// The pairs of bodies at positions `pos` whose surfaces are inside each other by more than
 /// [`SUNK_SHARE`] of the finer of their cells (by [`crate::contact::closest`]): a body thrown into
 /// another faster than the contact stops it within a step, or a contact too soft for the
