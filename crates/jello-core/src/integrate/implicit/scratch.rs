@@ -6,7 +6,7 @@ use super::cg::sum_chunks;
 use super::gmres::Gmres;
 use super::matrix::can_swirl;
 use super::multigrid::Multigrid;
-use super::residual::fall_chunks;
+use super::residual::{fall_chunks, has_potential};
 use super::stencil::SpringMatrix;
 use super::sym::{add_outer, Sym};
 use super::SolverStats;
@@ -363,7 +363,9 @@ impl ImplicitScratch {
         } else {
             self.start_touches.clear();
         }
-        self.springs.start_dampers(x0, &mut self.start_dir);
+        // The directions by spring serve the line search's potential alone.
+        let directions = has_potential(model).then_some(&mut self.start_dir[..]);
+        self.springs.start_dampers(x0, directions);
         let free = &self.free[..];
         let size = super::chunk_size(x0.len());
         team::for_each_chunk([&mut self.start_damping[..]], size, &|chunk, [damping]| {

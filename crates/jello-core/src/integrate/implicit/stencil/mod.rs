@@ -257,8 +257,8 @@ impl SpringMatrix {
     }
 
     /// The springs' directions at the step's start `x0` into the dampers (zero for a spring
-    /// of zero length), and into `directions` by spring (in slot order).
-    pub fn start_dampers(&mut self, x0: &[Vec3], directions: &mut [Vec3]) {
+    /// of zero length), and into `directions` by spring (in slot order) when asked for.
+    pub fn start_dampers(&mut self, x0: &[Vec3], directions: Option<&mut [Vec3]>) {
         self.load_x(x0);
         let (xs, n) = (&self.x, self.n);
         let [ux, uy, uz, _] = &mut self.dampers;
@@ -276,6 +276,9 @@ impl SpringMatrix {
                 spring_directions(u, part(xs, q, len), part(xs, q + o, len));
             });
         });
+        let Some(directions) = directions else {
+            return;
+        };
         let ([ux, uy, uz, _], slots) = (&self.dampers, &self.slot);
         let size = team::chunk_size(directions.len(), MIN_POINTS_PER_RANGE);
         team::for_each_chunk([directions], size, &|chunk, [directions]| {

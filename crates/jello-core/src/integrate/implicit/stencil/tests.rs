@@ -189,7 +189,7 @@ fn blocks_by_slot_are_the_blocks_of_each_spring() {
     let mut v = v;
     v[b] = v[a];
     let mut directions = vec![Vec3::ZERO; springs.len()];
-    matrix.start_dampers(&x0, &mut directions);
+    matrix.start_dampers(&x0, Some(&mut directions));
     for floor in [f64::MIN, 0.0] {
         let mut blocks = vec![[0.0; 6]; springs.len()];
         matrix.assemble(&x0, &v, h, floor, &mut blocks);
