@@ -121,11 +121,11 @@ pub(super) fn add_forces(
     let (px, py, pz) = (x_soa.x(), x_soa.y(), x_soa.z());
     let at = |i: usize| Vec3::new(px[i], py[i], pz[i]);
     if anchored_surfaces(model).next().is_some() {
-        // Each point's friction is its own: the points in chunks over the team. A wall is asked
-        // about a point only once a coordinate's test finds the point past it (with every wall
-        // asked, this loop was a tenth of a resting 32³ cube's step on one thread).
-        // Surface by surface over a chunk, each point's friction still added in the surfaces'
-        // order.
+        // Each point's friction is its own: the points in chunks over the team, and a chunk
+        // surface by surface (each point's friction still added in the surfaces' order). A wall
+        // is asked only about a chunk with a point past it, and a plane only about a point on
+        // its forbidden side: asking every surface about every point was a tenth of a resting
+        // 32³ cube's step on one thread.
         let size = super::chunk_size(force.len());
         team::for_each_chunk([force], size, &|chunk, [force]| {
             let points = chunk * size..chunk * size + force.len();
