@@ -151,9 +151,7 @@ impl Watch {
         }
         Ok(())
     }
-}
 
-impl Watch {
     /// `warnings.warn`s a `jello.OverlapWarning` for each pair of bodies at `sim`'s state deeper
     /// inside each other than half the finer of their cells, not warned of yet; the message
     /// starts with `source`. `Err` when a warnings filter made one an error.

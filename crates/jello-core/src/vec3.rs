@@ -52,8 +52,15 @@ pub fn significant(x: f64, digits: usize) -> String {
     if !x.is_finite() {
         return x.to_string();
     }
-    let rounded: f64 = format!("{:.*e}", digits.max(1) - 1, x).parse().unwrap_or(x);
-    shortest(rounded)
+    shortest(round_significant(x, digits))
+}
+
+/// `x` rounded to `digits` significant digits (at least 1), as [`significant`] shows it.
+pub fn round_significant(x: f64, digits: usize) -> f64 {
+    if !x.is_finite() {
+        return x;
+    }
+    format!("{:.*e}", digits.max(1) - 1, x).parse().unwrap_or(x)
 }
 
 impl Vec3 {

@@ -381,7 +381,7 @@ impl Sunk {
     /// over its stiffness.
     pub fn advised_stiffness(&self, model: &Model) -> f64 {
         let k = model.k_collision * self.depth / (0.02 * self.spacing);
-        format!("{k:.1e}").parse().unwrap_or(k)
+        crate::vec3::round_significant(k, 2)
     }
 }
 
