@@ -17,8 +17,13 @@
 //! against every other body's cells, so two bodies touch on both sides.
 //!
 //! **Self-contact** ([`Model::self_contact`]): a body's samples are also tested against its
-//! own cells that share no corner with the sample's cell (those next to it are the same piece
-//! of surface), by the same law, so a bar bent over or a torus squashed flat meets itself.
+//! own cells but the one they are embedded in, by the same law, so a bar bent over or a torus
+//! squashed flat meets itself. A sample found in one of its own cells counts only at a point
+//! that lay, at rest, more than half a cell from it (`SELF_APART`): nearer, it is the same
+//! piece of surface (a sample on a face its cell shares with the next is in both). Cells that
+//! share no corner with the sample's are always that far; cells next to it hold the sample only
+//! where the body folds over itself (their corners pass each other), and the fold is pushed
+//! apart as any other touch.
 //!
 //! So skins touch: at rest a body sinks into the one under it by its weight over the collision
 //! stiffness of its touching samples, and stands no gap above it. Its limits: a sample moving
@@ -36,7 +41,8 @@
 use super::broad_phase::{visit, BroadPhase, NearCell};
 use crate::compute::soa::Soa;
 use crate::model::contact_surface::{
-    cell_map, in_space, locate, locate_near, map3, map8, weights, ContactSurface, Sample,
+    cell_map, in_space, locate, locate_from, locate_near, map3, map8, weights, ContactSurface,
+    DistanceCache, Sample,
 };
 use crate::model::Model;
 use crate::vec3::Vec3;
@@ -71,18 +77,20 @@ struct SampleChunk {
     active: Vec<(u32, u32)>,
     /// The cells each active sample may touch, in order, with their boxes as sorted.
     cells: Vec<NearCell>,
+    /// Beside each of `cells`: the distances at the corners of the sub-cell of its body's
+    /// distance grid the sample was last found in (see [`ContactSurface::distance_cached`]).
+    distances: Vec<DistanceCache>,
     found: Vec<(Touch, Vec3)>,
 }
 
-/// Each active sample of a chunk (its index into the body's samples) and the cells it may
-/// touch, from the chunk's `active` and `cells`.
-fn each_active<'a>(
-    active: &'a [(u32, u32)],
-    cells: &'a [NearCell],
-) -> impl Iterator<Item = (usize, &'a [NearCell])> {
+/// Each active sample of a chunk (its index into the body's samples) and where the cells it may
+/// touch are in the chunk's `cells`, from its `active`.
+fn each_active(
+    active: &[(u32, u32)],
+) -> impl Iterator<Item = (usize, std::ops::Range<usize>)> + '_ {
     let mut start = 0;
     active.iter().map(move |&(s, end)| {
-        let these = &cells[start..end as usize];
+        let these = start..end as usize;
         start = end as usize;
         (s as usize, these)
     })
@@ -142,6 +150,7 @@ impl Contacts {
                     body,
                     active: Vec::with_capacity(samples.len()),
                     cells: Vec::new(),
+                    distances: Vec::new(),
                     samples,
                     found,
                 });
@@ -188,7 +197,7 @@ impl Contacts {
         let (grid, mass) = (&*grid, &*mass);
         crate::compute::team::for_each_mut(chunks, &|_, chunk| {
             if sorted {
-                mark_active(model, grid, p, chunk);
+                mark_active(model, grid, p, 0.0, chunk);
             }
             chunk.found.clear();
             find_touches(model, grid, mass, p, v, chunk);
@@ -223,7 +232,7 @@ impl Contacts {
         if grid.refresh(model, [px, py, pz], margin) {
             let grid = &*grid;
             crate::compute::team::for_each_mut(&mut self.chunks, &|_, chunk| {
-                mark_active(model, grid, p, chunk);
+                mark_active(model, grid, p, margin, chunk);
             });
         }
         let grid = &self.grid;
@@ -233,9 +242,11 @@ impl Contacts {
             let body = &bodies[a];
             let surface = body.contact_surface();
             let first = body.points().start;
-            for (s, cells) in each_active(&chunk.active, &chunk.cells) {
+            for (s, these) in each_active(&chunk.active) {
+                let cells = &chunk.cells[these];
                 let sample = &surface.samples[s];
                 let (points, w, ps) = sample_place(surface, first, sample, at);
+                let own = body.lattice().coords(sample.corner as usize);
                 // The cell that holds the sample inside its body's surface; else, of the cells
                 // that hold it outside their body's surface by less than the margin, the one
                 // it is least outside of (another body's cell may hold it inside, as in
@@ -243,7 +254,7 @@ impl Contacts {
                 // closest to it.
                 let mut found: Option<(f64, Option<Touch>)> = None;
                 let mut clear_of = usize::MAX;
-                visit(cells, ps, |g| {
+                visit(grid, cells, ps, grid.moved(a), |_, g| {
                     let (b, corner) = grid.cell(g);
                     if b == clear_of {
                         return false;
@@ -251,7 +262,11 @@ impl Contacts {
                     let other = bodies[b].contact_surface();
                     let h = bodies[b].min_spacing();
                     let corners = map8(other.offsets, |o| at(corner + o));
-                    let Some((uvw, rows)) = locate_near(&corners, ps, margin / h) else {
+                    let cell = bodies[b]
+                        .lattice()
+                        .coords(corner - bodies[b].points().start);
+                    let start = start_in(b == a, sample, own, cell);
+                    let Some((uvw, rows)) = locate_near(&corners, ps, margin / h, start) else {
                         return false;
                     };
                     let inside = uvw.iter().all(|u| (0.0..=1.0).contains(u));
@@ -269,9 +284,14 @@ impl Contacts {
                     if !inside && found.as_ref().is_some_and(|(nearest, _)| *nearest <= far) {
                         return false;
                     }
-                    let cell = bodies[b]
-                        .lattice()
-                        .coords(corner - bodies[b].points().start);
+                    // Of its own body's cells, one next to its own that does not hold the sample
+                    // is its own surface's neighbourhood, not a part of the body coming near.
+                    if b == a
+                        && (!apart_at_rest(body, sample, own, cell, uvw)
+                            || (!inside && !share_no_corner(own, cell)))
+                    {
+                        return false;
+                    }
                     let (phi, gu) = other.distance_in(cell, uvw);
                     let (depth, normal) = if inside {
                         let gradient = in_space(gu, &rows);
@@ -281,17 +301,21 @@ impl Contacts {
                         (-(phi.max(0.0) + far), offset / far)
                     };
                     if !normal.is_finite() || depth.is_nan() || depth <= -margin {
-                        if inside {
-                            clear_of = b;
-                        } else {
+                        if !inside {
                             found = Some((far, None));
+                        } else if b != a {
+                            // (A body folded over itself has cells that overlap: the sample's
+                            // own body's other cells are looked at still.)
+                            clear_of = b;
                         }
                         return false;
                     }
                     // Held outside this body's surface: kept unless a touch as near is deeper.
                     let held = inside && depth <= 0.0;
-                    if held {
+                    if held && b != a {
                         clear_of = b;
+                    }
+                    if held {
                         let deeper =
                             |t: &Option<Touch>| t.as_ref().is_some_and(|t| t.depth >= depth);
                         if found
@@ -352,39 +376,58 @@ fn find_touches(
     let (kc, dc, mu) = (model.k_collision, model.d_collision, model.friction);
     let surface = body.contact_surface();
     let first = body.points().start;
+    let moved = grid.moved(a);
     let SampleChunk {
         active,
         cells,
+        distances,
         found,
         ..
     } = chunk;
-    for (s, cells) in each_active(active, cells) {
+    for (s, these) in each_active(active) {
+        let (cells, distances) = (&cells[these.clone()], &mut distances[these]);
         let sample = &surface.samples[s];
         let (mut points, mut w, ps) = sample_place(surface, first, sample, at);
+        let own = body.lattice().coords(sample.corner as usize);
         // The body last found to hold the sample in a cell but outside its surface.
         let mut clear_of = usize::MAX;
-        visit(cells, ps, |g| {
+        visit(grid, cells, ps, moved, |k, g| {
             let (b, corner) = grid.cell(g);
             if b == clear_of {
                 return false;
             }
             let other = bodies[b].contact_surface();
             let corners = map8(other.offsets, |o| at(corner + o));
-            let Some((uvw, rows)) = locate(&corners, ps) else {
+            let cell = || {
+                bodies[b]
+                    .lattice()
+                    .coords(corner - bodies[b].points().start)
+            };
+            let start = if b == a {
+                start_in(true, sample, own, cell())
+            } else {
+                [0.5; 3]
+            };
+            let Some((uvw, rows)) = locate_from(&corners, ps, start) else {
                 return false;
             };
+            let cell = cell();
             // The first cell that holds the sample inside its body's surface decides. A cell
             // that holds it outside that surface (a cage reaches past its skin) does not: the
             // body's other cells hold it only on a shared face, with the same distance, but
             // another body's may hold it inside.
-            let cell = bodies[b]
-                .lattice()
-                .coords(corner - bodies[b].points().start);
-            let (phi, gu) = other.distance_in(cell, uvw);
+            if b == a && !apart_at_rest(body, sample, own, cell, uvw) {
+                return false;
+            }
+            let (phi, gu) = other.distance_cached(cell, uvw, &mut distances[k]);
             let gradient = in_space(gu, &rows);
             let length = gradient.length();
             if !(phi < 0.0 && length > 0.0) {
-                clear_of = b;
+                // (A body folded over itself has cells that overlap: the sample's own body's
+                // other cells are looked at still.)
+                if b != a {
+                    clear_of = b;
+                }
                 return false;
             }
             let (depth, n) = (-phi / length.max(MIN_GRADIENT), gradient / length);
@@ -410,18 +453,21 @@ fn find_touches(
 
 /// Finds which of `chunk`'s samples may touch a cell until the grid's next sort, at positions
 /// `p` (those of the sort), and which cells: those whose box (as sorted) holds the sample, of
-/// the bodies it may touch, into its `active` and `cells`.
-fn mark_active(model: &Model, grid: &BroadPhase, p: &Soa, chunk: &mut SampleChunk) {
+/// the bodies it may touch, and that the sample may come within `margin` (m) of before the
+/// next sort (see [`may_reach`]), into its `active` and `cells`.
+fn mark_active(model: &Model, grid: &BroadPhase, p: &Soa, margin: f64, chunk: &mut SampleChunk) {
     let SampleChunk {
         body: a,
         samples,
         active,
         cells,
+        distances,
         ..
     } = chunk;
     let a = *a;
     active.clear();
     cells.clear();
+    distances.clear();
     let neighbours = grid.neighbours(a);
     if neighbours.is_empty() {
         return;
@@ -443,7 +489,11 @@ fn mark_active(model: &Model, grid: &BroadPhase, p: &Soa, chunk: &mut SampleChun
         let before = cells.len();
         grid.find_near(ps, skip, reach, |g| {
             if candidate(model, grid, a, own, g) {
-                cells.push(grid.near_cell(g, reach));
+                let clear = clearance(model, grid, at, ps, margin, g);
+                // Passed over when the sample and the cell cannot meet before the next sort.
+                if clear <= reach + grid.reach(grid.cell(g).0) {
+                    cells.push(grid.near_cell(g, reach, clear));
+                }
             }
             false
         });
@@ -451,6 +501,7 @@ fn mark_active(model: &Model, grid: &BroadPhase, p: &Soa, chunk: &mut SampleChun
             active.push((s as u32, cells.len() as u32));
         }
     }
+    distances.resize(cells.len(), DistanceCache::EMPTY);
 }
 
 /// Where `sample` of a body (its surface, its first point `first`) is, by `at(point)`: its
@@ -480,20 +531,98 @@ fn sample_place(
 }
 
 /// True when a sample of body `a` in its cell at lattice coordinates `own` may touch cell `g` of
-/// the broad phase: a cell of another body, or of body `a` itself when self-contact lets it.
+/// the broad phase: a cell of another body, or under self-contact one of body `a`'s own but the
+/// sample's (where it is, at rest and always, is its own surface).
 #[inline]
 fn candidate(model: &Model, grid: &BroadPhase, a: usize, own: [usize; 3], g: usize) -> bool {
     let (b, corner) = grid.cell(g);
     let body = &model.bodies()[b];
-    b != a
-        || (model.self_contact && apart(own, body.lattice().coords(corner - body.points().start)))
+    b != a || (model.self_contact && own != body.lattice().coords(corner - body.points().start))
+}
+/// How far a point at `ps` now (at a sort) and the points of cell `g` of the broad phase must
+/// move, together (each along any axis), before the point may come within `margin` (m) of the
+/// cell: its distance beyond the hull of the cell's corners, along the line from their middle,
+/// less the margin, over how far a move of 1 along each axis goes along that line. (A cell lies
+/// in the hull of its corners; a point and the corners moving up to `d` along each axis close
+/// that distance by at most `d·|n|₁` along the unit direction `n`.) A cell's box, which the
+/// grid sorts by, is far larger than its hull when it is turned or sheared, and holds many
+/// points its hull does not; and the points move far less than the reaches between most sorts.
+/// Negative where the point is within the margin already.
+#[inline]
+fn clearance(
+    model: &Model,
+    grid: &BroadPhase,
+    at: impl Fn(usize) -> Vec3,
+    ps: Vec3,
+    margin: f64,
+    g: usize,
+) -> f64 {
+    let (b, corner) = grid.cell(g);
+    let corners = map8(model.bodies()[b].contact_surface().offsets, |o| {
+        at(corner + o)
+    });
+    let middle = corners.iter().fold(Vec3::ZERO, |s, &c| s + c) * 0.125;
+    let d = ps - middle;
+    let length = d.length();
+    if length <= 0.0 || length.is_nan() {
+        return f64::NEG_INFINITY;
+    }
+    let n = d / length;
+    let beyond = (corners.iter()).fold(f64::INFINITY, |m, &c| m.min(n.dot(ps - c)));
+    // (With a rounding's room: `locate` takes points outside a cell by a rounding as in it.)
+    let clear = (beyond - margin - 1e-9 * length) / (n.x.abs() + n.y.abs() + n.z.abs());
+    if clear.is_nan() {
+        f64::NEG_INFINITY
+    } else {
+        clear
+    }
 }
 
-/// True when cells at lattice coordinates `a` and `b` of one body share no corner: a sample in
-/// the one may touch the other under self-contact (neighbouring cells are one surface).
+/// Where Newton's method starts to look for a sample (in the cell at lattice coordinates `own`
+/// of its body) in the cell at `cell`: for a cell of its own body (`own_body`) next to its own,
+/// where it lay at rest in that cell's coordinates (on a face they share it is there still,
+/// unless the body has folded, and Newton's method has nothing to do); else the cell's middle.
 #[inline]
-fn apart(a: [usize; 3], b: [usize; 3]) -> bool {
+fn start_in(own_body: bool, sample: &Sample, own: [usize; 3], cell: [usize; 3]) -> [f64; 3] {
+    let rest = [0, 1, 2].map(|k| (own[k] as f64 - cell[k] as f64) + sample.local[k]);
+    if own_body && rest.iter().all(|u| (-1.0..=2.0).contains(u)) {
+        rest
+    } else {
+        [0.5; 3]
+    }
+}
+
+/// True when cells at lattice coordinates `a` and `b` of one body share no corner.
+#[inline]
+fn share_no_corner(a: [usize; 3], b: [usize; 3]) -> bool {
     a.iter().zip(b).any(|(&a, b)| a.abs_diff(b) > 1)
+}
+
+/// How far apart at rest a sample and a point of its own body must lie for self-contact to
+/// push them apart, times the body's smallest lattice spacing (see the module's notes). A
+/// sample on a face, edge or corner its cell shares with others is found in those at its own
+/// point (0 apart); where a body folds, the skin comes through a cell next to it at points up
+/// to two cells away. Below a whole cell, so that cells sharing no corner with the sample's
+/// (a cell or more away) always count.
+pub(crate) const SELF_APART: f64 = 0.5;
+
+/// True when the point at `uvw` of the cell at lattice coordinates `cell` of `body` lay, at
+/// rest, more than [`SELF_APART`] from `sample` (of the same body, in the cell at `own`).
+#[inline]
+fn apart_at_rest(
+    body: &crate::model::body::Body,
+    sample: &Sample,
+    own: [usize; 3],
+    cell: [usize; 3],
+    uvw: [f64; 3],
+) -> bool {
+    let h = body.lattice().spacing().to_array();
+    let apart = (0..3).fold(0.0, |sum, k| {
+        let d = ((cell[k] as f64 - own[k] as f64) + (uvw[k] - sample.local[k])) * h[k];
+        sum + d * d
+    });
+    let least = SELF_APART * body.min_spacing();
+    apart > least * least
 }
 
 /// The force on a sample `depth` (m) inside another body whose outward normal there is `n`,
@@ -688,14 +817,18 @@ mod tests {
                     let os = other.contact_surface();
                     for &c in &os.cells {
                         let cell = other.lattice().coords(c as usize);
-                        if b == a && !(model.self_contact && apart(own, cell)) {
+                        if b == a && !(model.self_contact && cell != own) {
                             continue;
                         }
                         let corner = other.points().start + c as usize;
                         let corners = os.offsets.map(|o| pos[corner + o]);
-                        let Some((uvw, rows)) = locate(&corners, ps) else {
+                        let start = start_in(b == a, sample, own, cell);
+                        let Some((uvw, rows)) = locate_from(&corners, ps, start) else {
                             continue;
                         };
+                        if b == a && !apart_at_rest(body, sample, own, cell, uvw) {
+                            continue;
+                        }
                         let (phi, gu) = os.distance_in(cell, uvw);
                         let g = in_space(gu, &rows);
                         if phi < 0.0 && g.length() > 0.0 {
@@ -714,7 +847,9 @@ mod tests {
                             }
                             break 'cells;
                         }
-                        continue 'cells;
+                        if b != a {
+                            continue 'cells;
+                        }
                     }
                 }
             }

@@ -24,9 +24,15 @@
 //! otherwise call for a sort every step or two while the rest of a pile lies still. Larger
 //! boxes cost visits only for the pairs of bodies the fast ones are in.
 //!
-//! The cells looked at for a point are a superset of those a fresh sort gives, in the same
-//! order, and a point's contact is decided by the first of them (in that order) that holds it:
-//! the forces do not depend on when the grid was sorted.
+//! A cell's box is far larger than the cell when the cell is turned or sheared, so the listing
+//! also keeps, with each cell, how far the point was beyond the hull of the cell's corners at
+//! the sort (along the line from their middle), and each contact pass skips the cell while the
+//! point and the cell's body have not moved, together, far enough to close that distance
+//! (`NearCell::clear`, each body's `moved` since the sort).
+//!
+//! The cells looked at for a point are a superset of those a fresh sort gives that may hold it,
+//! in the same order, and a point's contact is decided by the first of them (in that order)
+//! that holds it: the forces do not depend on when the grid was sorted.
 
 use crate::model::contact_surface::map3;
 use crate::model::Model;
@@ -96,6 +102,9 @@ pub(crate) struct BroadPhase {
     /// Per body: how far (along any axis) each of its points may move before the grid is
     /// sorted again (its reach, or more for a body near no other).
     allowed: Vec<f64>,
+    /// Per body: how far (along any axis) its points have moved since the last sort, at most
+    /// (as of the last [`BroadPhase::refresh`]).
+    moved: Vec<f64>,
 }
 
 impl BroadPhase {
@@ -138,6 +147,7 @@ impl BroadPhase {
             reach: vec![0.0; model.bodies().len()],
             farthest: vec![0.0; model.bodies().len()],
             allowed: vec![0.0; model.bodies().len()],
+            moved: vec![0.0; model.bodies().len()],
         }
     }
 
@@ -149,18 +159,22 @@ impl BroadPhase {
     pub(crate) fn refresh(&mut self, model: &Model, p: [&[f64]; 3], margin: f64) -> bool {
         let bodies = model.bodies();
         let at = &self.sorted_at;
+        if self.sorted_margin.is_some() {
+            for (body, moved) in bodies.iter().zip(&mut self.moved) {
+                *moved = most_moved(p, at, body.points());
+            }
+        }
         match self.sorted_margin {
             Some(sorted)
                 if sorted >= margin
-                    && !(bodies.iter().zip(&self.allowed))
-                        .any(|(body, &allowed)| moved_beyond(p, at, body.points(), allowed)) =>
+                    && (self.moved.iter().zip(&self.allowed))
+                        .all(|(&moved, &allowed)| moved <= allowed) =>
             {
                 return false
             }
             // The reaches from how far each body moved since the last sort.
             Some(_) => {
-                for (body, reach) in bodies.iter().zip(&mut self.reach) {
-                    let most = most_moved(p, at, body.points());
+                for (&most, reach) in self.moved.iter().zip(&mut self.reach) {
                     *reach = (REACH_PER_MOVE * most)
                         .min(MAX_REACH * self.cell)
                         .max(MIN_REACH * self.cell);
@@ -168,6 +182,7 @@ impl BroadPhase {
             }
             None => self.reach.fill(MIN_REACH * self.cell),
         }
+        self.moved.fill(0.0);
         self.sort(model, p, margin);
         for (at, now) in self.sorted_at.iter_mut().zip(p) {
             at.copy_from_slice(now);
@@ -311,16 +326,26 @@ impl BroadPhase {
     }
 
     /// Cell `g` with its box (grown) at the last sort, grown by `reach` (m) more (that of the
-    /// body of the point that may come), to keep in a list of cells a point may be in until the
-    /// next sort (see `visit`).
+    /// body of the point that may come), and how far its points and the point must move
+    /// together before they may meet (`clear`, m: see [`NearCell`]), to keep in a list of cells
+    /// a point may be in until the next sort (see `visit`).
     #[inline]
-    pub(crate) fn near_cell(&self, g: usize, reach: f64) -> NearCell {
+    pub(crate) fn near_cell(&self, g: usize, reach: f64, clear: f64) -> NearCell {
         let [lo, hi] = self.placed[g].1;
         let grow = Vec3::new(reach, reach, reach);
         NearCell {
             cell: g as u32,
+            body: self.cell_body[g],
+            clear,
             bounds: [lo - grow, hi + grow],
         }
+    }
+
+    /// How far (along any axis) body `b`'s points have moved since the last sort, at most (as
+    /// of the last [`BroadPhase::refresh`]).
+    #[inline]
+    pub(crate) fn moved(&self, b: usize) -> f64 {
+        self.moved[b]
     }
 
     /// Body `a`'s reach at the last sort (m; see the module's notes).
@@ -383,43 +408,41 @@ impl BroadPhase {
     }
 }
 
-/// A cell of the broad phase (its index) and its box (grown) at the last sort.
+/// A cell of the broad phase (its index and its body) and its box (grown) at the last sort,
+/// with how far a point that may come into it was from it then: `clear` (m) is the most the
+/// point and the cell's points may have moved since, together (each along any axis), while it
+/// still cannot be in it (nor within the margin of the sort: see `contact::bodies`).
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct NearCell {
     pub cell: u32,
+    pub body: u32,
+    pub clear: f64,
     pub bounds: [Vec3; 2],
 }
 
-/// Calls `near(cell)` for each of `cells` whose box (grown) at the last sort holds `p`, in
-/// order, until it returns true. The boxes are kept beside the cells so that the lists are read
-/// in order.
+/// Calls `near(k, cell)` for each of `cells` (`k` its place in them) that may hold `p`, in
+/// order, until it returns true:
+/// those whose point and cell have moved since the sort further than the cell was clear of the
+/// point (`moved` of the point's body, and `grid`'s of each cell's), and whose box (grown) at
+/// the sort holds `p`. The boxes are kept beside the cells so that the lists are read in order.
 #[inline]
-pub(crate) fn visit(cells: &[NearCell], p: Vec3, mut near: impl FnMut(usize) -> bool) {
-    for c in cells {
+pub(crate) fn visit(
+    grid: &BroadPhase,
+    cells: &[NearCell],
+    p: Vec3,
+    moved: f64,
+    mut near: impl FnMut(usize, usize) -> bool,
+) {
+    for (k, c) in cells.iter().enumerate() {
+        if c.clear > moved + grid.moved[c.body as usize] {
+            continue;
+        }
         let [lo, hi] = c.bounds;
         let inside = p.x >= lo.x && p.x <= hi.x && p.y >= lo.y && p.y <= hi.y;
-        if inside && p.z >= lo.z && p.z <= hi.z && near(c.cell as usize) {
+        if inside && p.z >= lo.z && p.z <= hi.z && near(k, c.cell as usize) {
             return;
         }
     }
-}
-
-/// True when one of `points` is at `p` further than `allowed` (along any axis) from where it was
-/// at `at`, or is not a number. (Asked at every contact pass: written so that it vectorises.)
-fn moved_beyond(
-    p: [&[f64]; 3],
-    at: &[Vec<f64>; 3],
-    points: std::ops::Range<usize>,
-    allowed: f64,
-) -> bool {
-    let mut beyond = false;
-    for (now, then) in p.iter().zip(at) {
-        for (x, x0) in now[points.clone()].iter().zip(&then[points.clone()]) {
-            let d = (x - x0).abs();
-            beyond |= d > allowed || d.is_nan();
-        }
-    }
-    beyond
 }
 
 /// How far (along any axis) the farthest of `points` is at `p` from where it was at `at`

@@ -192,6 +192,29 @@ impl ContactSurface {
         interpolate(&self.distance, self.refined, self.refine, corner, uvw)
     }
 
+    /// [`ContactSurface::distance_in`], the same bits, with the distances at the corners of
+    /// the grid's sub-cell that holds `uvw` kept in `cache`: a point that touches is found in
+    /// the same sub-cell step after step, and the grid, read at random, is not in the caches of
+    /// the processor by the time it is asked again (a third of a settled pile's contact pass
+    /// went to that wait).
+    #[inline]
+    pub(crate) fn distance_cached(
+        &self,
+        corner: [usize; 3],
+        uvw: [f64; 3],
+        cache: &mut DistanceCache,
+    ) -> (f64, [f64; 3]) {
+        let (base, t) = sub_cell(self.refined, self.refine, corner, uvw);
+        if cache.base != base as u64 {
+            let [_, ry, rz] = self.refined;
+            cache.values = map8(CORNERS, |[a, b, c]| {
+                self.distance[base + (a * ry + b) * rz + c]
+            });
+            cache.base = base as u64;
+        }
+        interpolate_values(&cache.values, self.refine, t)
+    }
+
     /// The surface of `body`.
     pub(crate) fn new(body: &Body) -> Self {
         let lattice = body.lattice();
@@ -392,15 +415,56 @@ fn interpolate(
     distance: &[f64],
     refined: [usize; 3],
     refine: usize,
-    [ci, cj, ck]: [usize; 3],
+    corner: [usize; 3],
     uvw: [f64; 3],
 ) -> (f64, [f64; 3]) {
+    let (base, t) = sub_cell(refined, refine, corner, uvw);
+    let [_, ry, rz] = refined;
+    let d = map8(CORNERS, |[a, b, c]| distance[base + (a * ry + b) * rz + c]);
+    interpolate_values(&d, refine, t)
+}
+
+/// The distances at the corners of a sub-cell of a distance grid, kept (see
+/// [`ContactSurface::distance_cached`]): the flat index of its lower corner in the grid, and
+/// the values at its corners in the order of [`CORNERS`].
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct DistanceCache {
+    base: u64,
+    values: [f64; 8],
+}
+
+impl DistanceCache {
+    /// No sub-cell kept.
+    pub(crate) const EMPTY: DistanceCache = DistanceCache {
+        base: u64::MAX,
+        values: [0.0; 8],
+    };
+}
+
+/// The sub-cell of a distance grid `refine` times as fine as the lattice (points per axis
+/// `refined`) that holds place `uvw` of the cell whose lower corner is lattice point
+/// `(ci, cj, ck)`: the flat index of its lower corner, and the place in it.
+#[inline]
+fn sub_cell(
+    refined: [usize; 3],
+    refine: usize,
+    [ci, cj, ck]: [usize; 3],
+    uvw: [f64; 3],
+) -> (usize, [f64; 3]) {
     let r = refine as f64;
     let sub = map3(uvw, |u| ((u * r).floor() as usize).min(refine - 1));
     let t = map3([0, 1, 2], |a| uvw[a] * r - sub[a] as f64);
     let [_, ry, rz] = refined;
     let base = ((refine * ci + sub[0]) * ry + refine * cj + sub[1]) * rz + refine * ck + sub[2];
-    let d = map8(CORNERS, |[a, b, c]| distance[base + (a * ry + b) * rz + c]);
+    (base, t)
+}
+
+/// The trilinear interpolation over a sub-cell of a distance grid `refine` times as fine as
+/// the lattice, from the distances `d` at its corners, at its place `t`; and its gradient over
+/// the cell's `(u, v, w)`.
+#[inline]
+fn interpolate_values(d: &[f64; 8], refine: usize, t: [f64; 3]) -> (f64, [f64; 3]) {
+    let r = refine as f64;
     let w = weights(t);
     let phi = d.iter().zip(w).map(|(d, w)| d * w).sum();
     let mut g = [0.0; 3];
@@ -727,6 +791,16 @@ fn point_triangle_distance_squared(p: Vec3, a: Vec3, b: Vec3, c: Vec3) -> f64 {
 /// derivative there (to turn gradients over `(u, v, w)` into gradients in space). `None` when it
 /// is not in the cell (by more than a rounding) or the cell is degenerate there.
 pub(crate) fn locate(corners: &[Vec3; 8], p: Vec3) -> Option<([f64; 3], [Vec3; 3])> {
+    locate_from(corners, p, [0.5; 3])
+}
+
+/// [`locate`], with Newton's method started at `start` (a place in the cell or near it: where
+/// the point would be if the cell were as at rest, say) instead of the cell's middle.
+pub(crate) fn locate_from(
+    corners: &[Vec3; 8],
+    p: Vec3,
+    start: [f64; 3],
+) -> Option<([f64; 3], [Vec3; 3])> {
     // Most points asked about are outside the cell's box (grown by far more than any place
     // Newton's method accepts), and cost 24 comparisons instead of its iterations.
     let (lo, hi) = (corners.iter()).fold((corners[0], corners[0]), |(lo, hi), &c| {
@@ -737,20 +811,29 @@ pub(crate) fn locate(corners: &[Vec3; 8], p: Vec3) -> Option<([f64; 3], [Vec3; 3
     if !(p.x >= lo.x && p.x <= hi.x && p.y >= lo.y && p.y <= hi.y && p.z >= lo.z && p.z <= hi.z) {
         return None;
     }
-    locate_near(corners, p, 0.0)
+    // Then beyond every corner along the line from their middle (a point near a turned or
+    // sheared cell, inside its box but outside its hull): 8 products instead of Newton's step.
+    let middle = corners.iter().fold(Vec3::ZERO, |s, &c| s + c) * 0.125;
+    let n = p - middle;
+    let beyond = (corners.iter()).fold(f64::INFINITY, |m, &c| m.min(n.dot(p - c)));
+    if beyond > 1e-6 * n.length_squared().max((hi - lo).length_squared()) {
+        return None;
+    }
+    locate_near(corners, p, 0.0, start)
 }
 
-/// [`locate`], also for a point outside the cell by up to `slack` of its size along each of
-/// `(u, v, w)`: its place then lies outside `[0, 1]³`, where the trilinear map extends.
+/// [`locate_from`], also for a point outside the cell by up to `slack` of its size along each
+/// of `(u, v, w)`: its place then lies outside `[0, 1]³`, where the trilinear map extends.
 pub(crate) fn locate_near(
     corners: &[Vec3; 8],
     p: Vec3,
     slack: f64,
+    start: [f64; 3],
 ) -> Option<([f64; 3], [Vec3; 3])> {
     let cell = Trilinear::new(corners);
     // The cell's size, to judge the residual by.
     let size = (corners[7] - corners[0]).length() + (corners[6] - corners[1]).length();
-    let mut uvw = [0.5; 3];
+    let mut uvw = start;
     let mut converged = false;
     for iteration in 0..MAX_LOCATE {
         let r = p - cell.at(uvw);

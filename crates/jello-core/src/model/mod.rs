@@ -67,10 +67,11 @@ pub struct Model {
     /// world files, whose walls and plane docs/spec.md gives none), by the same law as the
     /// obstacles'.
     pub wall_friction: f64,
-    /// Whether a body's surface touches its own cells that share no corner with the cell its
-    /// sample is in (a bar bent over, a torus squashed flat), by the law of contacts between
-    /// bodies (see [`crate::contact::bodies`]). Off by default: it costs a search per sample
-    /// for a model of one body.
+    /// Whether a body's surface touches its own cells, at places more than half a cell from
+    /// its sample at rest (a bar bent over, a torus squashed flat, a skin folded across
+    /// neighbouring cells), by the law of contacts between bodies (see
+    /// [`crate::contact::bodies`]). Off by default: it costs a search per sample for a model of
+    /// one body.
     pub self_contact: bool,
     /// The bounding box; points outside it are pushed back by penalty springs.
     pub bounds: Aabb,

@@ -234,7 +234,9 @@ fn add_coupling(
             continue;
         }
         for j in i + 1..16 {
-            if weights[j] == 0.0 {
+            // A point in both cells (a body touching itself next to the sample's cell) pairs
+            // with itself: its term `(x_i − x_j)ᵀ k (x_i − x_j)` is 0.
+            if weights[j] == 0.0 || points[j] == points[i] {
                 continue;
             }
             let c = -weights[i] * weights[j];
