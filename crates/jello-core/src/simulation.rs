@@ -64,13 +64,14 @@ impl Simulation {
 
     /// `n` steps, stopping at the first blow-up.
     ///
-    /// On lattices large enough for threads the steps share one team of threads (see
+    /// On models large enough for threads (a large lattice, or several bodies: see
+    /// `forces::steps_on_team`) the steps share one team of threads (see
     /// `compute/team.rs`): its threads wait for the next step's work spinning, and each keeps the same
     /// part of the lattice from step to step. The results are the same as `n` calls of
     /// [`Simulation::step`].
     pub fn advance(&mut self, n: u64) -> Result<(), BlowUp> {
         let steps = |sim: &mut Simulation| (0..n).try_for_each(|_| sim.step());
-        if n > 1 && self.model.point_count() >= forces::PARALLEL_MIN_POINTS {
+        if n > 1 && forces::steps_on_team(&self.model) {
             return team::run(|| steps(self));
         }
         steps(self)

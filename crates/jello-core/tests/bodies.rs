@@ -381,6 +381,47 @@ fn several_bodies_are_bit_identical_on_any_thread_count() {
     }
 }
 
+/// A pile of small bodies, each too small to cut into ranges of planes but together enough for
+/// a team of threads (each thread then takes whole bodies): eight cubes of 7³ points, two
+/// columns of four thrown into each other and onto the floor, with friction, give bit-identical
+/// results on 1 to 5 threads.
+#[test]
+fn many_small_bodies_are_bit_identical_on_any_thread_count() {
+    let cubes: Vec<Body> = (0..8)
+        .map(|c| {
+            let at = Vec3::new(0.45 * (c % 2) as f64, 0.05 + 0.32 * (c / 2) as f64, 0.0);
+            cube(7, 0.3, at, jelly(0.01))
+        })
+        .collect();
+    let floor = Aabb::new(Vec3::new(-2.0, 0.0, -2.0), Vec3::new(2.0, 4.0, 2.0)).unwrap();
+    let model = ModelBuilder::new()
+        .bodies(cubes)
+        .bounds(floor)
+        .collision(2000.0, 2.0)
+        .friction(0.5)
+        .gravity(Vec3::new(0.0, -9.81, 0.0))
+        .dt(0.0005)
+        .build()
+        .unwrap();
+    assert!(model.bodies().iter().all(|b| b.len() < 2048) && model.point_count() >= 2048);
+    let mut start = State::at_rest(&model);
+    for (b, body) in model.bodies().iter().enumerate() {
+        let toward = if b % 2 == 0 { 2.0 } else { -2.0 };
+        for p in body.points() {
+            start.vel[p] = Vec3::new(toward, -1.0, 0.3 * b as f64);
+        }
+    }
+    let run = |threads| common::run_on_threads(&model, &start, 80, threads);
+    let one = run(1);
+    assert!(
+        jello_core::contact::overlap(&model, &one.pos).0 > 0.0,
+        "the bodies touch"
+    );
+    for threads in [2, 3, 5] {
+        assert_eq!(one, run(threads), "{threads} threads");
+    }
+}
+
 /// With the material given by modulus, viscosity and density, refining the lattice keeps the
 /// body's mass and its lowest frequency: a bar stretched by 2 % and let go contracts back in
 /// about the same time at 4 and at 8 cells across.

@@ -72,6 +72,18 @@ pub const PARALLEL_MIN_POINTS: usize = 8 * 1024;
 #[cfg(feature = "parallel")]
 const TEAM_MIN_POINTS: usize = 2 * 1024;
 
+/// Models of several bodies with at least this many points in all step on a team of threads
+/// (each thread takes whole bodies, see `body_groups`, and a share of the contacts between
+/// them); the results are the same either way.
+const BODIES_TEAM_MIN_POINTS: usize = 2 * 1024;
+
+/// True when a step of `model` pays for a team of threads (see [`PARALLEL_MIN_POINTS`] and
+/// [`BODIES_TEAM_MIN_POINTS`]).
+pub(crate) fn steps_on_team(model: &Model) -> bool {
+    let points = model.point_count();
+    points >= PARALLEL_MIN_POINTS || (model.bodies().len() > 1 && points >= BODIES_TEAM_MIN_POINTS)
+}
+
 /// Buffers of the force routine, sized once for a model.
 #[derive(Clone, Debug, Default)]
 pub struct ForceScratch {
@@ -308,8 +320,9 @@ pub fn accelerations_soa(
 /// accelerations never go through memory. `p` and `v` are read until the last chunk is done, so
 /// `outs` must be other buffers (the borrow checker sees to it).
 ///
-/// Threads take contiguous ranges of chunks. Every chunk is computed the same way whichever
-/// thread runs it, so results do not depend on the thread count. Returns whether every `update`
+/// Threads take contiguous ranges of chunks, or whole bodies where every body is too small to
+/// cut (see `body_groups`). Every chunk is computed the same way whichever thread runs it, so
+/// results do not depend on the thread count. Returns whether every `update`
 /// returned true.
 pub fn force_pass<T, U>(
     model: &Model,
@@ -389,51 +402,144 @@ where
         contacts.compute(model, p, v);
     }
     let contact = touching.then(|| contacts.forces());
+    let shared = Shared {
+        model,
+        p,
+        v,
+        control,
+        contact,
+        anchors,
+        update,
+    };
+    // Many small bodies (each one range) on a team: groups of whole bodies, four per thread (a
+    // thread done with its own takes another's).
+    let threads = crate::compute::team::threads();
+    let groups = (4 * threads)
+        .min(crate::compute::team::OWNED_ITEMS)
+        .min(model.bodies().len());
+    if threads > 1 && groups > 1 && model.bodies().iter().all(|b| range_count(b) == 1) {
+        return body_groups(&shared, bodies, outs, groups);
+    }
     let mut outs = outs;
     let mut all = true;
-    for (
-        body,
-        BodyScratch {
-            owns,
-            halos,
-            rows,
-            masks,
-            spans,
-        },
-    ) in model.bodies().iter().zip(bodies)
-    {
+    for (body, scratch) in model.bodies().iter().zip(bodies) {
         let (body_outs, rest) = outs.split_at(body.len());
         outs = rest;
-        let grid = Grid::new(body);
-        let pass = Pass {
-            model,
-            body,
-            grid,
-            masks,
-            spans,
-            p,
-            v,
-            control,
-            contact,
-            anchors,
-            update,
-        };
         // As many ranges as the buffers allow (the pool may have grown since they were sized;
         // the ranges only decide which thread computes what, never the results).
-        let ranges = range_count(body).min(owns.len());
-        let buffers = owns
-            .iter_mut()
-            .zip(halos.chunks_exact_mut(2))
-            .zip(rows.iter_mut());
-        let buffers = buffers.map(|((own, halos), row)| RangeBuffers { own, halos, row });
+        let ranges = range_count(body).min(scratch.owns.len());
         // On a team of threads: the caller's (an integrator's step), else one for this pass.
-        let run = || pass.ranges(buffers, body_outs, ranges);
+        let run = || body_pass(&shared, body, scratch, body_outs, ranges);
         all &= match ranges > 1 && crate::compute::team::threads() == 1 {
             true => crate::compute::team::run(run),
             false => run(),
         };
     }
     all
+}
+
+/// What every body's part of a [`force_pass`] reads.
+struct Shared<'a, U> {
+    model: &'a Model,
+    p: &'a Soa,
+    v: &'a Soa,
+    control: &'a Control,
+    contact: Option<&'a Soa>,
+    anchors: Option<&'a Anchors>,
+    update: &'a U,
+}
+
+/// The spring pass of `body` (with its buffers `scratch`) in `ranges` ranges of planes, `outs`
+/// its points' outputs. Returns whether every update returned true.
+fn body_pass<T, U>(
+    shared: &Shared<'_, U>,
+    body: &Body,
+    scratch: &mut BodyScratch,
+    outs: T,
+    ranges: usize,
+) -> bool
+where
+    T: Split,
+    U: Fn(usize, T, [&[f64]; 3]) -> bool + Sync,
+{
+    let BodyScratch {
+        owns,
+        halos,
+        rows,
+        masks,
+        spans,
+    } = scratch;
+    let pass = Pass {
+        model: shared.model,
+        body,
+        grid: Grid::new(body),
+        masks,
+        spans,
+        p: shared.p,
+        v: shared.v,
+        control: shared.control,
+        contact: shared.contact,
+        anchors: shared.anchors,
+        update: shared.update,
+    };
+    let buffers = owns
+        .iter_mut()
+        .zip(halos.chunks_exact_mut(2))
+        .zip(rows.iter_mut());
+    let buffers = buffers.map(|((own, halos), row)| RangeBuffers { own, halos, row });
+    pass.ranges(buffers, outs, ranges)
+}
+
+/// The bodies' spring passes (each one range) in `groups` runs of whole bodies, of about as many
+/// points each, spread over the team this thread leads: a pile of small bodies, each too small
+/// to cut, still steps on every thread. Each body's pass is the same whichever thread runs it,
+/// so the results are those of the passes one after another. Returns whether every update
+/// returned true.
+fn body_groups<T, U>(
+    shared: &Shared<'_, U>,
+    scratches: &mut [BodyScratch],
+    outs: T,
+    groups: usize,
+) -> bool
+where
+    T: Split,
+    U: Fn(usize, T, [&[f64]; 3]) -> bool + Sync,
+{
+    let bodies = shared.model.bodies();
+    let total = shared.model.point_count();
+    // Each group's bodies, buffers and outputs, cut here and taken by the item that runs it.
+    type Group<'b, T> = Option<(std::ops::Range<usize>, &'b mut [BodyScratch], T)>;
+    let parts: [std::sync::Mutex<Group<'_, T>>; crate::compute::team::OWNED_ITEMS] =
+        std::array::from_fn(|_| std::sync::Mutex::new(None));
+    let (mut outs, mut scratches, mut start, mut done) = (outs, scratches, 0, 0);
+    for (g, part) in parts.iter().enumerate().take(groups) {
+        // The bodies up to the group's share of the points (the last group: the rest).
+        let (mut end, mut points) = (start, 0);
+        while end < bodies.len() && (g + 1 == groups || done + points < (g + 1) * total / groups) {
+            points += bodies[end].len();
+            end += 1;
+        }
+        let (group_outs, rest) = outs.split_at(points);
+        outs = rest;
+        let (group_scratches, rest) = std::mem::take(&mut scratches).split_at_mut(end - start);
+        scratches = rest;
+        *part.lock().expect("unpoisoned") = Some((start..end, group_scratches, group_outs));
+        (start, done) = (end, done + points);
+    }
+    let all = std::sync::atomic::AtomicBool::new(true);
+    crate::compute::team::for_each(groups, &|g| {
+        let part = parts[g].lock().expect("unpoisoned").take();
+        let (range, scratches, outs) = part.expect("each group runs once");
+        let mut outs = outs;
+        for (body, scratch) in bodies[range].iter().zip(scratches) {
+            let (body_outs, rest) = outs.split_at(body.len());
+            outs = rest;
+            if !body_pass(shared, body, scratch, body_outs, 1) {
+                all.store(false, std::sync::atomic::Ordering::Relaxed);
+            }
+        }
+    });
+    all.into_inner()
 }
 
 #[cfg(all(test, feature = "parallel"))]

@@ -24,7 +24,6 @@ pub mod stability;
 pub use blow_up::{BlowUp, BlowUpCause};
 pub use scratch::Scratch;
 
-use crate::forces::PARALLEL_MIN_POINTS;
 use crate::integrate::blow_up::unsound;
 use crate::integrate::scratch::accept;
 use crate::model::Model;
@@ -61,7 +60,7 @@ pub fn step(
     }
     // Large lattices step on a team of threads (the caller's, as in `Simulation::advance`, else
     // one for this step), each thread keeping its part of the lattice from pass to pass.
-    let sound = match model.point_count() >= PARALLEL_MIN_POINTS {
+    let sound = match crate::forces::steps_on_team(model) {
         true => crate::compute::team::run(|| explicit::integrate(model, state, control, scratch)),
         false => explicit::integrate(model, state, control, scratch),
     };
