@@ -40,6 +40,7 @@
 
 use super::broad_phase::{visit, BroadPhase, NearCell};
 use crate::compute::soa::Soa;
+use crate::model::body::Body;
 use crate::model::contact_surface::{
     cell_map, in_space, locate, locate_from, locate_near, map3, map8, weights, ContactSurface,
     DistanceCache, Sample,
@@ -454,7 +455,7 @@ fn find_touches(
 /// Finds which of `chunk`'s samples may touch a cell until the grid's next sort, at positions
 /// `p` (those of the sort), and which cells: those whose box (as sorted) holds the sample, of
 /// the bodies it may touch, and that the sample may come within `margin` (m) of before the
-/// next sort (see [`may_reach`]), into its `active` and `cells`.
+/// next sort (see [`clearance`]), into its `active` and `cells`.
 fn mark_active(model: &Model, grid: &BroadPhase, p: &Soa, margin: f64, chunk: &mut SampleChunk) {
     let SampleChunk {
         body: a,
@@ -539,6 +540,7 @@ fn candidate(model: &Model, grid: &BroadPhase, a: usize, own: [usize; 3], g: usi
     let body = &model.bodies()[b];
     b != a || (model.self_contact && own != body.lattice().coords(corner - body.points().start))
 }
+
 /// How far a point at `ps` now (at a sort) and the points of cell `g` of the broad phase must
 /// move, together (each along any axis), before the point may come within `margin` (m) of the
 /// cell: its distance beyond the hull of the cell's corners, along the line from their middle,
@@ -604,13 +606,13 @@ fn share_no_corner(a: [usize; 3], b: [usize; 3]) -> bool {
 /// point (0 apart); where a body folds, the skin comes through a cell next to it at points up
 /// to two cells away. Below a whole cell, so that cells sharing no corner with the sample's
 /// (a cell or more away) always count.
-pub(crate) const SELF_APART: f64 = 0.5;
+const SELF_APART: f64 = 0.5;
 
 /// True when the point at `uvw` of the cell at lattice coordinates `cell` of `body` lay, at
 /// rest, more than [`SELF_APART`] from `sample` (of the same body, in the cell at `own`).
 #[inline]
 fn apart_at_rest(
-    body: &crate::model::body::Body,
+    body: &Body,
     sample: &Sample,
     own: [usize; 3],
     cell: [usize; 3],
