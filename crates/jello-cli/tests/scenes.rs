@@ -313,6 +313,17 @@ fn the_upper_of_two_stacked_cubes_stays_on_top() {
         z(0).fold(f64::MAX, f64::min) > -0.05,
         "the lower rests on the floor"
     );
+    // Where the run's time went: the contacts between the two bodies are a part of it.
+    let out = t.jello(&["run", "stack.toml", "--steps", "200", "--timings", "-q"]);
+    let line = (out.lines())
+        .find(|l| l.starts_with("timings: wall "))
+        .unwrap_or_else(|| panic!("no timings in {out}"));
+    let share: f64 = line
+        .split_once(" s (")
+        .and_then(|(_, rest)| rest.split_once(" %)"))
+        .and_then(|(share, _)| share.parse().ok())
+        .unwrap_or_else(|| panic!("no share of the contacts in {line}"));
+    assert!(share > 0.0 && share < 100.0, "{line}");
 }
 
 #[test]

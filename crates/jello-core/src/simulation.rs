@@ -57,6 +57,14 @@ impl Simulation {
         self.scratch.cutback_stats()
     }
 
+    /// Wall-clock time this simulation's steps spent on contacts between bodies (finding them,
+    /// and their forces), since it was made: with the time of the steps, the contact pass's
+    /// share of stepping (`jello run --timings`). Zero for a model whose surfaces cannot touch
+    /// (one body without self-contact), and in the browser.
+    pub fn contact_time(&self) -> std::time::Duration {
+        self.scratch.contact_time()
+    }
+
     /// The implicit solver's work since this simulation was made (see [`SolverStats`]).
     pub fn solver_stats(&self) -> SolverStats {
         self.scratch.solver_stats()

@@ -65,6 +65,10 @@ pub struct RunArgs {
     /// scene's `[collision] self_contact = true` does, for this run.
     #[arg(long)]
     pub self_contact: bool,
+    /// After the summary, where the run's wall-clock time went: the contacts between bodies
+    /// (finding them and their forces) against the rest of the run.
+    #[arg(long)]
+    pub timings: bool,
     /// Save the final state as a world file, or as a scene file when running a scene (written
     /// only if the run succeeds).
     #[arg(long, value_name = "OUT.w|OUT.toml")]
@@ -295,6 +299,17 @@ pub fn run(args: RunArgs) -> Result<(), CliError> {
         summary.push_str(&format!(", {} frames exported", x.frames()));
     }
     println!("{summary}");
+    if args.timings && gpu.is_some() {
+        println!("timings: wall {wall:.3} s (the GPU's passes are not timed apart)");
+    } else if args.timings {
+        let contacts = sim.contact_time().as_secs_f64();
+        println!(
+            "timings: wall {wall:.3} s, of it contacts between bodies {contacts:.3} s ({:.1} %), \
+             the rest {:.3} s",
+            100.0 * contacts / wall.max(1e-9),
+            (wall - contacts).max(0.0)
+        );
+    }
     // Warnings after the summary, on stderr: the run itself succeeded.
     let names = body_names(&source, &sim.model);
     let crossings = watch.as_ref().map_or(&[][..], |w| w.crossings());

@@ -62,6 +62,25 @@ pub struct Contacts {
     /// The samples cut into chunks of one body's, searched on the team's threads; each chunk's
     /// touches are summed in order after, so the forces do not depend on the thread count.
     chunks: Vec<SampleChunk>,
+    /// Wall-clock time spent in [`Contacts::compute`] and [`Contacts::near`] (none counted in
+    /// the browser, whose wasm has no clock here).
+    spent: std::time::Duration,
+}
+
+/// Times `f`, adding its wall-clock time to `spent` (only where `std` has a clock).
+fn timed<R>(spent: &mut std::time::Duration, f: impl FnOnce() -> R) -> R {
+    #[cfg(not(target_arch = "wasm32"))]
+    {
+        let start = std::time::Instant::now();
+        let result = f();
+        *spent += start.elapsed();
+        result
+    }
+    #[cfg(target_arch = "wasm32")]
+    {
+        let _ = spent;
+        f()
+    }
 }
 
 /// Samples a chunk holds at most.
@@ -163,6 +182,7 @@ impl Contacts {
             mass: bodies.iter().map(|b| b.material.mass).collect(),
             touches: Vec::with_capacity(samples),
             chunks,
+            spent: std::time::Duration::ZERO,
         }
     }
 
@@ -179,14 +199,28 @@ impl Contacts {
         &self.forces
     }
 
+    /// Wall-clock time spent finding contacts between bodies and their forces since these
+    /// buffers were made (zero in the browser).
+    pub fn time_spent(&self) -> std::time::Duration {
+        self.spent
+    }
+
     /// The contact forces between the bodies of `model` at positions `p` and velocities `v`.
     pub fn compute(&mut self, model: &Model, p: &Soa, v: &Soa) {
+        let mut spent = self.spent;
+        timed(&mut spent, || self.compute_untimed(model, p, v));
+        self.spent = spent;
+    }
+
+    /// [`Contacts::compute`], not timed.
+    fn compute_untimed(&mut self, model: &Model, p: &Soa, v: &Soa) {
         let Contacts {
             forces,
             grid,
             mass,
             touches,
             chunks,
+            ..
         } = self;
         forces.fill_zero();
         touches.clear();
@@ -223,6 +257,13 @@ impl Contacts {
     /// body's cells is judged by the nearest of them: its distance there, carried on to the
     /// sample along its gradient, and its reaction goes to that nearest point.
     pub(crate) fn near(&mut self, model: &Model, p: &Soa, margin: f64, out: &mut Vec<Touch>) {
+        let mut spent = self.spent;
+        timed(&mut spent, || self.near_untimed(model, p, margin, out));
+        self.spent = spent;
+    }
+
+    /// [`Contacts::near`], not timed.
+    fn near_untimed(&mut self, model: &Model, p: &Soa, margin: f64, out: &mut Vec<Touch>) {
         out.clear();
         let bodies = model.bodies();
         if !model.surfaces_touch() {

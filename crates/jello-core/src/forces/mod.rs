@@ -136,6 +136,12 @@ impl ForceScratch {
         self.anchors.update(model, pos);
     }
 
+    /// Wall-clock time spent on contacts between bodies since these buffers were made (see
+    /// [`Contacts::time_spent`]).
+    pub fn contact_time(&self) -> std::time::Duration {
+        self.contacts.time_spent()
+    }
+
     /// Where the points touching obstacles are tied (empty without friction or obstacles).
     pub(crate) fn anchors(&self) -> &Anchors {
         &self.anchors

@@ -41,6 +41,12 @@ impl Scratch {
         self.cutback.stats()
     }
 
+    /// Wall-clock time spent on contacts between bodies (finding them, and their forces) since
+    /// these buffers were made; zero for a model whose surfaces cannot touch, and in the browser.
+    pub fn contact_time(&self) -> std::time::Duration {
+        self.force.contact_time()
+    }
+
     /// The implicit solver's work (solves, Newton and conjugate-gradient iterations,
     /// assemblies of its matrix) since these buffers were made; zero under explicit integrators.
     pub fn solver_stats(&self) -> crate::integrate::implicit::SolverStats {
