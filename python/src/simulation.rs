@@ -536,6 +536,14 @@ impl Simulation {
         self.sim.cutback_stats().split_steps
     }
 
+    /// Wall-clock seconds the steps spent on contacts between bodies (finding them, and their
+    /// forces) since the model last changed: with the time of the steps, the contact pass's
+    /// share (0 for a model whose surfaces cannot touch, and on the GPU).
+    #[getter]
+    fn contact_seconds(&self) -> f64 {
+        self.sim.contact_time().as_secs_f64()
+    }
+
     /// The implicit solver's work since the model last changed: solves, Newton and
     /// conjugate-gradient iterations, assemblies of its matrix (all zero under an explicit
     /// integrator or on the GPU).

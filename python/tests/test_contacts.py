@@ -130,3 +130,19 @@ def test_the_report_finds_a_skin_through_itself(tmp_path: Path) -> None:
     assert worst["apart"] == {"frame": "frame_000000.obj", **nothing, "apart": nothing, "frames_crossed": 0}
     # No two of the ring's triangles were a metre apart.
     assert report_on(tmp_path, "--apart", "1")["self"]["ring"]["apart"] == nothing
+
+
+def test_the_time_spent_on_contacts_is_counted_where_bodies_may_touch() -> None:
+    """Two cubes stacked on the floor spend some of their steps' time on contacts between them,
+    and a cube alone none; changing the model starts the count again."""
+    lower = jello.cube(4, 0.5, centre=(0, 0, -1.7), total_mass=1)
+    upper = jello.cube(4, 0.5, centre=(0, 0, -1.15), total_mass=1)
+    pair = jello.create([lower, upper])
+    assert pair.contact_seconds == 0.0
+    pair.run(200)
+    assert pair.contact_seconds > 0.0
+    pair.dt = pair.dt / 2
+    assert pair.contact_seconds == 0.0
+    alone = jello.create([jello.cube(4, 0.5, centre=(0, 0, -1.7), total_mass=1)])
+    alone.run(200)
+    assert alone.contact_seconds == 0.0
