@@ -42,8 +42,8 @@ use super::broad_phase::{visit, BroadPhase, NearCell};
 use crate::compute::soa::Soa;
 use crate::model::body::Body;
 use crate::model::contact_surface::{
-    cell_map, in_space, locate, locate_from, locate_near, map3, map8, weights, ContactSurface,
-    DistanceCache, Sample,
+    beyond_hull, cell_map, in_space, locate, locate_from, locate_near, map3, map8, weights,
+    ContactSurface, DistanceCache, Sample,
 };
 use crate::model::Model;
 use crate::vec3::Vec3;
@@ -67,19 +67,24 @@ pub struct Contacts {
     spent: std::time::Duration,
 }
 
-/// Times `f`, adding its wall-clock time to `spent` (only where `std` has a clock).
-fn timed<R>(spent: &mut std::time::Duration, f: impl FnOnce() -> R) -> R {
-    #[cfg(not(target_arch = "wasm32"))]
-    {
-        let start = std::time::Instant::now();
-        let result = f();
-        *spent += start.elapsed();
-        result
+/// A clock's reading to time the contact pass by, where `std` has a clock (not in the browser's
+/// wasm, where the time spent stays zero).
+#[derive(Clone, Copy)]
+struct Started(#[cfg(not(target_arch = "wasm32"))] std::time::Instant);
+
+impl Started {
+    fn now() -> Self {
+        Started(
+            #[cfg(not(target_arch = "wasm32"))]
+            std::time::Instant::now(),
+        )
     }
-    #[cfg(target_arch = "wasm32")]
-    {
-        let _ = spent;
-        f()
+
+    fn elapsed(self) -> std::time::Duration {
+        #[cfg(not(target_arch = "wasm32"))]
+        return self.0.elapsed();
+        #[cfg(target_arch = "wasm32")]
+        std::time::Duration::ZERO
     }
 }
 
@@ -207,9 +212,9 @@ impl Contacts {
 
     /// The contact forces between the bodies of `model` at positions `p` and velocities `v`.
     pub fn compute(&mut self, model: &Model, p: &Soa, v: &Soa) {
-        let mut spent = self.spent;
-        timed(&mut spent, || self.compute_untimed(model, p, v));
-        self.spent = spent;
+        let start = Started::now();
+        self.compute_untimed(model, p, v);
+        self.spent += start.elapsed();
     }
 
     /// [`Contacts::compute`], not timed.
@@ -257,9 +262,9 @@ impl Contacts {
     /// body's cells is judged by the nearest of them: its distance there, carried on to the
     /// sample along its gradient, and its reaction goes to that nearest point.
     pub(crate) fn near(&mut self, model: &Model, p: &Soa, margin: f64, out: &mut Vec<Touch>) {
-        let mut spent = self.spent;
-        timed(&mut spent, || self.near_untimed(model, p, margin, out));
-        self.spent = spent;
+        let start = Started::now();
+        self.near_untimed(model, p, margin, out);
+        self.spent += start.elapsed();
     }
 
     /// [`Contacts::near`], not timed.
@@ -604,16 +609,12 @@ fn clearance(
     let corners = map8(model.bodies()[b].contact_surface().offsets, |o| {
         at(corner + o)
     });
-    let middle = corners.iter().fold(Vec3::ZERO, |s, &c| s + c) * 0.125;
-    let d = ps - middle;
-    let length = d.length();
-    if length <= 0.0 || length.is_nan() {
+    let Some((beyond, n)) = beyond_hull(&corners, ps) else {
         return f64::NEG_INFINITY;
-    }
-    let n = d / length;
-    let beyond = (corners.iter()).fold(f64::INFINITY, |m, &c| m.min(n.dot(ps - c)));
+    };
     // (With a rounding's room: `locate` takes points outside a cell by a rounding as in it.)
-    let clear = (beyond - margin - 1e-9 * length) / (n.x.abs() + n.y.abs() + n.z.abs());
+    let rounding = 1e-9 * (ps - corners[0]).length();
+    let clear = (beyond - margin - rounding) / (n.x.abs() + n.y.abs() + n.z.abs());
     if clear.is_nan() {
         f64::NEG_INFINITY
     } else {

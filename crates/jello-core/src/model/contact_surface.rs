@@ -813,13 +813,26 @@ pub(crate) fn locate_from(
     }
     // Then beyond every corner along the line from their middle (a point near a turned or
     // sheared cell, inside its box but outside its hull): 8 products instead of Newton's step.
-    let middle = corners.iter().fold(Vec3::ZERO, |s, &c| s + c) * 0.125;
-    let n = p - middle;
-    let beyond = (corners.iter()).fold(f64::INFINITY, |m, &c| m.min(n.dot(p - c)));
-    if beyond > 1e-6 * n.length_squared().max((hi - lo).length_squared()) {
+    if beyond_hull(corners, p).is_some_and(|(beyond, _)| beyond > 1e-6 * (hi - lo).length()) {
         return None;
     }
     locate_near(corners, p, 0.0, start)
+}
+
+/// How far `p` is beyond the hull of a cell's `corners` (m; negative inside it) along the line
+/// from their middle, with that line's unit direction: a cell lies in the hull of its corners,
+/// so a point beyond it is outside the cell by at least that much. `None` at the middle.
+#[inline]
+pub(crate) fn beyond_hull(corners: &[Vec3; 8], p: Vec3) -> Option<(f64, Vec3)> {
+    let middle = corners.iter().fold(Vec3::ZERO, |s, &c| s + c) * 0.125;
+    let d = p - middle;
+    let length = d.length();
+    if length <= 0.0 || length.is_nan() {
+        return None;
+    }
+    let n = d / length;
+    let beyond = (corners.iter()).fold(f64::INFINITY, |m, &c| m.min(n.dot(p - c)));
+    Some((beyond, n))
 }
 
 /// [`locate_from`], also for a point outside the cell by up to `slack` of its size along each
