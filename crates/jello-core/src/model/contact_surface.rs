@@ -801,6 +801,20 @@ pub(crate) fn locate_from(
     p: Vec3,
     start: [f64; 3],
 ) -> Option<([f64; 3], [Vec3; 3])> {
+    locate_or_apart(corners, p, start).ok()
+}
+
+/// [`locate_from`]; for a point not in the cell, how far (m) it and the corners may move,
+/// together, each along any axis, while it stays out of the cell: its distance outside the
+/// cell's box, or beyond the hull of the corners along a direction (their middle's to the
+/// point, or a row of the inverse derivative of the cell's map), over how far a move of 1
+/// along each axis goes along that direction, less the roundings the tests allow; 0 where not
+/// known (Newton's method wandered off, or the cell is degenerate).
+pub(crate) fn locate_or_apart(
+    corners: &[Vec3; 8],
+    p: Vec3,
+    start: [f64; 3],
+) -> Result<([f64; 3], [Vec3; 3]), f64> {
     // Most points asked about are outside the cell's box (grown by far more than any place
     // Newton's method accepts), and cost 24 comparisons instead of its iterations.
     let (lo, hi) = (corners.iter()).fold((corners[0], corners[0]), |(lo, hi), &c| {
@@ -809,14 +823,19 @@ pub(crate) fn locate_from(
     let grow = (hi - lo) * 1e-6;
     let (lo, hi) = (lo - grow, hi + grow);
     if !(p.x >= lo.x && p.x <= hi.x && p.y >= lo.y && p.y <= hi.y && p.z >= lo.z && p.z <= hi.z) {
-        return None;
+        let out = (lo - p).max(p - hi) - grow;
+        return Err(out.x.max(out.y).max(out.z).max(0.0));
     }
     // Then beyond every corner along the line from their middle (a point near a turned or
     // sheared cell, inside its box but outside its hull): 8 products instead of Newton's step.
-    if beyond_hull(corners, p).is_some_and(|(beyond, _)| beyond > 1e-6 * (hi - lo).length()) {
-        return None;
+    let rounding = 1e-6 * (hi - lo).length();
+    if let Some((beyond, n)) = beyond_hull(corners, p) {
+        if beyond > rounding {
+            let along = n.x.abs() + n.y.abs() + n.z.abs();
+            return Err(((beyond - 2.0 * rounding) / along).max(0.0));
+        }
     }
-    locate_near(corners, p, 0.0, start)
+    newton_in(corners, p, 0.0, start)
 }
 
 /// How far `p` is beyond the hull of a cell's `corners` (m; negative inside it) along the line
@@ -843,6 +862,17 @@ pub(crate) fn locate_near(
     slack: f64,
     start: [f64; 3],
 ) -> Option<([f64; 3], [Vec3; 3])> {
+    newton_in(corners, p, slack, start).ok()
+}
+
+/// [`locate_near`]'s Newton's method; where the point is outside the hull after its first
+/// step, how far it is clear of it (see [`locate_or_apart`]), else 0.
+fn newton_in(
+    corners: &[Vec3; 8],
+    p: Vec3,
+    slack: f64,
+    start: [f64; 3],
+) -> Result<([f64; 3], [Vec3; 3]), f64> {
     let cell = Trilinear::new(corners);
     // The cell's size, to judge the residual by.
     let size = (corners[7] - corners[0]).length() + (corners[6] - corners[1]).length();
@@ -854,7 +884,7 @@ pub(crate) fn locate_near(
             converged = true;
             break;
         }
-        let inverse = inverse_columns(cell.jacobian(uvw))?;
+        let inverse = inverse_columns(cell.jacobian(uvw)).ok_or(0.0)?;
         // Δ = J⁻¹ r, with the rows of J⁻¹ as `inverse`.
         let delta = map3(inverse, |row| row.dot(r));
         for (u, d) in uvw.iter_mut().zip(delta) {
@@ -864,8 +894,10 @@ pub(crate) fn locate_near(
         // a point outside the hull is outside the cell: told, after the first step, along the
         // rows of that step's (affine) inverse, which most points near a cell but not in it
         // are, one step before the test below tells.
-        if iteration == 0 && slack == 0.0 && !in_hull(corners, &inverse, p) {
-            return None;
+        if iteration == 0 && slack == 0.0 {
+            if let Some(apart) = outside_hull(corners, &inverse, p) {
+                return Err(apart);
+            }
         }
         // Far outside the cell: not in it (Newton's method may wander off there). Or outside
         // by far more than the last step, once steps are short: Newton's method converges
@@ -876,24 +908,26 @@ pub(crate) fn locate_near(
             .iter()
             .any(|u| !(-out - slack..=1.0 + out + slack).contains(u))
         {
-            return None;
+            return Err(0.0);
         }
     }
     let slack = slack + 1e-9;
     if !converged || uvw.iter().any(|&u| !(-slack..=1.0 + slack).contains(&u)) {
-        return None;
+        return Err(0.0);
     }
     let uvw = map3(uvw, |u| u.clamp(-slack, 1.0 + slack));
     // J⁻ᵀ: its columns are the rows of J⁻¹.
-    let rows = inverse_columns(cell.jacobian(uvw))?;
-    Some((uvw, rows))
+    let rows = inverse_columns(cell.jacobian(uvw)).ok_or(0.0)?;
+    Ok((uvw, rows))
 }
 
-/// False when `p` is outside the hull of `corners` along one of the directions `rows`: beyond
-/// every corner (by more than a rounding of the corners' spread along it).
+/// Where `p` is outside the hull of `corners` along one of the directions `rows` (beyond every
+/// corner by more than a rounding of the corners' spread along it), how far it is clear of it
+/// (see [`locate_or_apart`]); `None` inside.
 #[inline]
-fn in_hull(corners: &[Vec3; 8], rows: &[Vec3; 3], p: Vec3) -> bool {
-    rows.iter().all(|row| {
+fn outside_hull(corners: &[Vec3; 8], rows: &[Vec3; 3], p: Vec3) -> Option<f64> {
+    let mut apart: Option<f64> = None;
+    for row in rows {
         let (lo, hi) = corners
             .iter()
             .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), c| {
@@ -902,8 +936,14 @@ fn in_hull(corners: &[Vec3; 8], rows: &[Vec3; 3], p: Vec3) -> bool {
             });
         let x = row.dot(p);
         let rounding = (hi - lo) * 1e-9;
-        x >= lo - rounding && x <= hi + rounding
-    })
+        if !(x >= lo - rounding && x <= hi + rounding) {
+            let beyond = (lo - x).max(x - hi) - 2.0 * rounding;
+            let along = row.x.abs() + row.y.abs() + row.z.abs();
+            let clear = (beyond / along).max(0.0);
+            apart = Some(apart.map_or(clear, |a| a.max(clear)));
+        }
+    }
+    apart
 }
 
 /// A deformed cell's trilinear map as a polynomial,
@@ -1233,7 +1273,7 @@ mod tests {
                 for (a, b) in cell.jacobian(uvw).iter().zip(j) {
                     assert!((*a - b).max_abs() < 1e-15);
                 }
-                assert!(in_hull(&corners, &rows, p));
+                assert!(outside_hull(&corners, &rows, p).is_none());
                 let (found, _) = locate(&corners, p).expect("a point of the cell");
                 assert!(found.iter().zip(uvw).all(|(f, u)| (f - u).abs() < 1e-9));
                 // Out through a face, by a tenth of the cell.
