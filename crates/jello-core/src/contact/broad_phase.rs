@@ -425,6 +425,12 @@ pub(crate) struct NearCell {
 /// those whose point and cell have moved since the sort further than the cell was clear of the
 /// point (`moved` of the point's body, and `grid`'s of each cell's), and whose box (grown) at
 /// the sort holds `p`. The boxes are kept beside the cells so that the lists are read in order.
+///
+/// Returns, for the cells it passed over itself, how far the point and the cells' bodies may
+/// move more since the sort, together, each along any axis, while each of those cells is
+/// still passed over: the least of their `clear`, and of how far `p` is outside the boxes that
+/// do not hold it less `moved` (the point may have moved that far since the sort already, and
+/// as far again). Negative infinity when `near` returned true.
 #[inline]
 pub(crate) fn visit(
     grid: &BroadPhase,
@@ -432,17 +438,27 @@ pub(crate) fn visit(
     p: Vec3,
     moved: f64,
     mut near: impl FnMut(usize, usize) -> bool,
-) {
+) -> f64 {
+    let mut quiet = f64::INFINITY;
     for (k, c) in cells.iter().enumerate() {
         if c.clear > moved + grid.moved[c.body as usize] {
+            quiet = quiet.min(c.clear);
             continue;
         }
         let [lo, hi] = c.bounds;
         let inside = p.x >= lo.x && p.x <= hi.x && p.y >= lo.y && p.y <= hi.y;
-        if inside && p.z >= lo.z && p.z <= hi.z && near(k, c.cell as usize) {
-            return;
+        if inside && p.z >= lo.z && p.z <= hi.z {
+            if near(k, c.cell as usize) {
+                return f64::NEG_INFINITY;
+            }
+        } else if p.x.is_nan() || p.y.is_nan() || p.z.is_nan() {
+            quiet = f64::NEG_INFINITY;
+        } else {
+            let out = (lo - p).max(p - hi);
+            quiet = quiet.min(out.x.max(out.y).max(out.z) - moved);
         }
     }
+    quiet
 }
 
 /// How far (along any axis) the farthest of `points` is at `p` from where it was at `at`
