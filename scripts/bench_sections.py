@@ -9,6 +9,7 @@ import os
 KEPT = [
     ("<!-- frame-rate: begin", "<!-- frame-rate: end -->"),  # scripts/frame_rate.py
     ("<!-- pile: begin", "<!-- pile: end -->"),  # scripts/pile_bench.py
+    ("<!-- contact-share: begin", "<!-- contact-share: end -->"),  # scripts/contact_share.py
     ("<!-- by hand: begin", "<!-- by hand: end -->"),  # kept by hand
 ]
 
