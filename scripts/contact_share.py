@@ -95,8 +95,6 @@ def main():
     with tempfile.TemporaryDirectory() as folder:
         scene, points = make_scene(folder)
         rows = [(t,) + measure(scene, args.time, t) for t in threads]
-    commit = subprocess.run(["git", "-C", ROOT, "rev-parse", "--short", "HEAD"],
-                            capture_output=True, text=True).stdout.strip() or "?"
     info = machine()
     lines = [
         BEGIN,
@@ -114,8 +112,7 @@ def main():
         "cells, timed in the core) against the whole run." % (BODIES, points, args.time,
                                                            args.time),
         "",
-        "Machine: %s; git commit: %s." % (
-            "; ".join("%s: %s" % (k, v) for k, v in info.items()), commit),
+        "Machine: %s." % "; ".join("%s: %s" % (k, v) for k, v in info.items()),
         "",
         "| threads | wall (s) | contacts (s) | contacts' share of the run |",
         "| ---: | ---: | ---: | ---: |",
