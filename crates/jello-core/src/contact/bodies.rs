@@ -497,7 +497,10 @@ fn find_touches(
                 least = least.min(still);
                 return false;
             }
-            if apart[k] > moved + grid.moved(b) {
+            // How far the sample and this cell's body have moved since the sort, together: the
+            // remembered distances are kept less this, and compared with it.
+            let since = moved + grid.moved(b);
+            if apart[k] > since {
                 least = least.min(apart[k]);
                 return false;
             }
@@ -516,7 +519,7 @@ fn find_touches(
             let (uvw, rows) = match locate_or_apart(&corners, ps, start) {
                 Ok(found) => found,
                 Err(clear) => {
-                    apart[k] = clear - (moved + grid.moved(b));
+                    apart[k] = clear - since;
                     least = least.min(apart[k]);
                     return false;
                 }
@@ -538,7 +541,7 @@ fn find_touches(
                 // other cells are looked at still.)
                 if b != a {
                     clear_of = b;
-                    outside[k] = outside_for(phi, &rows, &bodies[b]) - (moved + grid.moved(b));
+                    outside[k] = outside_for(phi, &rows, &bodies[b]) - since;
                 }
                 least = least.min(if b != a {
                     outside[k]
