@@ -132,16 +132,23 @@ pub(super) fn solve(
     if s.swirl {
         return solve_swirl(s, reduction, preconditioner);
     }
+    let precision = precision_for(reduction);
     let precondition = |s: &mut ImplicitScratch| {
         let fine = fine_operator!(s);
-        precondition_with(preconditioner, &mut s.multigrid, &fine, &s.r, &mut s.z);
+        precondition_with(
+            preconditioner,
+            &mut s.multigrid,
+            &fine,
+            &s.r,
+            &mut s.z,
+            precision,
+        );
     };
     // A negative `r·z` shows an indefinite preconditioner, `A` itself only with the diagonal.
     let fail = |s: &mut ImplicitScratch| {
         s.multigrid_failed = preconditioner == Preconditioner::Multigrid;
         false
     };
-    let precision = precision_for(reduction);
     s.dv.fill(Vec3::ZERO);
     set_right_hand_side(s);
     precondition(s);
@@ -205,7 +212,7 @@ fn solve_swirl(s: &mut ImplicitScratch, reduction: f64, preconditioner: Precondi
             );
         };
         let precondition = |r: &[Vec3], z: &mut [Vec3]| {
-            precondition_with(preconditioner, multigrid, &fine, r, z);
+            precondition_with(preconditioner, multigrid, &fine, r, z, precision);
         };
         gmres.solve(&s.r, &mut s.dv, reduction, MAX_CG, apply, precondition)
     };
@@ -223,16 +230,18 @@ fn solve_swirl(s: &mut ImplicitScratch, reduction: f64, preconditioner: Precondi
     }
 }
 
-/// `z = P⁻¹·r` for the preconditioner `preconditioner` of `A` (`fine`).
+/// `z = P⁻¹·r` for the preconditioner `preconditioner` of `A` (`fine`), the multigrid's coarse
+/// products in `precision`.
 fn precondition_with(
     preconditioner: Preconditioner,
     multigrid: &mut Multigrid,
     fine: &Operator,
     r: &[Vec3],
     z: &mut [Vec3],
+    precision: Precision,
 ) {
     match preconditioner {
-        Preconditioner::Multigrid => multigrid.precondition(fine, r, z),
+        Preconditioner::Multigrid => multigrid.precondition(fine, r, z, precision),
         Preconditioner::Diagonal => {
             let free = fine.free.unwrap_or(&[]);
             for ((z, &r), (d, &f)) in z.iter_mut().zip(r).zip(fine.diag_inv.iter().zip(free)) {

@@ -117,7 +117,6 @@ macro_rules! fine_operator {
             more_blocks: &$s.pair_blocks,
             diag_inv: &$s.diag_inv,
             free: Some(&$s.free),
-            incidence: None,
         }
     };
 }

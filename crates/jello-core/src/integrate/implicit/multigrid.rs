@@ -21,14 +21,18 @@
 //! iterations in 2.2 s against 2 074 in 3.6 s). The coarse levels, an eighth of the size each,
 //! are solved by a V-cycle that smooths with damped block Jacobi before and after the next
 //! level's correction (the same smoother on both sides, so the preconditioner is symmetric, as
-//! conjugate gradients need); the coarsest by a few Jacobi sweeps. Its loops over nodes and
-//! pairs are spread over the step's team ([`crate::compute::team`]) where a level is large enough, each
-//! node's and coarse pair's sums gathered in the order of the nodes and pairs (the order a
-//! single thread's scatter adds them in): the same bits on any number of threads. Its buffers
-//! are sized when it is built and reused.
+//! conjugate gradients need); the coarsest by a few Jacobi sweeps. A coarse level's residual
+//! `r − A·e` is a product in stencil order ([`LevelStencil`]: the aggregates of a lattice form a
+//! lattice), in single precision where the fine products are, with the pairs found at the
+//! iterate added after. Its loops over nodes and pairs are spread over the step's team
+//! ([`crate::compute::team`]) where a level is large enough, each node's and coarse pair's sums
+//! gathered in the order of the nodes and pairs (the order a single thread's scatter adds them
+//! in): the same bits on any number of threads. Its buffers are sized when it is built and
+//! reused.
 
 use std::collections::HashMap;
 
+use super::stencil::{LevelStencil, Precision};
 use super::sym::{add_sym, sym_inverse, sym_mul, Sym};
 use crate::compute::team;
 use crate::model::Model;
@@ -63,8 +67,6 @@ pub(super) struct Operator<'a> {
     /// Per node 1 when it moves, 0 when held (the finest level only; the coarse levels hold
     /// moving nodes alone).
     pub free: Option<&'a [f64]>,
-    /// Each node's pairs among `pairs`, for products by rows (the coarse levels).
-    pub incidence: Option<&'a Incidence>,
 }
 
 /// Each node's pairs, in the order of the pairs: those of node `a` are
@@ -100,12 +102,14 @@ impl Incidence {
 }
 
 impl Operator<'_> {
+    #[cfg(test)]
     fn couplings(&self) -> impl Iterator<Item = (&[u32; 2], &Sym)> {
         let more = self.more_pairs.iter().zip(self.more_blocks);
         self.pairs.iter().zip(self.blocks).chain(more)
     }
 
-    /// `y = A·x`, zero at held nodes.
+    /// `y = A·x`, zero at held nodes (tests only: the solver's products are in stencil order).
+    #[cfg(test)]
     pub fn apply(&self, x: &[Vec3], y: &mut [Vec3]) {
         for ((y, own), &x) in y.iter_mut().zip(self.own).zip(x) {
             *y = sym_mul(own, x);
@@ -121,50 +125,6 @@ impl Operator<'_> {
                 *y = *y * f;
             }
         }
-    }
-
-    /// `t = r − A·e`, with `forces` room for a force per pair. With more than one thread in
-    /// the team, and where the level has its incidence and no pairs found at the iterate, it is
-    /// spread over the threads: each pair's force first, then each row gathers its pairs' in
-    /// the order of the pairs, as the loop over pairs adds them (the same bits either way).
-    fn residual(&self, r: &[Vec3], e: &[Vec3], t: &mut [Vec3], forces: &mut [Vec3]) {
-        let Some(incidence) = self
-            .incidence
-            .filter(|_| self.more_pairs.is_empty() && self.free.is_none() && team::threads() > 1)
-        else {
-            self.apply(e, t);
-            for (t, &r) in t.iter_mut().zip(r) {
-                *t = r - *t;
-            }
-            return;
-        };
-        let forces = &mut forces[..self.pairs.len()];
-        let size = team::chunk_size(forces.len(), MIN_NODES);
-        team::for_each_chunk([&mut *forces], size, &|chunk, [f]| {
-            let at = chunk * size;
-            let (pairs, blocks) = (&self.pairs[at..], &self.blocks[at..]);
-            for ((f, &[a, c]), b) in f.iter_mut().zip(pairs).zip(blocks) {
-                *f = sym_mul(b, e[a as usize] - e[c as usize]);
-            }
-        });
-        let forces = &*forces;
-        let size = team::chunk_size(t.len(), MIN_NODES);
-        team::for_each_chunk([t], size, &|chunk, [t]| {
-            for (i, t) in t.iter_mut().enumerate() {
-                let a = chunk * size + i;
-                let mut row = sym_mul(&self.own[a], e[a]);
-                let (from, to) = (incidence.start[a], incidence.start[a + 1]);
-                for &k in &incidence.pairs[from as usize..to as usize] {
-                    let f = forces[(k & !SECOND_END) as usize];
-                    if k & SECOND_END == 0 {
-                        row += f;
-                    } else {
-                        row -= f;
-                    }
-                }
-                *t = r[a] - row;
-            }
-        });
     }
 
     /// `e += ω·D⁻¹·r` (zero at held nodes).
@@ -246,8 +206,9 @@ struct Level {
     /// Each node's aggregate and each pair's pair on the next level (empty on the coarsest).
     down: Restriction,
     incidence: Incidence,
-    /// A force per pair, for [`Operator::residual`].
-    forces: Vec<Vec3>,
+    /// The pairs' blocks in stencil order, for the level's products, and each pair's slot there.
+    stencil: LevelStencil,
+    slots: Vec<u32>,
     /// Right-hand side, correction, residual.
     r: Vec<Vec3>,
     e: Vec<Vec3>,
@@ -302,6 +263,13 @@ impl Multigrid {
         while nodes.iter().any(|(_, c)| *c != [0; 3]) {
             let (down, coarse_nodes, coarse_pairs) = coarsen(&nodes, &level_pairs);
             let n = coarse_nodes.len();
+            let stencil = LevelStencil::new(&lattices(&coarse_nodes));
+            let slots = (coarse_pairs.iter())
+                .map(|&[a, c]| {
+                    (stencil.slot(a as usize, c as usize))
+                        .expect("the aggregates a spring joins are lattice neighbours")
+                })
+                .collect();
             downs.push(down);
             levels.push(Level {
                 own: vec![[0.0; 6]; n],
@@ -312,7 +280,8 @@ impl Multigrid {
                 diag_inv: vec![[0.0; 6]; n],
                 down: Restriction::default(),
                 incidence: Incidence::of(n, &coarse_pairs),
-                forces: vec![Vec3::ZERO; coarse_pairs.len()],
+                stencil,
+                slots,
                 r: vec![Vec3::ZERO; n],
                 e: vec![Vec3::ZERO; n],
                 t: vec![Vec3::ZERO; n],
@@ -343,8 +312,15 @@ impl Multigrid {
         }
     }
 
-    /// `z ≈ A⁻¹·r` by one V-cycle from the fine operator `fine` (zero at held points).
-    pub fn precondition(&mut self, fine: &Operator, r: &[Vec3], z: &mut [Vec3]) {
+    /// `z ≈ A⁻¹·r` by one V-cycle from the fine operator `fine` (zero at held points), the
+    /// coarse levels' products in `precision`.
+    pub fn precondition(
+        &mut self,
+        fine: &Operator,
+        r: &[Vec3],
+        z: &mut [Vec3],
+        precision: Precision,
+    ) {
         z.fill(Vec3::ZERO);
         let Some(first) = self.levels.first_mut() else {
             // One node per body already: block Jacobi is the exact solve of that level.
@@ -353,7 +329,7 @@ impl Multigrid {
         };
         fine.jacobi(r, FINE_OMEGA, z);
         restrict(&self.down, r, &mut first.r);
-        cycle(&mut self.levels);
+        cycle(&mut self.levels, precision);
         prolong(&self.down, &self.levels[0].e, fine.free, z);
     }
 }
@@ -368,38 +344,78 @@ impl Level {
             more_blocks: &self.more_blocks,
             diag_inv: &self.diag_inv,
             free: None,
-            incidence: Some(&self.incidence),
         }
     }
 }
 
-/// One V-cycle from `levels[0].r` into `levels[0].e`.
-fn cycle(levels: &mut [Level]) {
+/// One V-cycle from `levels[0].r` into `levels[0].e`, the levels' products in `precision`.
+fn cycle(levels: &mut [Level], precision: Precision) {
     let Some((this, coarser)) = levels.split_first_mut() else {
         return;
     };
-    // The correction, residual and pair forces leave the level while its operator is borrowed
-    // (taking a `Vec` out and back does not allocate).
+    // The correction, residual and stencil leave the level while its operator is borrowed
+    // (taking them out and back does not allocate).
     let (mut e, mut t) = (std::mem::take(&mut this.e), std::mem::take(&mut this.t));
-    let mut f = std::mem::take(&mut this.forces);
+    let mut stencil = std::mem::take(&mut this.stencil);
     let (op, r) = (this.operator(), &this.r);
+    let mut residual =
+        |e: &[Vec3], t: &mut [Vec3]| level_residual(&op, &mut stencil, r, e, t, precision);
     e.fill(Vec3::ZERO);
     if let Some(next) = coarser.first_mut() {
         op.jacobi(r, OMEGA, &mut e);
-        op.residual(r, &e, &mut t, &mut f);
+        residual(&e, &mut t);
         restrict(&this.down, &t, &mut next.r);
-        cycle(coarser);
+        cycle(coarser, precision);
         prolong(&this.down, &coarser[0].e, None, &mut e);
-        op.residual(r, &e, &mut t, &mut f);
+        residual(&e, &mut t);
         op.jacobi(&t, OMEGA, &mut e);
     } else {
         op.jacobi(r, 1.0, &mut e);
         for _ in 1..COARSEST_SWEEPS {
-            op.residual(r, &e, &mut t, &mut f);
+            residual(&e, &mut t);
             op.jacobi(&t, 1.0, &mut e);
         }
     }
-    (this.e, this.t, this.forces) = (e, t, f);
+    (this.e, this.t, this.stencil) = (e, t, stencil);
+}
+
+/// `t = r − A·e` on a coarse level whose operator is `op` and whose pairs' blocks are in
+/// `stencil`, that part in `precision`.
+fn level_residual(
+    op: &Operator,
+    stencil: &mut LevelStencil,
+    r: &[Vec3],
+    e: &[Vec3],
+    t: &mut [Vec3],
+    precision: Precision,
+) {
+    stencil.residual(op.own, r, e, t, precision);
+    // The pairs found at the iterate (contacts between bodies), in order.
+    for (&[a, c], b) in op.more_pairs.iter().zip(op.more_blocks) {
+        let (a, c) = (a as usize, c as usize);
+        let f = sym_mul(b, e[a] - e[c]);
+        t[a] -= f;
+        t[c] += f;
+    }
+}
+
+/// Each body's lattice among a level's `nodes` (which hold every node of it, in flat order, one
+/// body after another): its first node and its point counts.
+fn lattices(nodes: &[Node]) -> Vec<(usize, [usize; 3])> {
+    let mut lattices: Vec<(u32, usize, [usize; 3])> = Vec::new();
+    for (i, &(body, c)) in nodes.iter().enumerate() {
+        if lattices.last().is_none_or(|l| l.0 != body) {
+            lattices.push((body, i, [0; 3]));
+        }
+        let counts = &mut lattices.last_mut().expect("pushed").2;
+        for (n, &c) in counts.iter_mut().zip(&c) {
+            *n = (*n).max(c as usize + 1);
+        }
+    }
+    lattices
+        .into_iter()
+        .map(|(_, first, counts)| (first, counts))
+        .collect()
 }
 
 /// `coarse[J] = Σ fine[p]` over the nodes `p` of aggregate `J`, in their order.
@@ -501,6 +517,7 @@ fn restrict_operator(fine: &Operator, down: &Restriction, coarse: &mut Level) {
         Some(&coarse.incidence),
         &mut coarse.diag_inv,
     );
+    coarse.stencil.set(&coarse.slots, &coarse.blocks);
 }
 
 /// The indices `i` of `of` grouped by `of[i]` (`groups` of them; entries of `INSIDE` left
@@ -642,7 +659,6 @@ mod tests {
                 more_blocks: &self.more_blocks,
                 diag_inv: &self.diag_inv,
                 free: Some(&self.free),
-                incidence: None,
             }
         }
     }
@@ -697,7 +713,47 @@ mod tests {
         }
     }
 
-    /// The preconditioner is symmetric and positive definite, as conjugate gradients need.
+    /// Each coarse level's residual, its pairs' part in stencil order, is `r − A·e` with `A`
+    /// summed over its list of pairs: to rounding in double precision, and to single
+    /// precision's in single.
+    #[test]
+    fn coarse_products_in_stencil_order_are_the_levels_own() {
+        let model = two_bodies();
+        let fine = Fine::new(&model);
+        let mut mg = Multigrid::default();
+        mg.build(&model, &fine.pairs, 16);
+        mg.assemble(&fine.operator());
+        assert!(
+            !mg.levels[0].more_pairs.is_empty(),
+            "contacts on the first coarse level"
+        );
+        for level in &mut mg.levels {
+            let n = level.own.len();
+            let (r, e) = (random(n, 31), random(n, 32));
+            let mut want = vec![Vec3::ZERO; n];
+            level.operator().apply(&e, &mut want);
+            for (w, &r) in want.iter_mut().zip(&r) {
+                *w = r - *w;
+            }
+            let scale = want.iter().map(|w| w.max_abs()).fold(1.0, f64::max);
+            for (precision, tolerance) in [(Precision::Double, 1e-13), (Precision::Single, 1e-5)] {
+                let mut stencil = std::mem::take(&mut level.stencil);
+                let mut got = vec![Vec3::ZERO; n];
+                level_residual(&level.operator(), &mut stencil, &r, &e, &mut got, precision);
+                level.stencil = stencil;
+                for (g, w) in got.iter().zip(&want) {
+                    assert!(
+                        (*g - *w).max_abs() <= tolerance * scale,
+                        "{precision:?}: {g:?} ≠ {w:?}"
+                    );
+                }
+            }
+        }
+    }
+
+    /// The preconditioner is symmetric and positive definite, as conjugate gradients need: to
+    /// rounding with its coarse products in double precision, and to single precision's in
+    /// single.
     #[test]
     fn the_preconditioner_is_symmetric_and_positive() {
         let model = two_bodies();
@@ -710,15 +766,20 @@ mod tests {
             v.iter().zip(&fine.free).map(|(&v, &f)| v * f).collect()
         };
         let (a, b) = (mask(random(n, 21)), mask(random(n, 22)));
-        let (mut za, mut zb) = (vec![Vec3::ZERO; n], vec![Vec3::ZERO; n]);
-        mg.precondition(&fine.operator(), &a, &mut za);
-        mg.precondition(&fine.operator(), &b, &mut zb);
-        let (ab, ba) = (dot(&a, &zb), dot(&b, &za));
-        assert!((ab - ba).abs() < 1e-12 * ab.abs().max(1.0), "{ab} ≠ {ba}");
-        assert!(dot(&a, &za) > 0.0 && dot(&b, &zb) > 0.0);
-        for (p, &f) in fine.free.iter().enumerate() {
-            if f == 0.0 {
-                assert_eq!(za[p], Vec3::ZERO, "held point {p}");
+        for (precision, tolerance) in [(Precision::Double, 1e-12), (Precision::Single, 1e-5)] {
+            let (mut za, mut zb) = (vec![Vec3::ZERO; n], vec![Vec3::ZERO; n]);
+            mg.precondition(&fine.operator(), &a, &mut za, precision);
+            mg.precondition(&fine.operator(), &b, &mut zb, precision);
+            let (ab, ba) = (dot(&a, &zb), dot(&b, &za));
+            assert!(
+                (ab - ba).abs() < tolerance * ab.abs().max(1.0),
+                "{precision:?}: {ab} ≠ {ba}"
+            );
+            assert!(dot(&a, &za) > 0.0 && dot(&b, &zb) > 0.0);
+            for (p, &f) in fine.free.iter().enumerate() {
+                if f == 0.0 {
+                    assert_eq!(za[p], Vec3::ZERO, "held point {p}");
+                }
             }
         }
     }
