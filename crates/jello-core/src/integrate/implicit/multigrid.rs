@@ -24,7 +24,8 @@
 //! conjugate gradients need); the coarsest by a few Jacobi sweeps. A coarse level's residual
 //! `r − A·e` is a product in stencil order ([`LevelStencil`]: the aggregates of a lattice form a
 //! lattice), in single precision where the fine products are, with the pairs found at the
-//! iterate added after. Its loops over nodes and pairs are spread over the step's team
+//! iterate added after; on a level of small lattices ([`STENCIL_NODES`]), a loop over its list of
+//! pairs. Its loops over nodes and pairs are spread over the step's team
 //! ([`crate::compute::team`]) where a level is large enough, each node's and coarse pair's sums
 //! gathered in the order of the nodes and pairs (the order a single thread's scatter adds them
 //! in): the same bits on any number of threads. Its buffers are sized when it is built and
@@ -49,6 +50,12 @@ const OMEGA: f64 = 0.9;
 
 /// Weight of the fine level's block Jacobi, added to the coarse correction.
 const FINE_OMEGA: f64 = 0.7;
+
+/// Nodes per lattice, on average, from which a coarse level's products run in stencil order
+/// ([`LevelStencil`]): below, a product walks so many short runs of slots (a pile of small
+/// bodies: a few dozen nodes a lattice, 13 entries each) that the list of pairs is faster
+/// (`pile.toml` under backward Euler at 1/60 s, 1 s: 7 % slower in stencil order at every level).
+const STENCIL_NODES: usize = 512;
 
 /// Jacobi sweeps on the coarsest level (one node per body: exact for a body alone).
 const COARSEST_SWEEPS: usize = 4;
@@ -102,14 +109,12 @@ impl Incidence {
 }
 
 impl Operator<'_> {
-    #[cfg(test)]
     fn couplings(&self) -> impl Iterator<Item = (&[u32; 2], &Sym)> {
         let more = self.more_pairs.iter().zip(self.more_blocks);
         self.pairs.iter().zip(self.blocks).chain(more)
     }
 
-    /// `y = A·x`, zero at held nodes (tests only: the solver's products are in stencil order).
-    #[cfg(test)]
+    /// `y = A·x`, zero at held nodes.
     pub fn apply(&self, x: &[Vec3], y: &mut [Vec3]) {
         for ((y, own), &x) in y.iter_mut().zip(self.own).zip(x) {
             *y = sym_mul(own, x);
@@ -125,6 +130,57 @@ impl Operator<'_> {
                 *y = *y * f;
             }
         }
+    }
+
+    /// `t = r − A·e` by its list of pairs, with `forces` room for a force per pair (a level
+    /// too small for its products in stencil order to pay: see [`STENCIL_NODES`]). With more
+    /// than one thread in the team, and where the level has no pairs found at the iterate, it is
+    /// spread over the threads: each pair's force first, then each row gathers its pairs' in
+    /// the order of the pairs, as the loop over pairs adds them (the same bits either way).
+    fn list_residual(
+        &self,
+        incidence: &Incidence,
+        r: &[Vec3],
+        e: &[Vec3],
+        t: &mut [Vec3],
+        forces: &mut [Vec3],
+    ) {
+        let Some(incidence) = Some(incidence)
+            .filter(|_| self.more_pairs.is_empty() && self.free.is_none() && team::threads() > 1)
+        else {
+            self.apply(e, t);
+            for (t, &r) in t.iter_mut().zip(r) {
+                *t = r - *t;
+            }
+            return;
+        };
+        let forces = &mut forces[..self.pairs.len()];
+        let size = team::chunk_size(forces.len(), MIN_NODES);
+        team::for_each_chunk([&mut *forces], size, &|chunk, [f]| {
+            let at = chunk * size;
+            let (pairs, blocks) = (&self.pairs[at..], &self.blocks[at..]);
+            for ((f, &[a, c]), b) in f.iter_mut().zip(pairs).zip(blocks) {
+                *f = sym_mul(b, e[a as usize] - e[c as usize]);
+            }
+        });
+        let forces = &*forces;
+        let size = team::chunk_size(t.len(), MIN_NODES);
+        team::for_each_chunk([t], size, &|chunk, [t]| {
+            for (i, t) in t.iter_mut().enumerate() {
+                let a = chunk * size + i;
+                let mut row = sym_mul(&self.own[a], e[a]);
+                let (from, to) = (incidence.start[a], incidence.start[a + 1]);
+                for &k in &incidence.pairs[from as usize..to as usize] {
+                    let f = forces[(k & !SECOND_END) as usize];
+                    if k & SECOND_END == 0 {
+                        row += f;
+                    } else {
+                        row -= f;
+                    }
+                }
+                *t = r[a] - row;
+            }
+        });
     }
 
     /// `e += ω·D⁻¹·r` (zero at held nodes).
@@ -206,9 +262,13 @@ struct Level {
     /// Each node's aggregate and each pair's pair on the next level (empty on the coarsest).
     down: Restriction,
     incidence: Incidence,
-    /// The pairs' blocks in stencil order, for the level's products, and each pair's slot there.
+    /// The pairs' blocks in stencil order, for the level's products, and each pair's slot there;
+    /// whether the level's products take them (see [`STENCIL_NODES`]), else they go by the list
+    /// of pairs, with a force per pair in `forces`.
     stencil: LevelStencil,
     slots: Vec<u32>,
+    in_stencil_order: bool,
+    forces: Vec<Vec3>,
     /// Right-hand side, correction, residual.
     r: Vec<Vec3>,
     e: Vec<Vec3>,
@@ -280,8 +340,10 @@ impl Multigrid {
                 diag_inv: vec![[0.0; 6]; n],
                 down: Restriction::default(),
                 incidence: Incidence::of(n, &coarse_pairs),
+                in_stencil_order: n >= STENCIL_NODES * stencil.lattice_count(),
                 stencil,
                 slots,
+                forces: vec![Vec3::ZERO; coarse_pairs.len()],
                 r: vec![Vec3::ZERO; n],
                 e: vec![Vec3::ZERO; n],
                 t: vec![Vec3::ZERO; n],
@@ -357,9 +419,16 @@ fn cycle(levels: &mut [Level], precision: Precision) {
     // (taking them out and back does not allocate).
     let (mut e, mut t) = (std::mem::take(&mut this.e), std::mem::take(&mut this.t));
     let mut stencil = std::mem::take(&mut this.stencil);
-    let (op, r) = (this.operator(), &this.r);
-    let mut residual =
-        |e: &[Vec3], t: &mut [Vec3]| level_residual(&op, &mut stencil, r, e, t, precision);
+    let mut forces = std::mem::take(&mut this.forces);
+    let (op, r, incidence) = (this.operator(), &this.r, &this.incidence);
+    let in_stencil_order = this.in_stencil_order;
+    let mut residual = |e: &[Vec3], t: &mut [Vec3]| {
+        if in_stencil_order {
+            level_residual(&op, &mut stencil, r, e, t, precision);
+        } else {
+            op.list_residual(incidence, r, e, t, &mut forces);
+        }
+    };
     e.fill(Vec3::ZERO);
     if let Some(next) = coarser.first_mut() {
         op.jacobi(r, OMEGA, &mut e);
@@ -376,7 +445,7 @@ fn cycle(levels: &mut [Level], precision: Precision) {
             op.jacobi(&t, 1.0, &mut e);
         }
     }
-    (this.e, this.t, this.stencil) = (e, t, stencil);
+    (this.e, this.t, this.stencil, this.forces) = (e, t, stencil, forces);
 }
 
 /// `t = r − A·e` on a coarse level whose operator is `op` and whose pairs' blocks are in
@@ -517,7 +586,9 @@ fn restrict_operator(fine: &Operator, down: &Restriction, coarse: &mut Level) {
         Some(&coarse.incidence),
         &mut coarse.diag_inv,
     );
-    coarse.stencil.set(&coarse.slots, &coarse.blocks);
+    if coarse.in_stencil_order {
+        coarse.stencil.set(&coarse.slots, &coarse.blocks);
+    }
 }
 
 /// The indices `i` of `of` grouped by `of[i]` (`groups` of them; entries of `INSIDE` left
@@ -728,6 +799,8 @@ mod tests {
             "contacts on the first coarse level"
         );
         for level in &mut mg.levels {
+            // Whether or not the level's own products take them (its lattices are small).
+            level.stencil.set(&level.slots, &level.blocks);
             let n = level.own.len();
             let (r, e) = (random(n, 31), random(n, 32));
             let mut want = vec![Vec3::ZERO; n];

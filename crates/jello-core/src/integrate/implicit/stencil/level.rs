@@ -78,6 +78,11 @@ impl LevelStencil {
         }
     }
 
+    /// How many lattices the level holds.
+    pub fn lattice_count(&self) -> usize {
+        self.spans.len()
+    }
+
     /// The slot of the pair of nodes `a` and `c` (flat indices of this level), or `None` when
     /// they are not in one lattice or not neighbours.
     pub fn slot(&self, a: usize, c: usize) -> Option<u32> {
