@@ -17,8 +17,9 @@
 //! against every other body's cells, so two bodies touch on both sides.
 //!
 //! **Self-contact** ([`Model::self_contact`]): a body's samples are also tested against its
-//! own cells but the one they are embedded in, by the same law, so a bar bent over or a torus
-//! squashed flat meets itself. A sample found in one of its own cells counts only at a point
+//! own cells but the one they are embedded in (and those sharing the face, edge or corner a
+//! sample lies on, which hold it at its own place whatever their shapes), by the same law, so a
+//! bar bent over or a torus squashed flat meets itself. A sample found in one of its own cells counts only at a point
 //! that lay, at rest, more than half a cell from it (`SELF_APART`): nearer, it is the same
 //! piece of surface (a sample on a face its cell shares with the next is in both). Cells that
 //! share no corner with the sample's are always that far; cells next to it hold the sample only
@@ -612,10 +613,9 @@ fn mark_active(model: &Model, grid: &BroadPhase, p: &Soa, margin: f64, chunk: &m
         if !neighbours.iter().any(|&b| grid.in_body_box(b as usize, ps)) {
             continue;
         }
-        let own = body.lattice().coords(sample.corner as usize);
         let before = cells.len();
         grid.find_near(ps, skip, reach, |g| {
-            if candidate(model, grid, a, own, g) {
+            if candidate(model, grid, a, sample, g) {
                 let clear = clearance(model, grid, at, ps, margin, g);
                 // Passed over when the sample and the cell cannot meet before the next sort.
                 if clear <= reach + grid.reach(grid.cell(g).0) {
@@ -722,14 +722,32 @@ fn sample_place(
     (points, w, ps)
 }
 
-/// True when a sample of body `a` in its cell at lattice coordinates `own` may touch cell `g` of
-/// the broad phase: a cell of another body, or under self-contact one of body `a`'s own but the
-/// sample's (where it is, at rest and always, is its own surface).
+/// True when `sample` of body `a` (in its cell at lattice coordinates `own`) may touch cell `g`
+/// of the broad phase: a cell of another body, or under self-contact one of body `a`'s own but
+/// the sample's (where it is, at rest and always, is its own surface) and those that share the
+/// face, edge or corner it lies on. Such a cell holds the sample at its own place whatever the
+/// cells' shapes (the two maps agree on what they share), which is where Newton's method starts
+/// in it (`start_in`) and stops at once: never a point apart from the sample at rest.
 #[inline]
-fn candidate(model: &Model, grid: &BroadPhase, a: usize, own: [usize; 3], g: usize) -> bool {
+fn candidate(model: &Model, grid: &BroadPhase, a: usize, sample: &Sample, g: usize) -> bool {
     let (b, corner) = grid.cell(g);
+    if b != a {
+        return true;
+    }
     let body = &model.bodies()[b];
-    b != a || (model.self_contact && own != body.lattice().coords(corner - body.points().start))
+    let own = body.lattice().coords(sample.corner as usize);
+    let cell = body.lattice().coords(corner - body.points().start);
+    model.self_contact && own != cell && !holds_at_rest(sample, own, cell)
+}
+
+/// True when the cell at lattice coordinates `cell` holds, at rest, `sample` (in the cell at
+/// `own` of the same body): on a face, edge or corner the two cells share.
+#[inline]
+fn holds_at_rest(sample: &Sample, own: [usize; 3], cell: [usize; 3]) -> bool {
+    (0..3).all(|k| {
+        let u = (own[k] as f64 - cell[k] as f64) + sample.local[k];
+        (0.0..=1.0).contains(&u)
+    })
 }
 
 /// How far a point at `ps` now (at a sort) and the points of cell `g` of the broad phase must
