@@ -19,12 +19,12 @@
 //! **Self-contact** ([`Model::self_contact`]): a body's samples are also tested against its
 //! own cells but the one they are embedded in (and those sharing the face, edge or corner a
 //! sample lies on, which hold it at its own place whatever their shapes), by the same law, so a
-//! bar bent over or a torus squashed flat meets itself. A sample found in one of its own cells counts only at a point
-//! that lay, at rest, more than half a cell from it (`SELF_APART`): nearer, it is the same
-//! piece of surface (a sample on a face its cell shares with the next is in both). Cells that
-//! share no corner with the sample's are always that far; cells next to it hold the sample only
-//! where the body folds over itself (their corners pass each other), and the fold is pushed
-//! apart as any other touch.
+//! bar bent over or a torus squashed flat meets itself. A sample found in one of its own cells
+//! counts only at a point that lay, at rest, more than half a cell from it (`SELF_APART`):
+//! nearer, it is the same piece of surface (a sample on a face its cell shares with the next is
+//! in both). Cells that share no corner with the sample's are always that far; cells next to it
+//! hold the sample only where the body folds over itself (their corners pass each other), and
+//! the fold is pushed apart as any other touch.
 //!
 //! So skins touch: at rest a body sinks into the one under it by its weight over the collision
 //! stiffness of its touching samples, and stands no gap above it. Its limits: a sample moving
