@@ -760,7 +760,7 @@ impl GpuSimulation {
             time: self.checkpoint_at.1,
             point,
             body: body as u32,
-            point_ijk,
+            point_ijk: point_ijk.map(|c| c as u32),
             cause: if finite {
                 BlowUpCause::Escaped(p)
             } else {
@@ -770,6 +770,8 @@ impl GpuSimulation {
             dt: self.model.dt,
             suggested_dt: stability::suggest_dt(&self.model),
             escape_margin: self.model.escape_margin,
+            // (The state before the failed step is not read back.)
+            sunk: None,
         })
     }
 

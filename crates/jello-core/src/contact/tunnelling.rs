@@ -390,9 +390,27 @@ impl Sunk {
 /// another faster than the contact stops it within a step, or a contact too soft for the
 /// bodies' weight. A body's surface inside itself (under self-contact) is not counted.
 pub fn bodies_sunk(model: &Model, pos: &[Vec3]) -> Vec<Sunk> {
+    sunk(model, pos)
+        .filter(|s| s.bodies[0] != s.bodies[1])
+        .collect()
+}
+
+/// Of the pairs of bodies at positions `pos` inside each other by more than [`SUNK_SHARE`] of
+/// the finer of their cells, and (under self-contact) the bodies inside themselves by more than
+/// that of a cell, the deepest (the first of equals): what a blow-up reports of the last state
+/// before it, where a body crushed by its load or thrown through another set it off.
+pub fn deepest_sunk(model: &Model, pos: &[Vec3]) -> Option<Sunk> {
+    sunk(model, pos).fold(None, |deepest: Option<Sunk>, s| match deepest {
+        Some(d) if d.depth >= s.depth => Some(d),
+        _ => Some(s),
+    })
+}
+
+/// Every pair of bodies (a body with itself under self-contact) inside each other by more
+/// than [`SUNK_SHARE`] of the finer of their cells, in [`crate::contact::closest`]'s order.
+fn sunk<'a>(model: &'a Model, pos: &[Vec3]) -> impl Iterator<Item = Sunk> + 'a {
     crate::contact::closest(model, pos)
         .into_iter()
-        .filter(|c| c.bodies[0] != c.bodies[1])
         .filter_map(|c| {
             let [a, b] = c.bodies;
             let spacing = model.body(a).min_spacing().min(model.body(b).min_spacing());
@@ -403,7 +421,6 @@ pub fn bodies_sunk(model: &Model, pos: &[Vec3]) -> Vec<Sunk> {
                 spacing,
             })
         })
-        .collect()
 }
 
 /// One point's crossing of one obstacle, as [`TunnelWatch::observe_apart`] finds it.

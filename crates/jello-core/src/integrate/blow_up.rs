@@ -3,6 +3,7 @@
 
 use std::fmt;
 
+use crate::contact::tunnelling::{deepest_sunk, Sunk};
 use crate::integrate::stability;
 use crate::model::integrator::Integrator;
 use crate::model::Model;
@@ -43,7 +44,7 @@ pub struct BlowUp {
     /// The body it belongs to (0 for the first).
     pub body: u32,
     /// Lattice coordinates of that point in its body.
-    pub point_ijk: [usize; 3],
+    pub point_ijk: [u32; 3],
     /// What was found.
     pub cause: BlowUpCause,
     /// Integrator in use.
@@ -55,6 +56,12 @@ pub struct BlowUp {
     pub suggested_dt: Option<f64>,
     /// Escape margin of the model (m).
     pub escape_margin: f64,
+    /// The deepest two bodies were inside each other (or, under self-contact, one inside
+    /// itself) in the last state before the step, where deeper than half the finer of their
+    /// cells (see [`deepest_sunk`]): a body crushed by its load or thrown through another, which
+    /// a shorter step alone does not cure. `None` where none was, or where it is not known (a
+    /// GPU's steps). Boxed: a `BlowUp` is the error of every step's `Result`.
+    pub sunk: Option<Box<Sunk>>,
 }
 
 impl fmt::Display for BlowUp {
@@ -77,11 +84,12 @@ impl fmt::Display for BlowUp {
             if halvings > 0 {
                 write!(f, " on a substep of dt/{}", 1u64 << halvings)?;
             }
-            return write!(
+            write!(
                 f,
                 " (the tolerance is {tolerance:.0e} m/s); {} with dt = {} s: try a smaller --dt",
                 self.integrator, self.dt
-            );
+            )?;
+            return self.write_sunk(f);
         }
         let [i, j, k] = self.point_ijk;
         write!(
@@ -107,13 +115,42 @@ impl fmt::Display for BlowUp {
             self.integrator, self.dt
         )?;
         match self.suggested_dt {
-            Some(dt) => write!(f, "; try --dt {dt}"),
+            Some(dt) => write!(f, "; try --dt {dt}")?,
             None => write!(
                 f,
                 "; {} is unstable at every dt for these springs (no damping): try RK4 or SymplecticEuler",
                 self.integrator
-            ),
+            )?,
         }
+        self.write_sunk(f)
+    }
+}
+
+impl BlowUp {
+    /// What [`BlowUp::sunk`] says, after the rest of the message.
+    fn write_sunk(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let Some(s) = &self.sunk else {
+            return Ok(());
+        };
+        let cm = |m: f64| crate::vec3::significant(100.0 * m, 3);
+        let [a, b] = s.bodies;
+        let what = if a == b {
+            format!("body {} was {} cm inside itself", a + 1, cm(s.depth))
+        } else {
+            format!(
+                "bodies {} and {} were {} cm inside each other",
+                a + 1,
+                b + 1,
+                cm(s.depth)
+            )
+        };
+        write!(
+            f,
+            ". Before the step {what}, more than half of a {} cm cell: a body crushed by its load \
+             or thrown through another, which a shorter step alone may not cure (a stiffer \
+             material, a lighter load or a stiffer contact may)",
+            cm(s.spacing)
+        )
     }
 }
 
@@ -130,12 +167,13 @@ pub(crate) fn unsound(model: &Model, state: &State, pos: &[Vec3], vel: &[Vec3], 
         time: state.time,
         point,
         body: body as u32,
-        point_ijk,
+        point_ijk: point_ijk.map(|c| c as u32),
         cause,
         integrator: model.integrator,
         dt,
         suggested_dt: stability::suggest_dt(model),
         escape_margin: model.escape_margin,
+        sunk: deepest_sunk(model, &state.pos).map(Box::new),
     }
 }
 
@@ -176,4 +214,62 @@ fn find_blow_up(model: &Model, pos: &[Vec3], vel: &[Vec3]) -> Option<(usize, Blo
             None
         }
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::body::{Body, Material, IDENTITY};
+    use crate::model::lattice::Lattice;
+    use crate::model::{Aabb, ModelBuilder};
+
+    /// A blow-up after two bodies went deep into each other says so, with how deep and the
+    /// cell; one after bodies apart says nothing of them.
+    #[test]
+    fn a_blow_up_names_bodies_deep_inside_each_other_before_it() {
+        // Boxes 0.3 m on a side, their cells 0.1 m.
+        let lattice = Lattice::new([4, 4, 4], Vec3::new(0.3, 0.3, 0.3));
+        let bodies = [-0.5, 0.5].map(|x| {
+            Body::lattice_box(lattice.clone(), Material::classic())
+                .placed(Vec3::new(x, 0.0, 0.0), IDENTITY)
+        });
+        let model = ModelBuilder::new()
+            .bodies(bodies.to_vec())
+            .bounds(Aabb::new(Vec3::new(-2.0, -2.0, -2.0), Vec3::new(2.0, 2.0, 2.0)).unwrap())
+            .collision(400.0, 0.3)
+            .build()
+            .unwrap();
+        let apart = State::at_rest(&model);
+        let mut sunk = apart.clone();
+        // The second box moved 0.9 m towards the first: 0.2 m into it (their sides are 0.3 m),
+        // its surface points up to 0.1 m inside.
+        for q in model.bodies()[1].points() {
+            sunk.pos[q].x -= 0.9;
+        }
+        let blown = |state: &State| {
+            let mut pos = state.pos.clone();
+            pos[3].y = f64::NAN;
+            unsound(&model, state, &pos, &state.vel, model.dt)
+        };
+        let b = blown(&sunk);
+        let s = b
+            .sunk
+            .as_deref()
+            .expect("the boxes were 0.1 m inside each other");
+        assert_eq!(s.bodies, [0, 1]);
+        // (By the interpolated distance over its gradient: less than 0.1 m in the boxes' corners.)
+        assert!(s.depth > 0.05 && s.depth <= 0.1 + 1e-9, "{}", s.depth);
+        assert!((s.spacing - 0.1).abs() < 1e-12, "{}", s.spacing);
+        let text = b.to_string();
+        assert!(text.contains("has a non-finite position"), "{text}");
+        let depth = crate::vec3::significant(100.0 * s.depth, 3);
+        let said = format!(
+            ". Before the step bodies 1 and 2 were {depth} cm inside each other, more than half \
+             of a 10 cm cell: a body crushed by its load or thrown through another"
+        );
+        assert!(text.contains(&said), "{text}");
+        let b = blown(&apart);
+        assert_eq!(b.sunk, None);
+        assert!(!b.to_string().contains("Before the step"), "{b}");
+    }
 }

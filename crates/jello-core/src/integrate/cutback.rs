@@ -231,7 +231,7 @@ fn report(model: &Model, state: &State, s: &Scratch, failure: Failure, halvings:
         time: state.time,
         point: e.point,
         body: body as u32,
-        point_ijk,
+        point_ijk: point_ijk.map(|c| c as u32),
         cause: BlowUpCause::NotConverged {
             residual: e.residual,
             iterations: e.iterations,
@@ -242,6 +242,7 @@ fn report(model: &Model, state: &State, s: &Scratch, failure: Failure, halvings:
         dt: model.dt,
         suggested_dt: Some(stability::round_down_2(0.5 * h)),
         escape_margin: model.escape_margin,
+        sunk: crate::contact::tunnelling::deepest_sunk(model, &state.pos).map(Box::new),
     }
 }
 
