@@ -760,8 +760,18 @@ impl JelloSim {
 }
 
 /// The blow-up in words for the viewer's banner (the core's `Display` speaks to the command
-/// line, with its `--dt` flag).
+/// line, with its `--dt` flag), with what the core says of bodies deep inside each other before
+/// it (`BlowUp::sunk_note`).
 fn describe_blow_up(b: &BlowUp) -> String {
+    let what = describe_failure(b);
+    match b.sunk_note() {
+        Some(note) => format!("{what} {note}."),
+        None => what,
+    }
+}
+
+/// The failed step itself, for [`describe_blow_up`].
+fn describe_failure(b: &BlowUp) -> String {
     if let BlowUpCause::NotConverged {
         residual,
         iterations,
@@ -973,6 +983,34 @@ mod tests {
         assert_eq!(s.step(5), 0);
         s.reset();
         assert_eq!(s.step(5), 5);
+    }
+
+    /// The banner says, after the failed step, how deep bodies were inside each other before it.
+    #[test]
+    fn a_blow_up_of_bodies_deep_inside_each_other_says_so() {
+        let mut s = sim();
+        s.set_parameters("RK4", 0.01, 200.0, 0.25, 1.0 / 512.0, 1e-9)
+            .unwrap();
+        s.step(10_000);
+        let mut b = s.blow_up.clone().expect("RK4 at dt 0.01 blows up");
+        assert!(!describe_blow_up(&b).contains("Before the step"));
+        b.sunk = Some(Box::new(jello_core::diagnostics::Sunk {
+            bodies: [0, 1],
+            depth: 0.131,
+            at: Vec3::ZERO,
+            spacing: 0.05,
+        }));
+        let text = describe_blow_up(&b);
+        assert!(text.contains("try dt ="), "{text}");
+        assert!(
+            text.ends_with(
+                "s. Before the step bodies 1 and 2 were 13.1 cm inside each other, more than \
+                 half of a 5 cm cell: a body crushed by its load or thrown through another, which \
+                 a shorter step alone may not cure (a stiffer material, a lighter load or a \
+                 stiffer contact may)."
+            ),
+            "{text}"
+        );
     }
 
     #[test]

@@ -129,9 +129,16 @@ impl fmt::Display for BlowUp {
 impl BlowUp {
     /// What [`BlowUp::sunk`] says, after the rest of the message.
     fn write_sunk(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        let Some(s) = &self.sunk else {
-            return Ok(());
-        };
+        match self.sunk_note() {
+            Some(note) => write!(f, ". {note}"),
+            None => Ok(()),
+        }
+    }
+
+    /// [`BlowUp::sunk`] in a sentence (without its full stop), where there is one: "Before the
+    /// step bodies 1 and 2 were 13.1 cm inside each other, more than half of a 5 cm cell: …".
+    pub fn sunk_note(&self) -> Option<String> {
+        let s = self.sunk.as_deref()?;
         let cm = |m: f64| crate::vec3::significant(100.0 * m, 3);
         let [a, b] = s.bodies;
         let what = if a == b {
@@ -144,13 +151,12 @@ impl BlowUp {
                 cm(s.depth)
             )
         };
-        write!(
-            f,
-            ". Before the step {what}, more than half of a {} cm cell: a body crushed by its load \
+        Some(format!(
+            "Before the step {what}, more than half of a {} cm cell: a body crushed by its load \
              or thrown through another, which a shorter step alone may not cure (a stiffer \
              material, a lighter load or a stiffer contact may)",
             cm(s.spacing)
-        )
+        ))
     }
 }
 
