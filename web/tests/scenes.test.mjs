@@ -293,6 +293,11 @@ describe('scenes in the viewer', () => {
   test('right-dragging a body pushes it alone', async () => {
     const { page, done } = await open();
     await page.keyboard.press('p');
+    // Paused for good and drawn, as in the test above.
+    await page.evaluate(async () => {
+      await window.jello.settled();
+      await new Promise(requestAnimationFrame);
+    });
     const right = await page.evaluate(() => {
       const m = window.jello.viewer.camera.matrixWorld.elements;
       return [m[0], m[1], m[2]];
@@ -316,6 +321,10 @@ describe('scenes in the viewer', () => {
     // frames allowed, the top cube was dragged along by friction at up to μ·g all the while,
     // and the test failed on about half the runs on a quiet machine.)
     for (let k = 0; k < 80; k++) await page.keyboard.press('n');
+    // The worker takes the steps after the key presses return: the push is held, and the
+    // positions read, only once it has taken them all (once, it had not, and the cube had
+    // moved 0 m).
+    await page.evaluate(() => window.jello.settled());
     await page.mouse.up({ button: 'right' });
     const after = [await centre(page, 1), await centre(page, 2)];
     const along = (b) => [0, 1, 2].reduce((s, a) => s + (after[b][a] - before[b][a]) * right[a], 0);
