@@ -422,6 +422,51 @@ fn many_small_bodies_are_bit_identical_on_any_thread_count() {
     }
 }
 
+/// Bodies large enough to be cut into ranges of planes on a team, none larger than a thread's
+/// share of the points (three cubes of 13³ points and two of 7³, thrown into each other and onto
+/// the floor): on 2 and 3 threads each thread takes whole bodies, on 5 the large ones are cut;
+/// the bits are those of 1 thread either way.
+#[test]
+fn bodies_taken_whole_or_cut_are_bit_identical_on_any_thread_count() {
+    let sizes = [13, 7, 13, 7, 13];
+    let cubes: Vec<Body> = (sizes.iter().enumerate())
+        .map(|(c, &n)| {
+            let at = Vec3::new(0.4 * c as f64 - 0.8, 0.05 + 0.1 * (c % 2) as f64, 0.0);
+            cube(n, 0.3, at, jelly(0.01))
+        })
+        .collect();
+    let floor = Aabb::new(Vec3::new(-2.0, 0.0, -2.0), Vec3::new(2.0, 4.0, 2.0)).unwrap();
+    let model = ModelBuilder::new()
+        .bodies(cubes)
+        .bounds(floor)
+        .collision(2000.0, 2.0)
+        .friction(0.5)
+        .gravity(Vec3::new(0.0, -9.81, 0.0))
+        .dt(0.0005)
+        .build()
+        .unwrap();
+    let largest = model.bodies().iter().map(|b| b.len()).max().unwrap();
+    assert!(
+        largest >= 2048 && 3 * largest <= model.point_count() && 5 * largest > model.point_count()
+    );
+    let mut start = State::at_rest(&model);
+    for (b, body) in model.bodies().iter().enumerate() {
+        let toward = if b % 2 == 0 { 2.0 } else { -2.0 };
+        for p in body.points() {
+            start.vel[p] = Vec3::new(toward, -1.0, 0.0);
+        }
+    }
+    let run = |threads| common::run_on_threads(&model, &start, 80, threads);
+    let one = run(1);
+    assert!(
+        jello_core::contact::overlap(&model, &one.pos).0 > 0.0,
+        "the bodies touch"
+    );
+    for threads in [2, 3, 5] {
+        assert_eq!(one, run(threads), "{threads} threads");
+    }
+}
+
 /// With the material given by modulus, viscosity and density, refining the lattice keeps the
 /// body's mass and its lowest frequency: a bar stretched by 2 % and let go contracts back in
 /// about the same time at 4 and at 8 cells across.

@@ -160,9 +160,9 @@ impl BroadPhase {
         let bodies = model.bodies();
         let at = &self.sorted_at;
         if self.sorted_margin.is_some() {
-            for (body, moved) in bodies.iter().zip(&mut self.moved) {
-                *moved = most_moved(p, at, body.points());
-            }
+            crate::compute::team::for_each_mut(&mut self.moved, &|b, moved| {
+                *moved = most_moved(p, at, bodies[b].points());
+            });
         }
         match self.sorted_margin {
             Some(sorted)
@@ -462,20 +462,33 @@ pub(crate) fn visit(
 }
 
 /// How far (along any axis) the farthest of `points` is at `p` from where it was at `at`
-/// (infinite when a position is not a number).
+/// (infinite when a position is not a number). In lanes the compiler keeps in vector registers:
+/// a maximum taken point after point waits on the one before (a fifth of the contact pass of
+/// fifty shapes falling into a box went here); the largest is the same whatever the order.
 fn most_moved(p: [&[f64]; 3], at: &[Vec<f64>; 3], points: std::ops::Range<usize>) -> f64 {
-    let (mut most, mut not_a_number) = (0.0f64, false);
+    const LANES: usize = 8;
+    let (mut most, mut not_a_number) = ([0.0f64; LANES], [false; LANES]);
+    let mut lane = |l: usize, d: f64| {
+        // `d > most` is false for a NaN, which `not_a_number` keeps instead.
+        most[l] = if d > most[l] { d } else { most[l] };
+        not_a_number[l] |= d.is_nan();
+    };
     for (now, then) in p.iter().zip(at) {
-        for (x, x0) in now[points.clone()].iter().zip(&then[points.clone()]) {
-            let d = (x - x0).abs();
-            most = most.max(d);
-            not_a_number |= d.is_nan();
+        let (now, then) = (&now[points.clone()], &then[points.clone()]);
+        let (mut now8, mut then8) = (now.chunks_exact(LANES), then.chunks_exact(LANES));
+        for (x, x0) in (&mut now8).zip(&mut then8) {
+            for l in 0..LANES {
+                lane(l, (x[l] - x0[l]).abs());
+            }
+        }
+        for (l, (x, x0)) in now8.remainder().iter().zip(then8.remainder()).enumerate() {
+            lane(l, (x - x0).abs());
         }
     }
-    if not_a_number {
+    if not_a_number.contains(&true) {
         f64::INFINITY
     } else {
-        most
+        most.into_iter().fold(0.0, f64::max)
     }
 }
 
