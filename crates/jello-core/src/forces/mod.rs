@@ -353,10 +353,11 @@ pub(crate) enum Ties {
     /// Points tied to an anchor feel its spring and damper, and bodies touch (every force
     /// evaluation of an explicit step).
     Held,
-    /// As if no point had an anchor, and without contacts between bodies: at zero velocities
-    /// the pass then has no friction at all (the implicit integrators add friction themselves,
-    /// at the iterate's velocities, and the contacts between bodies, at the touches found at
-    /// the step's start).
+    /// As if no point had an anchor, and without contacts between bodies, at zero velocities
+    /// (the pass's `v` must be zero): the pass then has no friction at all, and the springs'
+    /// dampers are not evaluated (the implicit integrators add friction themselves, at the
+    /// iterate's velocities, the dampers along the springs' directions at the step's start,
+    /// and the contacts between bodies, at the touches found at the step's start).
     Ignored,
 }
 
@@ -408,10 +409,18 @@ where
         contacts.compute(model, p, v);
     }
     let contact = touching.then(|| contacts.forces());
+    debug_assert!(
+        ties == Ties::Held
+            || [v.x(), v.y(), v.z()]
+                .iter()
+                .all(|c| c.iter().all(|&v| v == 0.0)),
+        "a pass without ties is at zero velocities"
+    );
     let shared = Shared {
         model,
         p,
         v,
+        damped: ties == Ties::Held,
         control,
         contact,
         anchors,
@@ -453,6 +462,8 @@ struct Shared<'a, U> {
     model: &'a Model,
     p: &'a Soa,
     v: &'a Soa,
+    /// Whether the springs' dampers are evaluated (not at zero velocities: see [`Ties`]).
+    damped: bool,
     control: &'a Control,
     contact: Option<&'a Soa>,
     anchors: Option<&'a Anchors>,
@@ -487,6 +498,7 @@ where
         spans,
         p: shared.p,
         v: shared.v,
+        damped: shared.damped,
         control: shared.control,
         contact: shared.contact,
         anchors: shared.anchors,

@@ -25,6 +25,8 @@ pub(super) struct Pass<'a, U> {
     pub(super) spans: &'a [[u32; 2]],
     pub(super) p: &'a Soa,
     pub(super) v: &'a Soa,
+    /// Whether the springs' dampers are evaluated (`v` is zero where not).
+    pub(super) damped: bool,
     pub(super) control: &'a Control,
     pub(super) contact: Option<&'a Soa>,
     pub(super) anchors: Option<&'a Anchors>,
@@ -157,6 +159,7 @@ impl<U> Pass<'_, U> {
             links: self.body.links(),
             spans: &self.spans[c * per_chunk..(c + 1) * per_chunk],
             table: self.body.spring_table(),
+            damped: self.damped,
         }
     }
 

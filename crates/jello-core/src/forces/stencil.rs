@@ -101,6 +101,11 @@ pub(super) struct Placement<'a> {
     pub(super) spans: &'a [[u32; 2]],
     /// The body's per-spring factors, if it has any.
     pub(super) table: Option<&'a SpringTable>,
+    /// Whether the springs' dampers are evaluated: not at zero velocities (the implicit
+    /// integrators' residuals, whose dampers act along the directions at the step's start),
+    /// where they would read six streams of zeros for nothing (a tenth of a resting 32³ cube's
+    /// step).
+    pub(super) damped: bool,
 }
 
 crate::compute::simd::multiversion! {
@@ -215,26 +220,34 @@ fn chunk_springs_impl(
             }
             let len = e - t;
             let (a, b) = (base + t, base + t + shift);
-            // Four variants, each a branch-free loop: full box or link bits, material values or
-            // per-spring factors on them.
             let points = nx * plane;
             let factors = at
                 .table
                 .map(|table| table.run(points, s, i0 * plane + t, len));
             let uniform = |_| (spring.k, spring.d, spring.rest);
+            // Eight variants, each a branch-free loop: with or without dampers, full box or
+            // link bits, material values or per-spring factors on them.
+            macro_rules! run {
+                ($spring:expr, $mask:expr) => {
+                    match at.damped {
+                        true => spring_run::<true>(p, v, a, b, len, $spring, $mask, row),
+                        false => spring_run::<false>(p, v, a, b, len, $spring, $mask, row),
+                    }
+                };
+            }
             if at.links.is_empty() {
                 let m = t % plane;
                 let mask = &masks.class(mask)[m..m + len];
                 match factors {
-                    None => spring_run(p, v, a, b, len, uniform, |t| mask[t], row),
-                    Some(f) => spring_run(p, v, a, b, len, spring.scaled(f), |t| mask[t], row),
+                    None => run!(uniform, |t| mask[t]),
+                    Some(f) => run!(spring.scaled(f), |t| mask[t]),
                 }
             } else {
                 let links = &at.links[i0 * plane + t..][..len];
                 let link = |t: usize| (links[t] >> s & 1) as f64;
                 match factors {
-                    None => spring_run(p, v, a, b, len, uniform, link, row),
-                    Some(f) => spring_run(p, v, a, b, len, spring.scaled(f), link, row),
+                    None => run!(uniform, link),
+                    Some(f) => run!(spring.scaled(f), link),
                 }
             }
             let cut = halo_base.saturating_sub(b).min(len);
@@ -279,10 +292,12 @@ impl SpringConst {
 /// `f = −k (|L| − R) L̂ − d ((vA − vB)·L̂) L̂` with `L = pA − pB` and `(k, d, R) = spring(t)`,
 /// computed with one square root and one division per spring, times `mask(t)` (1 for a spring, 0
 /// for a pair that is none; multiplying by 1 changes nothing). A zero-length spring has no
-/// direction and exerts no force.
+/// direction and exerts no force. Without `DAMPED`, the velocities are taken as zero and not
+/// read: the damper's part `d·0` is `+0`, which changes no force (the damped loop's `closing`
+/// at zero velocities is `±0`, which changes none either but the sign of a force of exactly 0).
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
-fn spring_run(
+fn spring_run<const DAMPED: bool>(
     p: &Soa,
     v: &Soa,
     a: usize,
@@ -303,7 +318,11 @@ fn spring_run(
         let l2 = dx * dx + dy * dy + dz * dz;
         let inv = if l2 > 0.0 { 1.0 / l2.sqrt() } else { 0.0 };
         let l = l2 * inv;
-        let closing = ((ua[t] - ub[t]) * dx + (va[t] - vb[t]) * dy + (wa[t] - wb[t]) * dz) * inv;
+        let closing = if DAMPED {
+            ((ua[t] - ub[t]) * dx + (va[t] - vb[t]) * dy + (wa[t] - wb[t]) * dz) * inv
+        } else {
+            0.0
+        };
         let (k, d, rest) = spring(t);
         // Magnitude along L̂, times L̂ = L·inv, times the mask.
         let s = (-k * (l - rest) - d * closing) * inv * mask(t);
