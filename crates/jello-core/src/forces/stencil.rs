@@ -103,7 +103,7 @@ pub(super) struct Placement<'a> {
     pub(super) table: Option<&'a SpringTable>,
     /// Whether the springs' dampers are evaluated: not at zero velocities (the implicit
     /// integrators' residuals, whose dampers act along the directions at the step's start),
-    /// where they would read six streams of zeros for nothing (a tenth of a resting 32³ cube's
+    /// where they would read six streams of zeros for nothing (about 5 % of a resting 32³ cube's
     /// step).
     pub(super) damped: bool,
 }
