@@ -21,7 +21,8 @@
 //! iterations in 2.2 s against 2 074 in 3.6 s). The coarse levels, an eighth of the size each,
 //! are solved by a V-cycle that smooths with damped block Jacobi before and after the next
 //! level's correction (the same smoother on both sides, so the preconditioner is symmetric, as
-//! conjugate gradients need); the coarsest by a few Jacobi sweeps. A coarse level's residual
+//! conjugate gradients need), a level of [`W_CYCLE_NODES`] or more taking that correction twice;
+//! the coarsest by a few Jacobi sweeps. A coarse level's residual
 //! `r − A·e` is a product in stencil order ([`LevelStencil`]: the aggregates of a lattice form a
 //! lattice), in single precision where the fine products are, with the pairs found at the
 //! iterate added after; on a level of small lattices ([`STENCIL_NODES`]), a loop over its list of
@@ -56,6 +57,16 @@ const FINE_OMEGA: f64 = 0.7;
 /// bodies: a few dozen nodes a lattice, 13 entries each) that the list of pairs is faster
 /// (`pile.toml` under backward Euler at 1/60 s, 1 s: 7 % slower in stencil order at every level).
 const STENCIL_NODES: usize = 512;
+
+/// Nodes from which a coarse level takes the next level's correction twice (a W-cycle there,
+/// a V-cycle below). The aggregates' coarse spaces lose more with each level, so a large
+/// lattice's conjugate gradients need more iterations than a small one's: the 64³ cube resting
+/// on a floor (BackwardEuler at 1/60 s, its first second, 2 threads, AMD EPYC with AVX-512)
+/// took 30.8 a step against 16.8 at 32³. With its first coarse level (32³ nodes) cycled twice,
+/// 24.4, and 0.048 → 0.056× real time; with every level of 4 096 nodes or more, 22.3 and 0.058×,
+/// but the 32³ cube then runs slower (16.8 → 14.3 iterations for 0.81 → 0.76× real time, every
+/// coarse level twice): its coarse levels cost more than they save.
+const W_CYCLE_NODES: usize = 32 * 1024;
 
 /// Jacobi sweeps on the coarsest level (one node per body: exact for a body alone).
 const COARSEST_SWEEPS: usize = 4;
@@ -299,6 +310,9 @@ pub(super) struct Multigrid {
     /// The fine level's points.
     points: usize,
     levels: Vec<Level>,
+    /// The least nodes of a level that takes the next level's correction twice, where not
+    /// [`W_CYCLE_NODES`] (tests).
+    twice_from: Option<usize>,
 }
 
 impl Multigrid {
@@ -391,7 +405,8 @@ impl Multigrid {
         };
         fine.jacobi(r, FINE_OMEGA, z);
         restrict(&self.down, r, &mut first.r);
-        cycle(&mut self.levels, precision);
+        let twice_from = self.twice_from.unwrap_or(W_CYCLE_NODES);
+        cycle(&mut self.levels, precision, twice_from);
         prolong(&self.down, &self.levels[0].e, fine.free, z);
     }
 }
@@ -410,8 +425,10 @@ impl Level {
     }
 }
 
-/// One V-cycle from `levels[0].r` into `levels[0].e`, the levels' products in `precision`.
-fn cycle(levels: &mut [Level], precision: Precision) {
+/// One V-cycle from `levels[0].r` into `levels[0].e`, the levels' products in `precision`; a
+/// level of at least `twice_from` nodes takes the next level's correction twice (see
+/// [`W_CYCLE_NODES`]).
+fn cycle(levels: &mut [Level], precision: Precision, twice_from: usize) {
     let Some((this, coarser)) = levels.split_first_mut() else {
         return;
     };
@@ -434,8 +451,16 @@ fn cycle(levels: &mut [Level], precision: Precision) {
         op.jacobi(r, OMEGA, &mut e);
         residual(&e, &mut t);
         restrict(&this.down, &t, &mut next.r);
-        cycle(coarser, precision);
+        cycle(coarser, precision, twice_from);
         prolong(&this.down, &coarser[0].e, None, &mut e);
+        if e.len() >= twice_from {
+            // Once more from the corrected residual (a W-cycle at this level): symmetric still,
+            // the two corrections being one operator applied twice.
+            residual(&e, &mut t);
+            restrict(&this.down, &t, &mut coarser[0].r);
+            cycle(coarser, precision, twice_from);
+            prolong(&this.down, &coarser[0].e, None, &mut e);
+        }
         residual(&e, &mut t);
         op.jacobi(&t, OMEGA, &mut e);
     } else {
@@ -839,19 +864,29 @@ mod tests {
             v.iter().zip(&fine.free).map(|(&v, &f)| v * f).collect()
         };
         let (a, b) = (mask(random(n, 21)), mask(random(n, 22)));
-        for (precision, tolerance) in [(Precision::Double, 1e-12), (Precision::Single, 1e-5)] {
-            let (mut za, mut zb) = (vec![Vec3::ZERO; n], vec![Vec3::ZERO; n]);
-            mg.precondition(&fine.operator(), &a, &mut za, precision);
-            mg.precondition(&fine.operator(), &b, &mut zb, precision);
-            let (ab, ba) = (dot(&a, &zb), dot(&b, &za));
-            assert!(
-                (ab - ba).abs() < tolerance * ab.abs().max(1.0),
-                "{precision:?}: {ab} ≠ {ba}"
-            );
-            assert!(dot(&a, &za) > 0.0 && dot(&b, &zb) > 0.0);
-            for (p, &f) in fine.free.iter().enumerate() {
-                if f == 0.0 {
-                    assert_eq!(za[p], Vec3::ZERO, "held point {p}");
+        // As a V-cycle, and with every coarse level taking the next one's correction twice
+        // (which changes the answer).
+        let mut w_cycle = mg.clone();
+        w_cycle.twice_from = Some(0);
+        let (mut v, mut w) = (vec![Vec3::ZERO; n], vec![Vec3::ZERO; n]);
+        mg.precondition(&fine.operator(), &a, &mut v, Precision::Double);
+        w_cycle.precondition(&fine.operator(), &a, &mut w, Precision::Double);
+        assert_ne!(v, w, "the W-cycle is another preconditioner");
+        for mg in [&mut mg, &mut w_cycle] {
+            for (precision, tolerance) in [(Precision::Double, 1e-12), (Precision::Single, 1e-5)] {
+                let (mut za, mut zb) = (vec![Vec3::ZERO; n], vec![Vec3::ZERO; n]);
+                mg.precondition(&fine.operator(), &a, &mut za, precision);
+                mg.precondition(&fine.operator(), &b, &mut zb, precision);
+                let (ab, ba) = (dot(&a, &zb), dot(&b, &za));
+                assert!(
+                    (ab - ba).abs() < tolerance * ab.abs().max(1.0),
+                    "{precision:?}: {ab} ≠ {ba}"
+                );
+                assert!(dot(&a, &za) > 0.0 && dot(&b, &zb) > 0.0);
+                for (p, &f) in fine.free.iter().enumerate() {
+                    if f == 0.0 {
+                        assert_eq!(za[p], Vec3::ZERO, "held point {p}");
+                    }
                 }
             }
         }
