@@ -393,6 +393,14 @@ fn many_small_bodies_are_bit_identical_on_any_thread_count() {
             cube(7, 0.3, at, jelly(0.01))
         })
         .collect();
+    let (model, start) = thrown_together(cubes, 0.3);
+    assert!(model.bodies().iter().all(|b| b.len() < 2048) && model.point_count() >= 2048);
+    touch_with_the_same_bits_on_2_3_and_5_threads(&model, &start);
+}
+
+/// `cubes` on a floor (y up) with friction, each thrown at 2 m/s along x, the odd ones the
+/// other way, down at 1 m/s and along z at `spread` m/s times its index.
+fn thrown_together(cubes: Vec<Body>, spread: f64) -> (Model, State) {
     let floor = Aabb::new(Vec3::new(-2.0, 0.0, -2.0), Vec3::new(2.0, 4.0, 2.0)).unwrap();
     let model = ModelBuilder::new()
         .bodies(cubes)
@@ -403,18 +411,22 @@ fn many_small_bodies_are_bit_identical_on_any_thread_count() {
         .dt(0.0005)
         .build()
         .unwrap();
-    assert!(model.bodies().iter().all(|b| b.len() < 2048) && model.point_count() >= 2048);
     let mut start = State::at_rest(&model);
     for (b, body) in model.bodies().iter().enumerate() {
         let toward = if b % 2 == 0 { 2.0 } else { -2.0 };
         for p in body.points() {
-            start.vel[p] = Vec3::new(toward, -1.0, 0.3 * b as f64);
+            start.vel[p] = Vec3::new(toward, -1.0, spread * b as f64);
         }
     }
-    let run = |threads| common::run_on_threads(&model, &start, 80, threads);
+    (model, start)
+}
+
+/// 80 steps from `start`: the bodies touch, and 2, 3 and 5 threads give 1 thread's bits.
+fn touch_with_the_same_bits_on_2_3_and_5_threads(model: &Model, start: &State) {
+    let run = |threads| common::run_on_threads(model, start, 80, threads);
     let one = run(1);
     assert!(
-        jello_core::contact::overlap(&model, &one.pos).0 > 0.0,
+        jello_core::contact::overlap(model, &one.pos).0 > 0.0,
         "the bodies touch"
     );
     for threads in [2, 3, 5] {
@@ -435,36 +447,12 @@ fn bodies_taken_whole_or_cut_are_bit_identical_on_any_thread_count() {
             cube(n, 0.3, at, jelly(0.01))
         })
         .collect();
-    let floor = Aabb::new(Vec3::new(-2.0, 0.0, -2.0), Vec3::new(2.0, 4.0, 2.0)).unwrap();
-    let model = ModelBuilder::new()
-        .bodies(cubes)
-        .bounds(floor)
-        .collision(2000.0, 2.0)
-        .friction(0.5)
-        .gravity(Vec3::new(0.0, -9.81, 0.0))
-        .dt(0.0005)
-        .build()
-        .unwrap();
+    let (model, start) = thrown_together(cubes, 0.0);
     let largest = model.bodies().iter().map(|b| b.len()).max().unwrap();
     assert!(
         largest >= 2048 && 3 * largest <= model.point_count() && 5 * largest > model.point_count()
     );
-    let mut start = State::at_rest(&model);
-    for (b, body) in model.bodies().iter().enumerate() {
-        let toward = if b % 2 == 0 { 2.0 } else { -2.0 };
-        for p in body.points() {
-            start.vel[p] = Vec3::new(toward, -1.0, 0.0);
-        }
-    }
-    let run = |threads| common::run_on_threads(&model, &start, 80, threads);
-    let one = run(1);
-    assert!(
-        jello_core::contact::overlap(&model, &one.pos).0 > 0.0,
-        "the bodies touch"
-    );
-    for threads in [2, 3, 5] {
-        assert_eq!(one, run(threads), "{threads} threads");
-    }
+    touch_with_the_same_bits_on_2_3_and_5_threads(&model, &start);
 }
 
 /// With the material given by modulus, viscosity and density, refining the lattice keeps the
