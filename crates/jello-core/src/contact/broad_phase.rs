@@ -30,6 +30,14 @@
 //! point and the cell's body have not moved, together, far enough to close that distance
 //! (`NearCell::clear`, each body's `moved` since the sort).
 //!
+//! Each refresh also adds to each body's *path* how far its points and those of the bodies it
+//! may touch moved (each along any axis) since the refresh before: a point of the body and a
+//! point of a neighbour have moved, together, no further since any earlier refresh than the
+//! path grew since (the triangle inequality, pass after pass). A surface point found clear of
+//! every cell by some distance is passed over until the path has grown that far (see
+//! [`crate::contact::bodies`]): in a pile that still stirs, each pass moves the bodies a few
+//! micrometres, while their points have moved since the sort nearly as far as their reach.
+//!
 //! The cells looked at for a point are a superset of those a fresh sort gives that may hold it,
 //! in the same order, and a point's contact is decided by the first of them (in that order)
 //! that holds it: the forces do not depend on when the grid was sorted.
@@ -105,6 +113,17 @@ pub(crate) struct BroadPhase {
     /// Per body: how far (along any axis) its points have moved since the last sort, at most
     /// (as of the last [`BroadPhase::refresh`]).
     moved: Vec<f64>,
+    /// The points' positions at the last [`BroadPhase::refresh`], and per body how far (along
+    /// any axis) its points moved from there to the positions of the refresh after it, at most.
+    refreshed_at: [Vec<f64>; 3],
+    stepped: Vec<f64>,
+    /// Per body: its `moved` and `stepped`, as the team found them.
+    moves: Vec<[f64; 2]>,
+    /// Per body `a`: the sum, over the refreshes, of how far its points and those of the bodies
+    /// its samples may touch moved from one to the next (`a`'s step and the largest of its
+    /// neighbours'). A point of `a` and a point of a neighbour have moved, together, at most the
+    /// growth of this since any earlier refresh of the same sort: see [`BroadPhase::path`].
+    path: Vec<f64>,
 }
 
 impl BroadPhase {
@@ -148,6 +167,10 @@ impl BroadPhase {
             farthest: vec![0.0; model.bodies().len()],
             allowed: vec![0.0; model.bodies().len()],
             moved: vec![0.0; model.bodies().len()],
+            refreshed_at: [0; 3].map(|_| vec![0.0; model.point_count()]),
+            stepped: vec![0.0; model.bodies().len()],
+            moves: vec![[0.0; 2]; model.bodies().len()],
+            path: vec![0.0; model.bodies().len()],
         }
     }
 
@@ -157,12 +180,41 @@ impl BroadPhase {
     /// unless every point has moved less than its body may along every axis since the last sort
     /// (that sort's margin at least `margin`). True when it sorted.
     pub(crate) fn refresh(&mut self, model: &Model, p: [&[f64]; 3], margin: f64) -> bool {
+        let sorted = self.refresh_grid(model, p, margin);
+        // Each body's path grows by its step and the largest of its neighbours' (as they are
+        // after a sort: the paths are compared only within a sort). A step that is not a number
+        // (positions, now or at the last refresh, that are not) adds nothing: it sorted the grid
+        // (the points moved from the sort's positions by as much), which forgets every path.
+        for (a, path) in self.path.iter_mut().enumerate() {
+            let near =
+                (self.neighbours[a].iter()).fold(0.0, |m: f64, &b| m.max(self.stepped[b as usize]));
+            let step = self.stepped[a] + near;
+            if step.is_finite() {
+                *path += step;
+            }
+        }
+        for (then, now) in self.refreshed_at.iter_mut().zip(p) {
+            then.copy_from_slice(now);
+        }
+        sorted
+    }
+
+    /// [`BroadPhase::refresh`] but the paths.
+    fn refresh_grid(&mut self, model: &Model, p: [&[f64]; 3], margin: f64) -> bool {
         let bodies = model.bodies();
-        let at = &self.sorted_at;
+        let (at, last) = (&self.sorted_at, &self.refreshed_at);
         if self.sorted_margin.is_some() {
-            crate::compute::team::for_each_mut(&mut self.moved, &|b, moved| {
-                *moved = most_moved(p, at, bodies[b].points());
+            crate::compute::team::for_each_mut(&mut self.moves, &|b, moves| {
+                *moves = most_moved(p, [at, last], bodies[b].points());
             });
+            for ((moves, moved), stepped) in self
+                .moves
+                .iter()
+                .zip(&mut self.moved)
+                .zip(&mut self.stepped)
+            {
+                [*moved, *stepped] = *moves;
+            }
         }
         match self.sorted_margin {
             Some(sorted)
@@ -348,6 +400,15 @@ impl BroadPhase {
         self.moved[b]
     }
 
+    /// Body `a`'s path (m; see the module's notes) as of the last [`BroadPhase::refresh`]: a
+    /// point of `a` and a point of a body its samples may touch (itself too under self-contact)
+    /// have moved, together (each along any axis), from where they were at an earlier refresh
+    /// since the last sort, at most the growth of `a`'s path since then.
+    #[inline]
+    pub(crate) fn path(&self, a: usize) -> f64 {
+        self.path[a]
+    }
+
     /// Body `a`'s reach at the last sort (m; see the module's notes).
     #[inline]
     pub(crate) fn reach(&self, a: usize) -> f64 {
@@ -430,7 +491,9 @@ pub(crate) struct NearCell {
 /// move more since the sort, together, each along any axis, while each of those cells is
 /// still passed over: the least of their `clear`, and of how far `p` is outside the boxes that
 /// do not hold it less `moved` (the point may have moved that far since the sort already, and
-/// as far again). Negative infinity when `near` returned true.
+/// as far again); and how far they may move more from where they are now: the least of their
+/// `clear` less how far they may have moved since the sort, and of how far `p` is outside the
+/// boxes. Negative infinity (both) when `near` returned true.
 #[inline]
 pub(crate) fn visit(
     grid: &BroadPhase,
@@ -438,58 +501,74 @@ pub(crate) fn visit(
     p: Vec3,
     moved: f64,
     mut near: impl FnMut(usize, usize) -> bool,
-) -> f64 {
-    let mut quiet = f64::INFINITY;
+) -> [f64; 2] {
+    let (mut quiet, mut room) = (f64::INFINITY, f64::INFINITY);
     for (k, c) in cells.iter().enumerate() {
-        if c.clear > moved + grid.moved[c.body as usize] {
+        let since = moved + grid.moved[c.body as usize];
+        if c.clear > since {
             quiet = quiet.min(c.clear);
+            room = room.min(c.clear - since);
             continue;
         }
         let [lo, hi] = c.bounds;
         let inside = p.x >= lo.x && p.x <= hi.x && p.y >= lo.y && p.y <= hi.y;
         if inside && p.z >= lo.z && p.z <= hi.z {
             if near(k, c.cell as usize) {
-                return f64::NEG_INFINITY;
+                return [f64::NEG_INFINITY; 2];
             }
         } else if p.x.is_nan() || p.y.is_nan() || p.z.is_nan() {
-            quiet = f64::NEG_INFINITY;
+            (quiet, room) = (f64::NEG_INFINITY, f64::NEG_INFINITY);
         } else {
             let out = (lo - p).max(p - hi);
-            quiet = quiet.min(out.x.max(out.y).max(out.z) - moved);
+            let out = out.x.max(out.y).max(out.z);
+            quiet = quiet.min(out - moved);
+            room = room.min(out);
         }
     }
-    quiet
+    [quiet, room]
 }
 
-/// How far (along any axis) the farthest of `points` is at `p` from where it was at `at`
-/// (infinite when a position is not a number). In lanes the compiler keeps in vector registers:
-/// a maximum taken point after point waits on the one before (a fifth of the contact pass of
-/// fifty shapes falling into a box went here); the largest is the same whatever the order.
-fn most_moved(p: [&[f64]; 3], at: &[Vec<f64>; 3], points: std::ops::Range<usize>) -> f64 {
+/// How far (along any axis) the farthest of `points` is at `p` from where it was at each of
+/// `then` (infinite when a position is not a number). In lanes the compiler keeps in vector
+/// registers: a maximum taken point after point waits on the one before (a fifth of the contact
+/// pass of fifty shapes falling into a box went here); the largest is the same whatever the
+/// order.
+fn most_moved<const N: usize>(
+    p: [&[f64]; 3],
+    then: [&[Vec<f64>; 3]; N],
+    points: std::ops::Range<usize>,
+) -> [f64; N] {
     const LANES: usize = 8;
-    let (mut most, mut not_a_number) = ([0.0f64; LANES], [false; LANES]);
-    let mut lane = |l: usize, d: f64| {
-        // `d > most` is false for a NaN, which `not_a_number` keeps instead.
-        most[l] = if d > most[l] { d } else { most[l] };
-        not_a_number[l] |= d.is_nan();
-    };
-    for (now, then) in p.iter().zip(at) {
-        let (now, then) = (&now[points.clone()], &then[points.clone()]);
-        let (mut now8, mut then8) = (now.chunks_exact(LANES), then.chunks_exact(LANES));
-        for (x, x0) in (&mut now8).zip(&mut then8) {
-            for l in 0..LANES {
-                lane(l, (x[l] - x0[l]).abs());
+    let (mut most, mut not_a_number) = ([[0.0f64; LANES]; N], [false; N]);
+    for (n, at) in then.iter().enumerate() {
+        let (most, not_a_number) = (&mut most[n], &mut not_a_number[n]);
+        let mut nan = [false; LANES];
+        let mut lane = |l: usize, d: f64| {
+            // `d > most` is false for a NaN, which `nan` keeps instead.
+            most[l] = if d > most[l] { d } else { most[l] };
+            nan[l] |= d.is_nan();
+        };
+        for (now, then) in p.iter().zip(at.iter()) {
+            let (now, then) = (&now[points.clone()], &then[points.clone()]);
+            let (mut now8, mut then8) = (now.chunks_exact(LANES), then.chunks_exact(LANES));
+            for (x, x0) in (&mut now8).zip(&mut then8) {
+                for l in 0..LANES {
+                    lane(l, (x[l] - x0[l]).abs());
+                }
+            }
+            for (l, (x, x0)) in now8.remainder().iter().zip(then8.remainder()).enumerate() {
+                lane(l, (x - x0).abs());
             }
         }
-        for (l, (x, x0)) in now8.remainder().iter().zip(then8.remainder()).enumerate() {
-            lane(l, (x - x0).abs());
+        *not_a_number = nan.contains(&true);
+    }
+    std::array::from_fn(|n| {
+        if not_a_number[n] {
+            f64::INFINITY
+        } else {
+            most[n].into_iter().fold(0.0, f64::max)
         }
-    }
-    if not_a_number.contains(&true) {
-        f64::INFINITY
-    } else {
-        most.into_iter().fold(0.0, f64::max)
-    }
+    })
 }
 
 /// A box holding nothing.
