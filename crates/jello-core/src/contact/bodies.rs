@@ -487,6 +487,9 @@ fn find_touches(
         if *quiet > moved {
             let fastest = (cells.iter()).fold(0.0, |m: f64, c| m.max(grid.moved(c.body as usize)));
             if *quiet > moved + fastest {
+                // So until the path has grown by the room left (each body moves on from where
+                // it is now by no more than that).
+                *calm = path + (*quiet - (moved + fastest));
                 continue;
             }
         }
@@ -636,6 +639,7 @@ fn mark_active(model: &Model, grid: &BroadPhase, p: &Soa, margin: f64, chunk: &m
     let first = body.points().start;
     let skip = (!model.self_contact).then_some(a as u32);
     let reach = grid.reach(a);
+    let path = grid.path(a);
     for s in samples.clone() {
         let sample = &surface.samples[s];
         let (_, _, ps) = sample_place(surface, first, sample, at);
@@ -643,25 +647,29 @@ fn mark_active(model: &Model, grid: &BroadPhase, p: &Soa, margin: f64, chunk: &m
             continue;
         }
         let before = cells.len();
+        // The least of its cells' `clear`: every cell is passed over until the bodies have moved
+        // that far since the sort (now), which their paths' growth bounds.
+        let mut clearest = f64::INFINITY;
         grid.find_near(ps, skip, reach, |g| {
             if candidate(model, grid, a, sample, g) {
                 let clear = clearance(model, grid, at, ps, margin, g);
                 // Passed over when the sample and the cell cannot meet before the next sort.
                 if clear <= reach + grid.reach(grid.cell(g).0) {
                     cells.push(grid.near_cell(g, reach, clear));
+                    clearest = clearest.min(clear);
                 }
             }
             false
         });
         if cells.len() > before {
             active.push((s as u32, cells.len() as u32));
+            quiet.push(clearest);
+            calm.push(path + clearest);
         }
     }
     distances.resize(cells.len(), DistanceCache::EMPTY);
     outside.resize(cells.len(), f64::NEG_INFINITY);
     apart.resize(cells.len(), f64::NEG_INFINITY);
-    quiet.resize(active.len(), f64::NEG_INFINITY);
-    calm.resize(active.len(), f64::NEG_INFINITY);
 }
 
 /// How far (m) a sample found `phi` (m, at rest: the body's distance there, `≥ 0`) outside the

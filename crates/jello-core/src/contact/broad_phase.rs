@@ -443,20 +443,30 @@ impl BroadPhase {
     ) {
         let key = map3((p * (1.0 / self.side)).to_array(), |x| x.floor() as i32);
         let bucket = hash(key) & (self.starts.len() - 2);
-        let range = self.starts[bucket] as usize..self.starts[bucket + 1] as usize;
-        let skip = skip.unwrap_or(u32::MAX);
+        let (start, end) = (
+            self.starts[bucket] as usize,
+            self.starts[bucket + 1] as usize,
+        );
+        // A bucket's entries are in the cells' order, so by body: those of `skip` (a point's own
+        // body's cells, most of a bucket about it) are one run, passed over unread.
+        let (first, last) = match skip {
+            Some(skip) => {
+                let bodies = &self.entry_bodies[start..end];
+                let from = bodies.partition_point(|&b| b < skip);
+                (
+                    start + from,
+                    start + from + bodies[from..].partition_point(|&b| b == skip),
+                )
+            }
+            None => (end, end),
+        };
         // The boxes grown by `reach` hold `p` where they meet the box around `p` of that size.
         let (p_lo, p_hi) = (
             p - Vec3::new(reach, reach, reach),
             p + Vec3::new(reach, reach, reach),
         );
-        for ((&g, &k), &b) in (self.entries[range.clone()].iter())
-            .zip(&self.entry_keys[range.clone()])
-            .zip(&self.entry_bodies[range])
-        {
-            if b == skip {
-                continue;
-            }
+        for e in (start..first).chain(last..end) {
+            let (g, k) = (self.entries[e], self.entry_keys[e]);
             let [lo, hi] = self.placed[g as usize].1;
             let inside = p_hi.x >= lo.x && p_lo.x <= hi.x && p_hi.y >= lo.y && p_lo.y <= hi.y;
             if k != key || !(inside && p_hi.z >= lo.z && p_lo.z <= hi.z) {
