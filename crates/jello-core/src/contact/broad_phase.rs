@@ -193,9 +193,15 @@ impl BroadPhase {
                 *path += step;
             }
         }
-        for (then, now) in self.refreshed_at.iter_mut().zip(p) {
-            then.copy_from_slice(now);
-        }
+        // (On the team: a serial copy of every position was a tenth of a pass on 2 threads.)
+        let size = crate::compute::team::chunk_size(p[0].len(), 4096);
+        let [x, y, z] = self.refreshed_at.each_mut().map(|c| &mut c[..]);
+        crate::compute::team::for_each_chunk([x, y, z], size, &|i, parts| {
+            for (then, now) in parts.into_iter().zip(p) {
+                let start = i * size;
+                then.copy_from_slice(&now[start..start + then.len()]);
+            }
+        });
         sorted
     }
 
