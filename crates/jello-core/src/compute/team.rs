@@ -400,6 +400,40 @@ pub fn for_each_mut<S: Send>(items: &mut [S], body: &(dyn Fn(usize, &mut S) + Sy
     });
 }
 
+/// What [`for_each_mut_with_runs`] calls for each item: its index, the item and its runs.
+pub type RunBody<'a, S, T, const K: usize> = dyn Fn(usize, &mut S, [&mut [T]; K]) + Sync + 'a;
+
+/// `body(i, &mut items[i], parts)` for each item `i`, `parts` the elements `range(i)` of each
+/// of `slices` (all of one length): runs of elements that follow one another in the items'
+/// order without overlapping (checked), such as the points of each body; spread as
+/// [`for_each`] spreads them.
+pub fn for_each_mut_with_runs<S: Send, T: Send, const K: usize>(
+    items: &mut [S],
+    slices: [&mut [T]; K],
+    range: &(dyn Fn(usize) -> std::ops::Range<usize> + Sync),
+    body: &RunBody<'_, S, T, K>,
+) {
+    let len = slices.first().map_or(0, |s| s.len());
+    assert!(slices.iter().all(|s| s.len() == len));
+    let mut end = 0;
+    for i in 0..items.len() {
+        let run = range(i);
+        assert!(end <= run.start && run.start <= run.end && run.end <= len);
+        end = run.end;
+    }
+    let item = Base(items.as_mut_ptr());
+    let bases = slices.map(|s| Base(s.as_mut_ptr()));
+    for_each(items.len(), &|i| {
+        let run = range(i);
+        // SAFETY: `for_each` runs each index once, so each item is borrowed once; the runs of
+        // distinct indices do not overlap (checked above) and lie within the slices, so each
+        // element is borrowed once; everything is borrowed mutably for the whole loop.
+        body(i, unsafe { &mut *item.at(i) }, {
+            bases.map(|b| unsafe { std::slice::from_raw_parts_mut(b.at(run.start), run.len()) })
+        })
+    });
+}
+
 /// `body(i, parts)` for each chunk `i` of `size` elements of `slices` (all of one length; the
 /// last chunk may be short), `parts` the chunk of each slice; spread as [`for_each`] spreads
 /// them.
@@ -489,6 +523,46 @@ mod tests {
             .num_threads(threads)
             .build()
             .unwrap()
+    }
+
+    /// Each item gets its own run of the slices, whatever thread takes it; elements between
+    /// runs are left alone.
+    #[test]
+    fn runs_go_each_to_their_item() {
+        let runs = [0..2, 2..5, 5..5, 7..10];
+        let mut items = vec![0usize; runs.len()];
+        let (mut a, mut b) = (vec![-1i64; 10], vec![-1i64; 10]);
+        pool(2).install(|| {
+            run(|| {
+                for_each_mut_with_runs(
+                    &mut items,
+                    [&mut a[..], &mut b[..]],
+                    &|i| runs[i].clone(),
+                    &|i, item, [a, b]| {
+                        *item = a.len();
+                        a.fill(i as i64);
+                        b.fill(10 * i as i64);
+                    },
+                )
+            })
+        });
+        assert_eq!(items, [2, 3, 0, 3]);
+        assert_eq!(a, [0, 0, 1, 1, 1, -1, -1, 3, 3, 3]);
+        assert_eq!(b, [0, 0, 10, 10, 10, -1, -1, 30, 30, 30]);
+    }
+
+    /// Runs that overlap would lend an element twice: refused.
+    #[test]
+    #[should_panic]
+    fn overlapping_runs_are_refused() {
+        let runs = [0..3, 2..4];
+        let mut a = [0.0; 4];
+        for_each_mut_with_runs(
+            &mut [(), ()],
+            [&mut a[..]],
+            &|i| runs[i].clone(),
+            &|_, _, _| {},
+        );
     }
 
     /// Every item of every loop runs exactly once, on any number of threads (more than this

@@ -193,26 +193,28 @@ impl BroadPhase {
                 *path += step;
             }
         }
-        // (On the team: a serial copy of every position was a tenth of a pass on 2 threads.)
-        let size = crate::compute::team::chunk_size(p[0].len(), 4096);
-        let [x, y, z] = self.refreshed_at.each_mut().map(|c| &mut c[..]);
-        crate::compute::team::for_each_chunk([x, y, z], size, &|i, parts| {
-            for (then, now) in parts.into_iter().zip(p) {
-                let start = i * size;
-                then.copy_from_slice(&now[start..start + then.len()]);
-            }
-        });
         sorted
     }
 
-    /// [`BroadPhase::refresh`] but the paths.
+    /// [`BroadPhase::refresh`] but the paths' growth (each body's step is found here, and the
+    /// positions kept for the next).
     fn refresh_grid(&mut self, model: &Model, p: [&[f64]; 3], margin: f64) -> bool {
         let bodies = model.bodies();
-        let (at, last) = (&self.sorted_at, &self.refreshed_at);
-        if self.sorted_margin.is_some() {
-            crate::compute::team::for_each_mut(&mut self.moves, &|b, moves| {
-                *moves = most_moved(p, [at, last], bodies[b].points());
-            });
+        let refreshed = self.sorted_margin.is_some();
+        // Each body's points' moves, and their positions kept, in one pass on the team (a
+        // serial copy of every position after was a tenth of a pass on 2 threads).
+        let at = &self.sorted_at;
+        let [x, y, z] = self.refreshed_at.each_mut().map(|c| &mut c[..]);
+        crate::compute::team::for_each_mut_with_runs(
+            &mut self.moves,
+            [x, y, z],
+            &|b| bodies[b].points(),
+            &|b, moves, mut kept| {
+                let found = moves_and_keep(p, at, &mut kept, bodies[b].points());
+                *moves = if refreshed { found } else { [0.0; 2] };
+            },
+        );
+        if refreshed {
             for ((moves, moved), stepped) in self
                 .moves
                 .iter()
@@ -544,42 +546,48 @@ pub(crate) fn visit(
     [quiet, room]
 }
 
-/// How far (along any axis) the farthest of `points` is at `p` from where it was at each of
-/// `then` (infinite when a position is not a number). In lanes the compiler keeps in vector
-/// registers: a maximum taken point after point waits on the one before (a fifth of the contact
-/// pass of fifty shapes falling into a box went here); the largest is the same whatever the
-/// order.
-fn most_moved<const N: usize>(
+/// How far (along any axis) the farthest of `points` is at `p` from where it was at `at`, and
+/// from where it was in `kept` (each infinite when a position is not a number); `kept` (one
+/// position per point of `points`) is then set to `p`. In lanes the
+/// compiler keeps in vector registers: a maximum taken point after point waits on the one
+/// before (a fifth of the contact pass of fifty shapes falling into a box went here); the
+/// largest is the same whatever the order.
+fn moves_and_keep(
     p: [&[f64]; 3],
-    then: [&[Vec<f64>; 3]; N],
+    at: &[Vec<f64>; 3],
+    kept: &mut [&mut [f64]; 3],
     points: std::ops::Range<usize>,
-) -> [f64; N] {
+) -> [f64; 2] {
     const LANES: usize = 8;
-    let (mut most, mut not_a_number) = ([[0.0f64; LANES]; N], [false; N]);
-    for (n, at) in then.iter().enumerate() {
-        let (most, not_a_number) = (&mut most[n], &mut not_a_number[n]);
-        let mut nan = [false; LANES];
-        let mut lane = |l: usize, d: f64| {
-            // `d > most` is false for a NaN, which `nan` keeps instead.
-            most[l] = if d > most[l] { d } else { most[l] };
-            nan[l] |= d.is_nan();
-        };
-        for (now, then) in p.iter().zip(at.iter()) {
-            let (now, then) = (&now[points.clone()], &then[points.clone()]);
-            let (mut now8, mut then8) = (now.chunks_exact(LANES), then.chunks_exact(LANES));
-            for (x, x0) in (&mut now8).zip(&mut then8) {
-                for l in 0..LANES {
-                    lane(l, (x[l] - x0[l]).abs());
-                }
-            }
-            for (l, (x, x0)) in now8.remainder().iter().zip(then8.remainder()).enumerate() {
-                lane(l, (x - x0).abs());
+    let (mut most, mut not_a_number) = ([[0.0f64; LANES]; 2], [[false; LANES]; 2]);
+    let mut lane = |n: usize, l: usize, d: f64| {
+        // `d > most` is false for a NaN, which `not_a_number` keeps instead.
+        most[n][l] = if d > most[n][l] { d } else { most[n][l] };
+        not_a_number[n][l] |= d.is_nan();
+    };
+    for ((now, then), kept) in p.iter().zip(at).zip(kept.iter_mut()) {
+        let (now, then) = (&now[points.clone()], &then[points.clone()]);
+        let mut now8 = now.chunks_exact(LANES);
+        let mut then8 = then.chunks_exact(LANES);
+        let mut kept8 = kept.chunks_exact_mut(LANES);
+        for ((x, x0), xk) in (&mut now8).zip(&mut then8).zip(&mut kept8) {
+            for l in 0..LANES {
+                lane(0, l, (x[l] - x0[l]).abs());
+                lane(1, l, (x[l] - xk[l]).abs());
+                xk[l] = x[l];
             }
         }
-        *not_a_number = nan.contains(&true);
+        let rest = (now8.remainder().iter())
+            .zip(then8.remainder())
+            .zip(kept8.into_remainder());
+        for (l, ((x, x0), xk)) in rest.enumerate() {
+            lane(0, l, (x - x0).abs());
+            lane(1, l, (x - *xk).abs());
+            *xk = *x;
+        }
     }
-    std::array::from_fn(|n| {
-        if not_a_number[n] {
+    [0, 1].map(|n| {
+        if not_a_number[n].contains(&true) {
             f64::INFINITY
         } else {
             most[n].into_iter().fold(0.0, f64::max)
