@@ -548,10 +548,10 @@ pub(crate) fn visit(
 
 /// How far (along any axis) the farthest of `points` is at `p` from where it was at `at`, and
 /// from where it was in `kept` (each infinite when a position is not a number); `kept` (one
-/// position per point of `points`) is then set to `p`. In lanes the
-/// compiler keeps in vector registers: a maximum taken point after point waits on the one
-/// before (a fifth of the contact pass of fifty shapes falling into a box went here); the
-/// largest is the same whatever the order.
+/// position per point of `points`) is then set to `p`. In lanes the compiler keeps in vector
+/// registers: a maximum taken point after point waits on the one before (a fifth of the contact
+/// pass of fifty shapes falling into a box went here); the largest is the same whatever the
+/// order.
 fn moves_and_keep(
     p: [&[f64]; 3],
     at: &[Vec<f64>; 3],
