@@ -49,7 +49,7 @@
 //! fraction of a millimetre from a surface in a pile that still stirs would be placed at every
 //! pass. So it also keeps how far its body and its cells' bodies may move from where they were
 //! when it was placed, as a mark on its body's path (`SampleChunk::calm`, see
-//! [`BroadPhase::path`]: the sum of each pass's largest move of the body and of its
+//! `BroadPhase::path`: the sum of each pass's largest move of the body and of its
 //! neighbours'), and is not placed until the path passes the mark. Skipped so, they would have
 //! given no touch: the forces are those of looking at every cell, bit for bit (a settled pile of
 //! fifty shapes: 2.5× less time in contact from the distances since the sort, 1.3–1.5× less
