@@ -110,15 +110,10 @@ pub(crate) struct BroadPhase {
     /// Per body: how far (along any axis) each of its points may move before the grid is
     /// sorted again (its reach, or more for a body near no other).
     allowed: Vec<f64>,
-    /// Per body: how far (along any axis) its points have moved since the last sort, at most
-    /// (as of the last [`BroadPhase::refresh`]).
-    moved: Vec<f64>,
-    /// The points' positions at the last [`BroadPhase::refresh`], and per body how far (along
-    /// any axis) its points moved from there to the positions of the refresh after it, at most.
+    /// Per body: how far its points have moved, as of the last [`BroadPhase::refresh`].
+    moves: Vec<Moves>,
+    /// The points' positions at the last [`BroadPhase::refresh`].
     refreshed_at: [Vec<f64>; 3],
-    stepped: Vec<f64>,
-    /// Per body: its `moved` and `stepped`, as the team found them.
-    moves: Vec<[f64; 2]>,
     /// Per body `a`: the sum, over the refreshes, of how far its points and those of the bodies
     /// its samples may touch moved from one to the next (`a`'s step and the largest of its
     /// neighbours'). A point of `a` and a point of a neighbour have moved, together, at most the
@@ -166,10 +161,8 @@ impl BroadPhase {
             reach: vec![0.0; model.bodies().len()],
             farthest: vec![0.0; model.bodies().len()],
             allowed: vec![0.0; model.bodies().len()],
-            moved: vec![0.0; model.bodies().len()],
+            moves: vec![Moves::default(); model.bodies().len()],
             refreshed_at: [0; 3].map(|_| vec![0.0; model.point_count()]),
-            stepped: vec![0.0; model.bodies().len()],
-            moves: vec![[0.0; 2]; model.bodies().len()],
             path: vec![0.0; model.bodies().len()],
         }
     }
@@ -186,9 +179,10 @@ impl BroadPhase {
         // (positions, now or at the last refresh, that are not) adds nothing: it sorted the grid
         // (the points moved from the sort's positions by as much), which forgets every path.
         for (a, path) in self.path.iter_mut().enumerate() {
+            let stepped = |b: usize| self.moves[b].since_refresh;
             let near =
-                (self.neighbours[a].iter()).fold(0.0, |m: f64, &b| m.max(self.stepped[b as usize]));
-            let step = self.stepped[a] + near;
+                (self.neighbours[a].iter()).fold(0.0, |m: f64, &b| m.max(stepped(b as usize)));
+            let step = stepped(a) + near;
             if step.is_finite() {
                 *path += step;
             }
@@ -211,38 +205,30 @@ impl BroadPhase {
             &|b| bodies[b].points(),
             &|b, moves, mut kept| {
                 let found = moves_and_keep(p, at, &mut kept, bodies[b].points());
-                *moves = if refreshed { found } else { [0.0; 2] };
+                *moves = if refreshed { found } else { Moves::default() };
             },
         );
-        if refreshed {
-            for ((moves, moved), stepped) in self
-                .moves
-                .iter()
-                .zip(&mut self.moved)
-                .zip(&mut self.stepped)
-            {
-                [*moved, *stepped] = *moves;
-            }
-        }
         match self.sorted_margin {
             Some(sorted)
                 if sorted >= margin
-                    && (self.moved.iter().zip(&self.allowed))
-                        .all(|(&moved, &allowed)| moved <= allowed) =>
+                    && (self.moves.iter().zip(&self.allowed))
+                        .all(|(moves, &allowed)| moves.since_sort <= allowed) =>
             {
                 return false
             }
             // The reaches from how far each body moved since the last sort.
             Some(_) => {
-                for (&most, reach) in self.moved.iter().zip(&mut self.reach) {
-                    *reach = (REACH_PER_MOVE * most)
+                for (moves, reach) in self.moves.iter().zip(&mut self.reach) {
+                    *reach = (REACH_PER_MOVE * moves.since_sort)
                         .min(MAX_REACH * self.cell)
                         .max(MIN_REACH * self.cell);
                 }
             }
             None => self.reach.fill(MIN_REACH * self.cell),
         }
-        self.moved.fill(0.0);
+        for moves in &mut self.moves {
+            moves.since_sort = 0.0;
+        }
         self.sort(model, p, margin);
         for (at, now) in self.sorted_at.iter_mut().zip(p) {
             at.copy_from_slice(now);
@@ -405,7 +391,7 @@ impl BroadPhase {
     /// of the last [`BroadPhase::refresh`]).
     #[inline]
     pub(crate) fn moved(&self, b: usize) -> f64 {
-        self.moved[b]
+        self.moves[b].since_sort
     }
 
     /// Body `a`'s path (m; see the module's notes) as of the last [`BroadPhase::refresh`]: a
@@ -522,7 +508,7 @@ pub(crate) fn visit(
 ) -> [f64; 2] {
     let (mut quiet, mut room) = (f64::INFINITY, f64::INFINITY);
     for (k, c) in cells.iter().enumerate() {
-        let since = moved + grid.moved[c.body as usize];
+        let since = moved + grid.moved(c.body as usize);
         if c.clear > since {
             quiet = quiet.min(c.clear);
             room = room.min(c.clear - since);
@@ -557,7 +543,7 @@ fn moves_and_keep(
     at: &[Vec<f64>; 3],
     kept: &mut [&mut [f64]; 3],
     points: std::ops::Range<usize>,
-) -> [f64; 2] {
+) -> Moves {
     const LANES: usize = 8;
     let (mut most, mut not_a_number) = ([[0.0f64; LANES]; 2], [[false; LANES]; 2]);
     let mut lane = |n: usize, l: usize, d: f64| {
@@ -586,13 +572,25 @@ fn moves_and_keep(
             *xk = *x;
         }
     }
-    [0, 1].map(|n| {
+    let [since_sort, since_refresh] = [0, 1].map(|n| {
         if not_a_number[n].contains(&true) {
             f64::INFINITY
         } else {
             most[n].into_iter().fold(0.0, f64::max)
         }
-    })
+    });
+    Moves {
+        since_sort,
+        since_refresh,
+    }
+}
+
+/// How far (along any axis) a body's points have moved at most, since the last sort and since
+/// the refresh before the last.
+#[derive(Clone, Copy, Debug, Default)]
+struct Moves {
+    since_sort: f64,
+    since_refresh: f64,
 }
 
 /// A box holding nothing.
