@@ -37,6 +37,10 @@
 //! every cell by some distance is passed over until the path has grown that far (see
 //! [`crate::contact::bodies`]): in a pile that still stirs, each pass moves the bodies a few
 //! micrometres, while their points have moved since the sort nearly as far as their reach.
+//! Each body's own part of it (the sum of its steps, its *travel*) is kept too: a point of `a`
+//! and one of `b` have moved, together, no further than the growth of the two travels. A point
+//! whose cells are all of one body waits on that: its body's path adds the largest step of
+//! every neighbour, and the fastest of them, falling onto a pile, may be far from it.
 //!
 //! The cells looked at for a point are a superset of those a fresh sort gives that may hold it,
 //! in the same order, and a point's contact is decided by the first of them (in that order)
@@ -119,6 +123,10 @@ pub(crate) struct BroadPhase {
     /// neighbours'). A point of `a` and a point of a neighbour have moved, together, at most the
     /// growth of this since any earlier refresh of the same sort: see [`BroadPhase::path`].
     path: Vec<f64>,
+    /// Per body: the sum, over the refreshes, of how far its points moved from one to the
+    /// next (its own part of the paths): a point of `a` and a point of `b` have moved, together,
+    /// at most the growth of `travel[a] + travel[b]` since any earlier refresh of the same sort.
+    travel: Vec<f64>,
 }
 
 impl BroadPhase {
@@ -164,6 +172,7 @@ impl BroadPhase {
             moves: vec![Moves::default(); model.bodies().len()],
             refreshed_at: [0; 3].map(|_| vec![0.0; model.point_count()]),
             path: vec![0.0; model.bodies().len()],
+            travel: vec![0.0; model.bodies().len()],
         }
     }
 
@@ -185,6 +194,7 @@ impl BroadPhase {
             let step = stepped(a) + near;
             if step.is_finite() {
                 *path += step;
+                self.travel[a] += stepped(a);
             }
         }
         sorted
@@ -401,6 +411,16 @@ impl BroadPhase {
     #[inline]
     pub(crate) fn path(&self, a: usize) -> f64 {
         self.path[a]
+    }
+
+    /// The path of bodies `a` and `b` together (m) as of the last [`BroadPhase::refresh`]: a
+    /// point of `a` and a point of `b` have moved, together (each along any axis), from where
+    /// they were at an earlier refresh since the last sort, at most its growth since then. It
+    /// grows no faster than `a`'s path where `b` is one of `a`'s neighbours, and slower where a
+    /// faster body is.
+    #[inline]
+    pub(crate) fn pair_path(&self, a: usize, b: usize) -> f64 {
+        self.travel[a] + self.travel[b]
     }
 
     /// Body `a`'s reach at the last sort (m; see the module's notes).
