@@ -2,11 +2,12 @@
 //! points as they are now) and which bodies' boxes meet: a body near no other is passed over
 //! whole, and a surface point outside every neighbour's box is not looked up. Then the kept
 //! cells that meet a neighbour's box, as they are deformed now, sorted into a hashed uniform grid
-//! by the grid cells their bounding boxes overlap (a counting sort, in the order of the bodies
-//! and their cells), so that a point finds the few cells it may be inside by looking in its own
-//! grid cell. Buffers are sized once (and grow only for a cell stretched over more grid cells
-//! than was room for); the sort and the visits run in a fixed order, so the forces summed over
-//! them are bit for bit the same whatever the thread count.
+//! by the grid cells their bounding boxes overlap (a counting sort on the team's threads, each
+//! bucket in the order of the bodies and their cells), so that a point finds the few cells it
+//! may be inside by looking in its own grid cell. Buffers are sized once (and grow only for a
+//! cell stretched over more grid cells than was room for); the sort and the visits run in a
+//! fixed order, so the forces summed over them are bit for bit the same whatever the thread
+//! count.
 //!
 //! **Reuse.** A sort is kept while no point of a body `b` has moved further than its reach
 //! `d_b` along any axis since it (`BroadPhase::refresh`). A cell of body `B` is sorted with its
@@ -87,9 +88,10 @@ pub(crate) struct BroadPhase {
     placed: Vec<([[i32; 3]; 2], [Vec3; 2])>,
     /// Bucket starts of the hashed grid (`buckets + 1` entries).
     starts: Vec<u32>,
+    /// The sort's counts per bucket, a row for each thread's run of cells (a buffer).
+    counts: Vec<u32>,
     /// Cells sorted by bucket (as indices of `cell_body`), with the grid cell each entry is for.
-    entries: Vec<u32>,
-    entry_keys: Vec<[i32; 3]>,
+    entries: Vec<(u32, [i32; 3])>,
     /// Each entry's cell's body, beside it, so that a body's own cells are passed over unread.
     entry_bodies: Vec<u32>,
     /// Side of a grid cell (m).
@@ -152,8 +154,8 @@ impl BroadPhase {
             cell_corner,
             placed: vec![([[0; 3], [-1; 3]], EMPTY); cells],
             starts: vec![0; buckets + 1],
+            counts: Vec::new(),
             entries: Vec::with_capacity(ROOM_PER_CELL * cells),
-            entry_keys: Vec::with_capacity(ROOM_PER_CELL * cells),
             entry_bodies: Vec::with_capacity(ROOM_PER_CELL * cells),
             cell: if side > 0.0 { side } else { 1.0 },
             side: if side > 0.0 { GRID * side } else { 1.0 },
@@ -335,38 +337,26 @@ impl BroadPhase {
                 *placed = place(i * size + k).unwrap_or(([[0; 3], [-1; 3]], EMPTY));
             }
         });
-        self.starts.fill(0);
-        let mut total = 0;
-        for &(span, _) in &self.placed {
-            for_each_key(span, |key| {
-                self.starts[hash(key) & mask] += 1;
-                total += 1;
-            });
-        }
-        // Starts by a prefix sum; then each cell into the buckets of its span, in order.
-        let mut sum = 0;
-        for s in self.starts.iter_mut() {
-            let count = *s;
-            *s = sum;
-            sum += count;
-        }
-        self.entries.resize(total, 0);
-        self.entry_keys.resize(total, [0; 3]);
-        self.entry_bodies.resize(total, 0);
-        for (g, &(span, _)) in self.placed.iter().enumerate() {
-            for_each_key(span, |key| {
-                let slot = &mut self.starts[hash(key) & mask];
-                let e = *slot as usize;
-                (self.entries[e], self.entry_keys[e]) = (g as u32, key);
-                self.entry_bodies[e] = self.cell_body[g];
-                *slot += 1;
-            });
-        }
-        // Each bucket's start is now the next one's; shift back.
-        for b in (1..self.starts.len()).rev() {
-            self.starts[b] = self.starts[b - 1];
-        }
-        self.starts[0] = 0;
+        // Each cell into the buckets of its span, in order, on the team; each entry's body
+        // beside it.
+        let placed = &self.placed;
+        let keys =
+            |g: usize| keys_in(placed[g].0).map(move |key| (hash(key) & mask, (g as u32, key)));
+        crate::compute::team::bucket_sort(
+            placed.len(),
+            &keys,
+            &mut self.starts,
+            &mut self.counts,
+            &mut self.entries,
+        );
+        self.entry_bodies.resize(self.entries.len(), 0);
+        let (entries, cell_body) = (&self.entries, &self.cell_body);
+        let size = crate::compute::team::chunk_size(entries.len(), 4096);
+        crate::compute::team::for_each_chunk([&mut self.entry_bodies[..]], size, &|i, [part]| {
+            for (k, body) in part.iter_mut().enumerate() {
+                *body = cell_body[entries[i * size + k].0 as usize];
+            }
+        });
     }
 
     /// How many times the grid has been sorted.
@@ -480,7 +470,7 @@ impl BroadPhase {
             p + Vec3::new(reach, reach, reach),
         );
         for e in (start..first).chain(last..end) {
-            let (g, k) = (self.entries[e], self.entry_keys[e]);
+            let (g, k) = self.entries[e];
             let [lo, hi] = self.placed[g as usize].1;
             let inside = p_hi.x >= lo.x && p_lo.x <= hi.x && p_hi.y >= lo.y && p_lo.y <= hi.y;
             if k != key || !(inside && p_hi.z >= lo.z && p_lo.z <= hi.z) {
@@ -638,16 +628,12 @@ fn separation([alo, ahi]: [Vec3; 2], [blo, bhi]: [Vec3; 2]) -> f64 {
     apart.x.max(apart.y).max(apart.z)
 }
 
-/// Calls `f` with every grid cell of `span` (inclusive), x outermost.
+/// Every grid cell of `span` (inclusive), x outermost.
 #[inline]
-fn for_each_key([lo, hi]: [[i32; 3]; 2], mut f: impl FnMut([i32; 3])) {
-    for x in lo[0]..=hi[0] {
-        for y in lo[1]..=hi[1] {
-            for z in lo[2]..=hi[2] {
-                f([x, y, z]);
-            }
-        }
-    }
+fn keys_in([lo, hi]: [[i32; 3]; 2]) -> impl Iterator<Item = [i32; 3]> {
+    (lo[0]..=hi[0]).flat_map(move |x| {
+        (lo[1]..=hi[1]).flat_map(move |y| (lo[2]..=hi[2]).map(move |z| [x, y, z]))
+    })
 }
 
 /// A hash of a grid cell (the three large primes of Teschner et al. 2003).
