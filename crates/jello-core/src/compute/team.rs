@@ -479,23 +479,28 @@ pub fn for_each_chunk_into<T: Send, R: Send, const K: usize>(
 /// Items, fewer than this per thread, are sorted by bucket on one thread ([`bucket_sort`]).
 const SORTED_PER_RANGE: usize = 2048;
 
-/// A counting sort on the team: `entries(i)` gives item `i`'s entries, each with its bucket
-/// (below `starts.len() − 1`), the same ones in the same order at each call; into `out`, so
-/// that `out[starts[b]..starts[b + 1]]` are bucket `b`'s entries in the items' order, whatever
-/// the thread count. The items are cut into one run per thread; each counts its entries per
-/// bucket into its own row of `counts` (a buffer, grown as needed), the rows' prefix sum gives
-/// each run its slots in each bucket after the runs before it, and each run writes its entries
-/// there.
-pub fn bucket_sort<E, I>(
+/// Items that [`bucket_sort`] sorts: each with its entries, each entry in a bucket.
+pub trait Bucketed: Sync {
+    type Entry: Copy + Default + Send + Sync;
+
+    /// Calls `emit(bucket, entry)` for each entry of item `i`, the same ones in the same order
+    /// at each call.
+    fn entries(&self, i: usize, emit: impl FnMut(usize, Self::Entry));
+}
+
+/// A counting sort on the team of `sorted`'s items `0..items`' entries into `out`, so that
+/// `out[starts[b]..starts[b + 1]]` are bucket `b`'s entries (buckets below `starts.len() − 1`)
+/// in the items' order, whatever the thread count. The items are cut into one run per thread;
+/// each counts its entries per bucket into its own row of `counts` (a buffer, grown as needed),
+/// the rows' prefix sum gives each run its slots in each bucket after the runs before it, and
+/// each run writes its entries there.
+pub fn bucket_sort<B: Bucketed>(
     items: usize,
-    entries: &(impl Fn(usize) -> I + Sync),
+    sorted: &B,
     starts: &mut [u32],
     counts: &mut Vec<u32>,
-    out: &mut Vec<E>,
-) where
-    E: Copy + Default + Send + Sync,
-    I: Iterator<Item = (usize, E)>,
-{
+    out: &mut Vec<B::Entry>,
+) {
     let buckets = starts.len() - 1;
     let runs = threads().min(items.div_ceil(SORTED_PER_RANGE)).max(1);
     let run = |r: usize| r * items / runs..(r + 1) * items / runs;
@@ -506,9 +511,7 @@ pub fn bucket_sort<E, I>(
     for_each_chunk([&mut counts[..]], buckets, &|r, [row]| {
         row.fill(0);
         for i in run(r) {
-            for (b, _) in entries(i) {
-                row[b] += 1;
-            }
+            sorted.entries(i, |b, _| row[b] += 1);
         }
     });
     // Each run's slot in each bucket: after the bucket's entries of the runs before it.
@@ -522,18 +525,18 @@ pub fn bucket_sort<E, I>(
         }
     }
     starts[buckets] = sum;
-    out.resize(sum as usize, E::default());
+    out.resize(sum as usize, B::Entry::default());
     let slots = Base(out.as_mut_ptr());
     for_each_chunk([&mut counts[..]], buckets, &|r, [next]| {
         for i in run(r) {
-            for (b, entry) in entries(i) {
+            sorted.entries(i, |b, entry| {
                 let slot = next[b] as usize;
                 next[b] += 1;
                 // SAFETY: the runs' slots in each bucket are disjoint ranges of `out` (the
                 // prefix sum above, of the counts of the same entries), each written once;
                 // `out` is borrowed mutably for the whole loop.
                 unsafe { *slots.at(slot) = entry };
-            }
+            });
         }
     });
 }
@@ -618,18 +621,24 @@ mod tests {
     #[test]
     fn bucket_sort_keeps_the_items_order_in_each_bucket() {
         // Item i has entries in buckets i² mod 7 .. (i mod 3) more, each entry (i, k).
+        struct Squares;
+        impl Bucketed for Squares {
+            type Entry = (usize, usize);
+            fn entries(&self, i: usize, mut emit: impl FnMut(usize, (usize, usize))) {
+                for k in 0..=i % 3 {
+                    emit((i * i + k) % 7, (i, k));
+                }
+            }
+        }
         let items = 5 * SORTED_PER_RANGE + 3;
-        let entries = |i: usize| (0..=i % 3).map(move |k| ((i * i + k) % 7, (i, k)));
         let mut want = vec![Vec::new(); 7];
         for i in 0..items {
-            for (b, e) in entries(i) {
-                want[b].push(e);
-            }
+            Squares.entries(i, |b, e| want[b].push(e));
         }
         for threads in [1, 2, 3] {
             let (mut starts, mut counts, mut out) = (vec![0u32; 8], Vec::new(), Vec::new());
             pool(threads).install(|| {
-                run(|| bucket_sort(items, &entries, &mut starts, &mut counts, &mut out))
+                run(|| bucket_sort(items, &Squares, &mut starts, &mut counts, &mut out))
             });
             for (b, want) in want.iter().enumerate() {
                 let got = &out[starts[b] as usize..starts[b + 1] as usize];

@@ -339,12 +339,13 @@ impl BroadPhase {
         });
         // Each cell into the buckets of its span, in order, on the team; each entry's body
         // beside it.
-        let placed = &self.placed;
-        let keys =
-            |g: usize| keys_in(placed[g].0).map(move |key| (hash(key) & mask, (g as u32, key)));
+        let cells = CellKeys {
+            placed: &self.placed,
+            mask,
+        };
         crate::compute::team::bucket_sort(
-            placed.len(),
-            &keys,
+            self.placed.len(),
+            &cells,
             &mut self.starts,
             &mut self.counts,
             &mut self.entries,
@@ -628,12 +629,27 @@ fn separation([alo, ahi]: [Vec3; 2], [blo, bhi]: [Vec3; 2]) -> f64 {
     apart.x.max(apart.y).max(apart.z)
 }
 
-/// Every grid cell of `span` (inclusive), x outermost.
-#[inline]
-fn keys_in([lo, hi]: [[i32; 3]; 2]) -> impl Iterator<Item = [i32; 3]> {
-    (lo[0]..=hi[0]).flat_map(move |x| {
-        (lo[1]..=hi[1]).flat_map(move |y| (lo[2]..=hi[2]).map(move |z| [x, y, z]))
-    })
+/// The cells as the grid's sort has them: each entered in the buckets of the grid cells its
+/// span overlaps (`mask` the buckets less one), as its index and the grid cell, x outermost.
+struct CellKeys<'a> {
+    placed: &'a [([[i32; 3]; 2], [Vec3; 2])],
+    mask: usize,
+}
+
+impl crate::compute::team::Bucketed for CellKeys<'_> {
+    type Entry = (u32, [i32; 3]);
+
+    #[inline]
+    fn entries(&self, g: usize, mut emit: impl FnMut(usize, (u32, [i32; 3]))) {
+        let [lo, hi] = self.placed[g].0;
+        for x in lo[0]..=hi[0] {
+            for y in lo[1]..=hi[1] {
+                for z in lo[2]..=hi[2] {
+                    emit(hash([x, y, z]) & self.mask, (g as u32, [x, y, z]));
+                }
+            }
+        }
+    }
 }
 
 /// A hash of a grid cell (the three large primes of Teschner et al. 2003).
