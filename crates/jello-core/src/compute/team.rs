@@ -476,7 +476,8 @@ pub fn for_each_chunk_into<T: Send, R: Send, const K: usize>(
     });
 }
 
-/// Items, fewer than this per thread, are sorted by bucket on one thread ([`bucket_sort`]).
+/// The least items of a thread's run in [`bucket_sort`] (fewer items in all run on fewer
+/// threads): a run costs a row of counts as long as the buckets.
 const SORTED_PER_RANGE: usize = 2048;
 
 /// Items that [`bucket_sort`] sorts: each with its entries, each entry in a bucket.
