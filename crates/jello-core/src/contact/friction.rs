@@ -349,32 +349,38 @@ impl Anchors {
         if self.at.is_empty() {
             return;
         }
+        // Each point's anchor on its own: on the team's threads, in chunks of points.
+        let size = crate::compute::team::chunk_size(self.points, 4096);
         for (slot, surface) in anchored_surfaces(model).enumerate() {
             let mu = surface.friction(model);
             let anchors = &mut self.at[slot * self.points..(slot + 1) * self.points];
-            for (i, (anchor, &p)) in anchors.iter_mut().zip(pos).enumerate() {
-                // Most points are far from most walls: a coordinate's test first.
-                let contact = if surface.may_touch(model, p) {
-                    surface.contact_of(model, i, p)
-                } else {
-                    None
-                };
-                let Some(contact) = contact else {
-                    *anchor = NONE;
-                    continue;
-                };
-                if anchor.x.is_nan() {
-                    *anchor = p;
-                    continue;
+            crate::compute::team::for_each_chunk([anchors], size, &|c, [anchors]| {
+                let first = c * size;
+                let pos = &pos[first..first + anchors.len()];
+                for (k, (anchor, &p)) in anchors.iter_mut().zip(pos).enumerate() {
+                    // Most points are far from most walls: a coordinate's test first.
+                    let contact = if surface.may_touch(model, p) {
+                        surface.contact_of(model, first + k, p)
+                    } else {
+                        None
+                    };
+                    let Some(contact) = contact else {
+                        *anchor = NONE;
+                        continue;
+                    };
+                    if anchor.x.is_nan() {
+                        *anchor = p;
+                        continue;
+                    }
+                    let n = contact.normal;
+                    let offset = p - *anchor;
+                    let offset_t = offset - n * offset.dot(n);
+                    let (length, reach) = (offset_t.length(), mu * contact.depth);
+                    if length > reach {
+                        *anchor = p - offset_t * (reach / length);
+                    }
                 }
-                let n = contact.normal;
-                let offset = p - *anchor;
-                let offset_t = offset - n * offset.dot(n);
-                let (length, reach) = (offset_t.length(), mu * contact.depth);
-                if length > reach {
-                    *anchor = p - offset_t * (reach / length);
-                }
-            }
+            });
         }
     }
 }
