@@ -1070,6 +1070,14 @@ mod tests {
         }
     }
 
+    /// A model builder for bodies in a box far larger than they are (its walls touch none),
+    /// with collision stiffness 400 N/m and damping 0.3.
+    fn open_box() -> ModelBuilder {
+        ModelBuilder::new()
+            .bounds(Aabb::new(Vec3::new(-9.0, -9.0, -9.0), Vec3::new(9.0, 9.0, 9.0)).unwrap())
+            .collision(400.0, 0.3)
+    }
+
     /// Every touch by a search over every kept cell of every other body, in the cells' order,
     /// the first cell that holds a sample inside its body's surface deciding (one that holds it
     /// outside passes the search on to the next body): the forces the grid's visits must give.
@@ -1170,12 +1178,7 @@ mod tests {
             Body::lattice_box(lattice.clone(), Material::classic())
                 .placed(Vec3::new(x, 0.05 * x, 0.0), IDENTITY)
         });
-        let model = ModelBuilder::new()
-            .bodies(bodies.to_vec())
-            .bounds(Aabb::new(Vec3::new(-9.0, -9.0, -9.0), Vec3::new(9.0, 9.0, 9.0)).unwrap())
-            .collision(400.0, 0.3)
-            .build()
-            .unwrap();
+        let model = open_box().bodies(bodies.to_vec()).build().unwrap();
         let mut pos = State::at_rest(&model).pos;
         let vel = vec![Vec3::ZERO; pos.len()];
         let mut contacts = Contacts::new(&model);
@@ -1326,13 +1329,7 @@ mod tests {
                     Body::lattice_box(lattice, Material::classic()).placed(at, IDENTITY)
                 })
                 .collect();
-            let model = ModelBuilder::new()
-                .bodies(bodies)
-                .bounds(Aabb::new(Vec3::new(-9.0, -9.0, -9.0), Vec3::new(9.0, 9.0, 9.0)).unwrap())
-                .collision(400.0, 0.3)
-                .friction(0.5)
-                .build()
-                .unwrap();
+            let model = open_box().bodies(bodies).friction(0.5).build().unwrap();
             let mut pos = State::at_rest(&model).pos;
             let vel: Vec<Vec3> = pos
                 .iter()
@@ -1388,10 +1385,8 @@ mod tests {
                     body.placed(at, IDENTITY)
                 })
                 .collect();
-            let model = ModelBuilder::new()
+            let model = open_box()
                 .bodies(bodies)
-                .bounds(Aabb::new(Vec3::new(-9.0, -9.0, -9.0), Vec3::new(9.0, 9.0, 9.0)).unwrap())
-                .collision(400.0, 0.3)
                 .friction(if scene % 2 == 0 { 0.5 } else { 0.0 })
                 .self_contact(scene % 3 == 1)
                 .build()
