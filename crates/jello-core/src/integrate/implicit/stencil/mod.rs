@@ -18,11 +18,12 @@
 //! each end cost the 16³ benchmark at 1/60 s 10–15 % more per step (blocks do not fit in L2),
 //! and the writes stay contiguous, where a loop over springs scatters them.
 //!
-//! The same slots hold each spring's rest length, stiffness, damping and direction at the step's
-//! start, from which the blocks are assembled at every Newton iteration, and the dampers' force
-//! of every residual is the same product over a second layer (`u·(d·(u·Δv))` a spring): loops
-//! over contiguous runs of slots that vectorise, where the loops over springs they replace
-//! gathered and scattered by index.
+//! The same slots hold each spring's rest length, stiffness, damping and damper factor at the
+//! step's start (`d/|L₀|²`, so that its damper `d·u₀u₀ᵀ` is `c·L₀L₀ᵀ`, `L₀` computed from the
+//! start positions where needed), from which the blocks are assembled at every Newton iteration,
+//! and the dampers' force of every residual is the same product over a second layer
+//! (`L₀·(c·(L₀·Δv))` a spring): loops over contiguous runs of slots that vectorise, where the
+//! loops over springs they replace gathered and scattered by index.
 //!
 //! The blocks are also kept rounded to single precision, and the products of the solves to the
 //! usual reductions (1e-2) are computed in it (`f32`, without fused multiply-adds, so the same
@@ -44,8 +45,7 @@ mod tests;
 pub(super) use level::LevelStencil;
 
 use kernels::{
-    damper_forces, rows, spring_blocks, spring_directions, spring_forces, spring_forces_single,
-    Lane,
+    damper_factors, damper_forces, rows, spring_blocks, spring_forces, spring_forces_single, Lane,
 };
 
 use super::sym::{sym_mul, Sym};
@@ -106,13 +106,17 @@ pub(super) struct SpringMatrix {
     /// rounded to single precision (see the module documentation).
     blocks: [Vec<f64>; 6],
     blocks_single: [Vec<f32>; 6],
-    /// The springs' dampers by the same slots: the direction `u` (three components) at the
-    /// step's start and the damping `d` of the block `d·uuᵀ`, kept apart so that the dampers'
-    /// force is computed as the force routine computes it, `u·(d·(u·Δv))`.
-    dampers: [Vec<f64>; 4],
-    /// The springs' rest lengths and stiffnesses by the same slots (0 where there is none).
+    /// The springs' rest lengths, stiffnesses and dampings by the same slots (0 where there is
+    /// none).
     rest: Vec<f64>,
     stiffness: Vec<f64>,
+    damping: Vec<f64>,
+    /// The points at the step's start, as structure of arrays, and the dampers' factors by slot
+    /// ([`damper_factors`]): a damper acts along its spring's direction there, `d·uuᵀ = c·LLᵀ`
+    /// with `L` the spring at the start, computed from the points where needed rather than
+    /// stored by slot.
+    start: [Vec<f64>; 3],
+    factor: Vec<f64>,
     /// `x` as structure of arrays, and in single precision for the products with the blocks.
     x: [Vec<f64>; 3],
     x_single: [Vec<f32>; 3],
@@ -155,9 +159,11 @@ impl SpringMatrix {
             slot: Vec::with_capacity(model.spring_count()),
             blocks: std::array::from_fn(|_| vec![0.0; 16 * n]),
             blocks_single: std::array::from_fn(|_| vec![0.0; 16 * n]),
-            dampers: std::array::from_fn(|_| vec![0.0; 16 * n]),
             rest: vec![0.0; 16 * n],
             stiffness: vec![0.0; 16 * n],
+            damping: vec![0.0; 16 * n],
+            start: std::array::from_fn(|_| vec![0.0; n]),
+            factor: vec![0.0; 16 * n],
             x: std::array::from_fn(|_| vec![0.0; n]),
             x_single: std::array::from_fn(|_| vec![0.0; n]),
             ranges: Ranges::default(),
@@ -208,9 +214,10 @@ impl SpringMatrix {
         }
         self.blocks.iter_mut().for_each(|b| b.fill(0.0));
         self.blocks_single.iter_mut().for_each(|b| b.fill(0.0));
-        self.dampers.iter_mut().for_each(|b| b.fill(0.0));
         self.rest.fill(0.0);
         self.stiffness.fill(0.0);
+        self.damping.fill(0.0);
+        self.factor.fill(0.0);
         // The slots are distinct: mark each with its spring, then read them in order.
         let mut spring_at = vec![u32::MAX; 16 * self.n];
         for (j, &slot) in self.listed.iter().enumerate() {
@@ -244,50 +251,44 @@ impl SpringMatrix {
         }
     }
 
-    /// Sets the damper of spring `s` (its place in slot order): direction `u`, damping `d`.
-    #[cfg(test)]
-    fn set_damper(&mut self, s: usize, u: Vec3, d: f64) {
-        let slot = self.slot[s] as usize;
-        let [ux, uy, uz, dd] = &mut self.dampers;
-        (ux[slot], uy[slot], uz[slot], dd[slot]) = (u.x, u.y, u.z, d);
-    }
-
     /// Sets spring `s` (its place in slot order): rest length, stiffness and damping.
     pub fn set_spring(&mut self, s: usize, rest: f64, stiffness: f64, damping: f64) {
         let slot = self.slot[s] as usize;
         (self.rest[slot], self.stiffness[slot]) = (rest, stiffness);
-        self.dampers[3][slot] = damping;
+        self.damping[slot] = damping;
     }
 
-    /// The springs' directions at the step's start `x0` into the dampers (zero for a spring
-    /// of zero length), and into `directions` by spring (in slot order) when asked for.
+    /// The step's start `x0`, along whose springs the dampers act, and their factors there;
+    /// their directions there into `directions` by spring (in slot order) when asked for.
     pub fn start_dampers(&mut self, x0: &[Vec3], directions: Option<&mut [Vec3]>) {
-        self.load_x(x0);
-        let (xs, n) = (&self.x, self.n);
-        let [ux, uy, uz, _] = &mut self.dampers;
+        load(&mut self.start, x0);
+        let (start, damping, n) = (&self.start, &self.damping, self.n);
+        let factor = &mut self.factor;
         for_each_run(&self.spans, |e, q, len, o| {
             let at = e * n + q;
-            let u = [
-                &mut ux[at..at + len],
-                &mut uy[at..at + len],
-                &mut uz[at..at + len],
-            ];
             // The run in chunks over the team, as in `assemble`.
             let size = team::chunk_size(len, MIN_POINTS_PER_RANGE);
-            team::for_each_chunk(u, size, &|chunk, u| {
-                let (q, len) = (q + chunk * size, u[0].len());
-                spring_directions(u, part(xs, q, len), part(xs, q + o, len));
+            team::for_each_chunk([&mut factor[at..at + len]], size, &|chunk, [c]| {
+                let (at, q, len) = (at + chunk * size, q + chunk * size, c.len());
+                let (x, xn) = (part(start, q, len), part(start, q + o, len));
+                damper_factors(c, x, xn, &damping[at..at + len]);
             });
         });
         let Some(directions) = directions else {
             return;
         };
-        let ([ux, uy, uz, _], slots) = (&self.dampers, &self.slot);
+        let (start, slots, spans, n) = (&self.start, &self.slot, &self.spans[..], self.n);
         let size = team::chunk_size(directions.len(), MIN_POINTS_PER_RANGE);
         team::for_each_chunk([directions], size, &|chunk, [directions]| {
             for (u, &slot) in directions.iter_mut().zip(&slots[chunk * size..]) {
-                let slot = slot as usize;
-                *u = Vec3::new(ux[slot], uy[slot], uz[slot]);
+                let (e, q) = (slot as usize / n, slot as usize % n);
+                // The body of `q` (the spans in the order of their points).
+                let span = spans[spans.partition_point(|s| s.first + s.len <= q)];
+                let b = q + span.offset[e];
+                let [x, y, z] = start;
+                let l = Vec3::new(x[q] - x[b], y[q] - y[b], z[q] - z[b]);
+                let length = l.length();
+                *u = if length > 0.0 { l / length } else { Vec3::ZERO };
             }
         });
     }
@@ -298,7 +299,8 @@ impl SpringMatrix {
     pub fn assemble(&mut self, x0: &[Vec3], v: &[Vec3], h: f64, floor: f64, blocks: &mut [Sym]) {
         self.load_end_positions(x0, v, h);
         let (xs, n) = (&self.x, self.n);
-        let (dampers, rest, stiffness) = (&self.dampers, &self.rest, &self.stiffness);
+        let (start, rest, stiffness, factor) =
+            (&self.start, &self.rest, &self.stiffness, &self.factor);
         let [b0, b1, b2, b3, b4, b5] = &mut self.blocks;
         let [s0, s1, s2, s3, s4, s5] = &mut self.blocks_single;
         for_each_run(&self.spans, |e, q, len, o| {
@@ -316,9 +318,14 @@ impl SpringMatrix {
             let size = team::chunk_size(len, MIN_POINTS_PER_RANGE);
             team::for_each_chunk(b, size, &|chunk, b| {
                 let (at, q, len) = (at + chunk * size, q + chunk * size, b[0].len());
-                let springs = [&rest[at..at + len], &stiffness[at..at + len]];
-                let (x, xn) = (part(xs, q, len), part(xs, q + o, len));
-                spring_blocks(b, x, xn, part(dampers, at, len), springs, [h, floor]);
+                let springs = [
+                    &rest[at..at + len],
+                    &stiffness[at..at + len],
+                    &factor[at..at + len],
+                ];
+                let ends = (part(xs, q, len), part(xs, q + o, len));
+                let start_ends = (part(start, q, len), part(start, q + o, len));
+                spring_blocks(b, ends, start_ends, springs, [h, floor]);
             });
             // Rounded, in the same chunks.
             let double: [&[f64]; 6] = [
@@ -404,9 +411,15 @@ impl SpringMatrix {
     pub fn damper_force(&mut self, own: &[Sym], v: &[Vec3], y: &mut [Vec3]) {
         self.ranges.fit(self.n, &self.spans);
         self.load_x(v);
-        let (spans, dampers, n) = (&self.spans[..], &self.dampers, self.n);
+        let (spans, n) = (&self.spans[..], self.n);
+        let (start, factor) = (&self.start, &self.factor);
         let own = |p: usize| sym_mul(&own[p], v[p]);
-        let forces = entry_forces(damper_forces, dampers);
+        let forces =
+            |at: usize, q: usize, o: usize, f: [&mut [f64]; 3], v: [&[f64]; 3], vn: [&[f64]; 3]| {
+                let len = f[0].len();
+                let (x, xn) = (part(start, q, len), part(start, q + o, len));
+                damper_forces(f, v, vn, x, xn, &factor[at..at + len]);
+            };
         ranges_rows(&mut self.ranges.0, spans, n, &own, &self.x, &forces);
         let ranges = &self.ranges;
         team::for_each_chunk([y], ranges.size(), &|r, [y]| {
@@ -560,7 +573,7 @@ fn ranges_rows<T: Lane>(
     n: usize,
     own: &(impl Fn(usize) -> Vec3 + Sync),
     x: &[Vec<T>; 3],
-    entry_forces: &(impl Fn(usize, [&mut [T]; 3], [&[T]; 3], [&[T]; 3]) + Sync),
+    entry_forces: &(impl Fn(usize, usize, usize, [&mut [T]; 3], [&[T]; 3], [&[T]; 3]) + Sync),
 ) {
     team::for_each_mut(ranges, &|_, range| {
         let start = range.start;
@@ -595,16 +608,16 @@ fn for_each_run(spans: &[Span], mut f: impl FnMut(usize, usize, usize, usize)) {
 }
 
 /// The `entry_forces` of [`rows`] for a kernel `kernel(f, x, xn, parts)` over the slot arrays
-/// `arrays` (the blocks, in either precision, or the dampers).
+/// `arrays` (the blocks, in either precision).
 #[allow(clippy::type_complexity)]
 fn entry_forces<'a, T, const C: usize>(
     kernel: fn([&mut [T]; 3], [&[T]; 3], [&[T]; 3], [&[T]; C]),
     arrays: &'a [Vec<T>; C],
-) -> impl Fn(usize, [&mut [T]; 3], [&[T]; 3], [&[T]; 3]) + Sync + 'a
+) -> impl Fn(usize, usize, usize, [&mut [T]; 3], [&[T]; 3], [&[T]; 3]) + Sync + 'a
 where
     T: Sync,
 {
-    move |at, f, x, xn| {
+    move |at, _, _, f, x, xn| {
         let len = f[0].len();
         kernel(f, x, xn, part(arrays, at, len));
     }

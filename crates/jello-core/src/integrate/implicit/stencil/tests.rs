@@ -70,17 +70,24 @@ fn the_stencil_product_is_the_product_over_springs() {
     }
     assert!((0..n).any(|p| (y[p] - exact[p]).max_abs() > 1e-12));
 
-    // The dampers' force, from the same springs.
+    // The dampers' force, from the same springs: each along its direction at the start (a
+    // spring of zero length there has none).
     let mut next = values(19);
-    let dampers: Vec<(Vec3, f64)> = springs
-        .iter()
-        .map(|_| (Vec3::new(next(), next(), next()), next()))
-        .collect();
-    for (i, &(u, d)) in dampers.iter().enumerate() {
-        matrix.set_damper(matrix.rank(i), u, d);
+    let mut start: Vec<Vec3> = (0..n).map(|_| Vec3::new(next(), next(), next())).collect();
+    start[springs[1][1]] = start[springs[1][0]];
+    let damping: Vec<f64> = springs.iter().map(|_| 1.0 + next()).collect();
+    for (i, &d) in damping.iter().enumerate() {
+        matrix.set_spring(matrix.rank(i), 1.0, 1.0, d);
     }
+    matrix.start_dampers(&start, None);
     let mut want: Vec<Vec3> = own.iter().zip(&x).map(|(m, &x)| sym_mul(m, x)).collect();
-    for (&[a, b], &(u, d)) in springs.iter().zip(&dampers) {
+    for (&[a, b], &d) in springs.iter().zip(&damping) {
+        let l = start[a] - start[b];
+        let u = if l.length() > 0.0 {
+            l / l.length()
+        } else {
+            Vec3::ZERO
+        };
         let f = u * (d * u.dot(x[a] - x[b]));
         want[a] += f;
         want[b] -= f;
@@ -206,7 +213,9 @@ fn blocks_by_slot_are_the_blocks_of_each_spring() {
                 let transverse = h * h * k * (1.0 - rest / l).max(floor);
                 want = spring_block(e / l, h * h * k, transverse);
             }
-            add_outer(&mut want, u0, h * d);
+            // The damper as `h·(d/|L₀|²)·L₀L₀ᵀ`.
+            let c = if l0 > 0.0 { d / d0.dot(d0) } else { 0.0 };
+            add_outer(&mut want, d0, h * c);
             let bits = |m: &Sym| m.map(f64::to_bits);
             assert_eq!(bits(&blocks[s]), bits(&want), "spring {i}, floor {floor}");
             let slot = matrix.slot[s] as usize;
@@ -229,8 +238,10 @@ fn rows_in_ranges_have_the_bits_of_rows_at_once() {
     let mut next = values(17);
     for s in 0..matrix.slot.len() {
         matrix.set(s, &std::array::from_fn(|_| next()));
-        matrix.set_damper(s, Vec3::new(next(), next(), next()), next());
+        matrix.set_spring(s, next(), next(), next());
     }
+    let x0: Vec<Vec3> = (0..n).map(|_| Vec3::new(next(), next(), next())).collect();
+    matrix.start_dampers(&x0, None);
     let own: Vec<Sym> = (0..n).map(|_| std::array::from_fn(|_| next())).collect();
     let x: Vec<Vec3> = (0..n).map(|_| Vec3::new(next(), next(), next())).collect();
     let (mut x64, mut x32) = (Default::default(), Default::default());
@@ -261,7 +272,13 @@ fn rows_in_ranges_have_the_bits_of_rows_at_once() {
         let [a, b, c, d, e, g] = &mut double;
         let blocks = entry_forces(spring_forces, &matrix.blocks);
         rows(spans, n, own, &x64, start, [a, b, c], &mut forces64, blocks);
-        let dampers = entry_forces(damper_forces, &matrix.dampers);
+        let (ends, factor) = (&matrix.start, &matrix.factor);
+        let dampers =
+            |at: usize, q: usize, o: usize, f: [&mut [f64]; 3], v: [&[f64]; 3], vn: [&[f64]; 3]| {
+                let len = f[0].len();
+                let (x, xn) = (part(ends, q, len), part(ends, q + o, len));
+                damper_forces(f, v, vn, x, xn, &factor[at..at + len]);
+            };
         rows(
             spans,
             n,
