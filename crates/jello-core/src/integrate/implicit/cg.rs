@@ -133,16 +133,17 @@ pub(super) fn solve(
         return solve_swirl(s, reduction, preconditioner);
     }
     let precision = precision_for(reduction);
+    // `z = P⁻¹·r`, returning `r·z`.
     let precondition = |s: &mut ImplicitScratch| {
         let fine = fine_operator!(s);
         precondition_with(
             preconditioner,
             &mut s.multigrid,
             &fine,
-            &s.r,
-            &mut s.z,
+            (&s.r, &mut s.z),
             precision,
-        );
+            &mut s.dots,
+        )
     };
     // A negative `r·z` shows an indefinite preconditioner, `A` itself only with the diagonal.
     let fail = |s: &mut ImplicitScratch| {
@@ -151,11 +152,10 @@ pub(super) fn solve(
     };
     s.dv.fill(Vec3::ZERO);
     set_right_hand_side(s);
-    precondition(s);
+    let mut rz = precondition(s);
     s.p.copy_from_slice(&s.z);
     let mut rr = dot(&s.r, &s.r, &mut s.dots);
     let target = rr * reduction * reduction;
-    let mut rz = dot(&s.r, &s.z, &mut s.dots);
     if !rz.is_finite() {
         return false;
     }
@@ -175,8 +175,7 @@ pub(super) fn solve(
             return false;
         }
         (rr, within) = advance(s, rz / pap);
-        precondition(s);
-        let rz_next = dot(&s.r, &s.z, &mut s.dots);
+        let rz_next = precondition(s);
         if rz_next < 0.0 {
             return fail(s);
         }
@@ -211,10 +210,20 @@ fn solve_swirl(s: &mut ImplicitScratch, reduction: f64, preconditioner: Precondi
                 springs, &s.extra, &s.free, pairs.0, pairs.1, correction, x, y, precision,
             );
         };
+        let mut sums = std::mem::take(&mut s.dots);
         let precondition = |r: &[Vec3], z: &mut [Vec3]| {
-            precondition_with(preconditioner, multigrid, &fine, r, z, precision);
+            precondition_with(
+                preconditioner,
+                multigrid,
+                &fine,
+                (r, z),
+                precision,
+                &mut sums,
+            );
         };
-        gmres.solve(&s.r, &mut s.dv, reduction, MAX_CG, apply, precondition)
+        let reached = gmres.solve(&s.r, &mut s.dv, reduction, MAX_CG, apply, precondition);
+        s.dots = sums;
+        reached
     };
     s.gmres = gmres;
     s.stats.linear_iterations += reached.iterations as u64;
@@ -231,23 +240,18 @@ fn solve_swirl(s: &mut ImplicitScratch, reduction: f64, preconditioner: Precondi
 }
 
 /// `z = P⁻¹·r` for the preconditioner `preconditioner` of `A` (`fine`), the multigrid's coarse
-/// products in `precision`.
+/// products in `precision`; returns `r·z`, summed as [`dot`] sums it (into `sums`).
 fn precondition_with(
     preconditioner: Preconditioner,
     multigrid: &mut Multigrid,
     fine: &Operator,
-    r: &[Vec3],
-    z: &mut [Vec3],
+    (r, z): (&[Vec3], &mut [Vec3]),
     precision: Precision,
-) {
+    sums: &mut [f64],
+) -> f64 {
     match preconditioner {
-        Preconditioner::Multigrid => multigrid.precondition(fine, r, z, precision),
-        Preconditioner::Diagonal => {
-            let free = fine.free.unwrap_or(&[]);
-            for ((z, &r), (d, &f)) in z.iter_mut().zip(r).zip(fine.diag_inv.iter().zip(free)) {
-                *z = sym_mul(d, r) * f;
-            }
-        }
+        Preconditioner::Multigrid => multigrid.precondition(fine, r, z, precision, sums),
+        Preconditioner::Diagonal => fine.jacobi_dot(r, 1.0, None, z, sums),
     }
 }
 

@@ -34,6 +34,7 @@
 
 use std::collections::HashMap;
 
+use super::cg::sum_chunk;
 use super::stencil::{LevelStencil, Precision};
 use super::sym::{add_sym, sym_inverse, sym_mul, Sym};
 use crate::compute::team;
@@ -204,6 +205,40 @@ impl Operator<'_> {
                 *e += sym_mul(&self.diag_inv[i], r[i]) * (omega * f);
             }
         });
+    }
+
+    /// `z = ω·D⁻¹·r + P·e` (`correction`: each node's aggregate on the next level and that
+    /// level's correction `e`, where given; zero at held nodes); returns `r·z`, summed as
+    /// [`super::cg::dot`] sums it (into `sums`). Each node's `z` is the sum
+    /// [`Operator::jacobi`] then [`prolong`] make of it from zero.
+    pub(super) fn jacobi_dot(
+        &self,
+        r: &[Vec3],
+        omega: f64,
+        correction: Option<(&[u32], &[Vec3])>,
+        z: &mut [Vec3],
+        sums: &mut [f64],
+    ) -> f64 {
+        let size = sum_chunk(z.len());
+        team::for_each_chunk_into([z], size, sums, &|chunk, [z]| {
+            let at = chunk * size;
+            for (j, z) in z.iter_mut().enumerate() {
+                let i = at + j;
+                let f = self.free.map_or(1.0, |f| f[i]);
+                let mut e = Vec3::ZERO;
+                e += sym_mul(&self.diag_inv[i], r[i]) * (omega * f);
+                if let Some((parent, coarse)) = correction {
+                    e += coarse[parent[i] as usize] * f;
+                }
+                *z = e;
+            }
+            r[at..at + z.len()]
+                .iter()
+                .zip(z.iter())
+                .map(|(r, z)| r.dot(*z))
+                .sum()
+        });
+        sums.iter().sum()
     }
 
     /// The inverses of the diagonal blocks into `diag_inv`: `own` plus the block of every
@@ -389,25 +424,30 @@ impl Multigrid {
     }
 
     /// `z ≈ A⁻¹·r` by one V-cycle from the fine operator `fine` (zero at held points), the
-    /// coarse levels' products in `precision`.
+    /// coarse levels' products in `precision`; returns `r·z`, summed as [`super::cg::dot`] sums
+    /// it (into `sums`, one per chunk of [`sum_chunk`] points).
+    ///
+    /// The fine level's smoothing and the coarse correction are one pass after the cycle (the
+    /// smoothing needs only `r`), with `r·z` summed in it: three passes over the points before
+    /// (filling `z` with zeros on the leader alone, the smoothing, the correction) and a fourth
+    /// for `r·z`.
     pub fn precondition(
         &mut self,
         fine: &Operator,
         r: &[Vec3],
         z: &mut [Vec3],
         precision: Precision,
-    ) {
-        z.fill(Vec3::ZERO);
+        sums: &mut [f64],
+    ) -> f64 {
         let Some(first) = self.levels.first_mut() else {
             // One node per body already: block Jacobi is the exact solve of that level.
-            fine.jacobi(r, 1.0, z);
-            return;
+            return fine.jacobi_dot(r, 1.0, None, z, sums);
         };
-        fine.jacobi(r, FINE_OMEGA, z);
         restrict(&self.down, r, &mut first.r);
         let twice_from = self.twice_from.unwrap_or(W_CYCLE_NODES);
         cycle(&mut self.levels, precision, twice_from);
-        prolong(&self.down, &self.levels[0].e, fine.free, z);
+        let correction = (&self.down.parent[..], &self.levels[0].e[..]);
+        fine.jacobi_dot(r, FINE_OMEGA, Some(correction), z, sums)
     }
 }
 
@@ -452,14 +492,14 @@ fn cycle(levels: &mut [Level], precision: Precision, twice_from: usize) {
         residual(&e, &mut t);
         restrict(&this.down, &t, &mut next.r);
         cycle(coarser, precision, twice_from);
-        prolong(&this.down, &coarser[0].e, None, &mut e);
+        prolong(&this.down, &coarser[0].e, &mut e);
         if e.len() >= twice_from {
             // Once more from the corrected residual (a W-cycle at this level): symmetric still,
             // the two corrections being one operator applied twice.
             residual(&e, &mut t);
             restrict(&this.down, &t, &mut coarser[0].r);
             cycle(coarser, precision, twice_from);
-            prolong(&this.down, &coarser[0].e, None, &mut e);
+            prolong(&this.down, &coarser[0].e, &mut e);
         }
         residual(&e, &mut t);
         op.jacobi(&t, OMEGA, &mut e);
@@ -526,14 +566,14 @@ fn restrict(down: &Restriction, fine: &[Vec3], coarse: &mut [Vec3]) {
     });
 }
 
-/// `fine[p] += coarse[J]·free[p]` for each node `p` of each aggregate `J`.
-fn prolong(down: &Restriction, coarse: &[Vec3], free: Option<&[f64]>, fine: &mut [Vec3]) {
+/// `fine[p] += coarse[J]` for each node `p` of each aggregate `J` (a coarse level's nodes all
+/// move; the finest level's correction is [`Operator::jacobi_dot`]'s).
+fn prolong(down: &Restriction, coarse: &[Vec3], fine: &mut [Vec3]) {
     let size = team::chunk_size(fine.len(), MIN_NODES);
     team::for_each_chunk([fine], size, &|chunk, [fine]| {
         for (i, e) in fine.iter_mut().enumerate() {
             let p = chunk * size + i;
-            let f = free.map_or(1.0, |f| f[p]);
-            *e += coarse[down.parent[p] as usize] * f;
+            *e += coarse[down.parent[p] as usize];
         }
     });
 }
@@ -869,14 +909,18 @@ mod tests {
         let mut w_cycle = mg.clone();
         w_cycle.twice_from = Some(0);
         let (mut v, mut w) = (vec![Vec3::ZERO; n], vec![Vec3::ZERO; n]);
-        mg.precondition(&fine.operator(), &a, &mut v, Precision::Double);
-        w_cycle.precondition(&fine.operator(), &a, &mut w, Precision::Double);
+        let mut sums = vec![0.0; super::super::cg::sum_chunks(n)];
+        let av = mg.precondition(&fine.operator(), &a, &mut v, Precision::Double, &mut sums);
+        w_cycle.precondition(&fine.operator(), &a, &mut w, Precision::Double, &mut sums);
         assert_ne!(v, w, "the W-cycle is another preconditioner");
+        // It returns `r·z` with the bits of the conjugate gradients' dot product.
+        let summed = super::super::cg::dot(&a, &v, &mut sums);
+        assert_eq!(av.to_bits(), summed.to_bits());
         for mg in [&mut mg, &mut w_cycle] {
             for (precision, tolerance) in [(Precision::Double, 1e-12), (Precision::Single, 1e-5)] {
                 let (mut za, mut zb) = (vec![Vec3::ZERO; n], vec![Vec3::ZERO; n]);
-                mg.precondition(&fine.operator(), &a, &mut za, precision);
-                mg.precondition(&fine.operator(), &b, &mut zb, precision);
+                mg.precondition(&fine.operator(), &a, &mut za, precision, &mut sums);
+                mg.precondition(&fine.operator(), &b, &mut zb, precision, &mut sums);
                 let (ab, ba) = (dot(&a, &zb), dot(&b, &za));
                 assert!(
                     (ab - ba).abs() < tolerance * ab.abs().max(1.0),
