@@ -21,8 +21,9 @@
 //! iterations in 2.2 s against 2 074 in 3.6 s). The coarse levels, an eighth of the size each,
 //! are solved by a V-cycle that smooths with damped block Jacobi before and after the next
 //! level's correction (the same smoother on both sides, so the preconditioner is symmetric, as
-//! conjugate gradients need), a level of [`W_CYCLE_NODES`] or more taking that correction twice;
-//! the coarsest by a few Jacobi sweeps. A coarse level's residual
+//! conjugate gradients need), a level of [`W_CYCLE_NODES`] or more taking that correction twice,
+//! a large one under no such level taking it scaled up ([`OVER_CORRECTION`]); the coarsest by a
+//! few Jacobi sweeps. A coarse level's residual
 //! `r − A·e` is a product in stencil order ([`LevelStencil`]: the aggregates of a lattice form a
 //! lattice), in single precision where the fine products are, with the pairs found at the
 //! iterate added after; on a level of small lattices ([`STENCIL_NODES`]), a loop over its list of
@@ -68,6 +69,23 @@ const STENCIL_NODES: usize = 512;
 /// but the 32³ cube then runs slower (16.8 → 14.3 iterations for 0.81 → 0.76× real time, every
 /// coarse level twice): its coarse levels cost more than they save.
 const W_CYCLE_NODES: usize = 32 * 1024;
+
+/// The factor of a coarse level's correction on a level of [`OVER_CORRECTED_NODES`] or more
+/// whose V-cycle is under no W-cycle. A correction constant over each aggregate (the
+/// prolongation here) underestimates the smooth error it corrects, the more so the further down
+/// it comes from, and scaled up it corrects more (the over-correction of aggregation multigrid;
+/// with the same smoother before and after it the cycle stays symmetric, and positive below 2).
+/// Conjugate-gradient iterations a step, BackwardEuler at 1/60 s over the first second, 1.0 →
+/// 1.4: a 32³ cube resting on a floor 17.0 → 14.0, dropped on it 26.1 → 22.6, at 16³ 7.2 → 6.6
+/// and 10.3 → 9.5 (1.3 and 1.5 did less). Under a W-cycle (the 64³ cube's first coarse level)
+/// the correction taken twice overshoots: 24.0 → 31.6 at 1.3. On levels of small lattices it
+/// changes little and costs the hardest worlds of the corpus (8³, levels of 64 nodes and
+/// fewer; `leapfrog.w` took 42 % more at 1.3), so they keep theirs.
+const OVER_CORRECTION: f64 = 1.4;
+
+/// Nodes from which a coarse level takes the next one's correction times
+/// [`OVER_CORRECTION`].
+const OVER_CORRECTED_NODES: usize = 512;
 
 /// Jacobi sweeps on the coarsest level (one node per body: exact for a body alone).
 const COARSEST_SWEEPS: usize = 4;
@@ -445,7 +463,7 @@ impl Multigrid {
         };
         restrict(&self.down, r, &mut first.r);
         let twice_from = self.twice_from.unwrap_or(W_CYCLE_NODES);
-        cycle(&mut self.levels, precision, twice_from);
+        cycle(&mut self.levels, precision, twice_from, true);
         let correction = (&self.down.parent[..], &self.levels[0].e[..]);
         fine.jacobi_dot(r, FINE_OMEGA, Some(correction), z, sums)
     }
@@ -467,8 +485,9 @@ impl Level {
 
 /// One V-cycle from `levels[0].r` into `levels[0].e`, the levels' products in `precision`; a
 /// level of at least `twice_from` nodes takes the next level's correction twice (see
-/// [`W_CYCLE_NODES`]).
-fn cycle(levels: &mut [Level], precision: Precision, twice_from: usize) {
+/// [`W_CYCLE_NODES`]), and with `over` (no W-cycle above) the correction of a level of
+/// [`OVER_CORRECTED_NODES`] or more is scaled by [`OVER_CORRECTION`].
+fn cycle(levels: &mut [Level], precision: Precision, twice_from: usize, over: bool) {
     let Some((this, coarser)) = levels.split_first_mut() else {
         return;
     };
@@ -491,15 +510,21 @@ fn cycle(levels: &mut [Level], precision: Precision, twice_from: usize) {
         op.jacobi(r, OMEGA, &mut e);
         residual(&e, &mut t);
         restrict(&this.down, &t, &mut next.r);
-        cycle(coarser, precision, twice_from);
-        prolong(&this.down, &coarser[0].e, &mut e);
+        let over = over && e.len() < twice_from;
+        cycle(coarser, precision, twice_from, over);
+        let scale = if over && e.len() >= OVER_CORRECTED_NODES {
+            OVER_CORRECTION
+        } else {
+            1.0
+        };
+        prolong(&this.down, &coarser[0].e, &mut e, scale);
         if e.len() >= twice_from {
             // Once more from the corrected residual (a W-cycle at this level): symmetric still,
             // the two corrections being one operator applied twice.
             residual(&e, &mut t);
             restrict(&this.down, &t, &mut coarser[0].r);
-            cycle(coarser, precision, twice_from);
-            prolong(&this.down, &coarser[0].e, &mut e);
+            cycle(coarser, precision, twice_from, false);
+            prolong(&this.down, &coarser[0].e, &mut e, 1.0);
         }
         residual(&e, &mut t);
         op.jacobi(&t, OMEGA, &mut e);
@@ -566,14 +591,14 @@ fn restrict(down: &Restriction, fine: &[Vec3], coarse: &mut [Vec3]) {
     });
 }
 
-/// `fine[p] += coarse[J]` for each node `p` of each aggregate `J` (a coarse level's nodes all
-/// move; the finest level's correction is [`Operator::jacobi_dot`]'s).
-fn prolong(down: &Restriction, coarse: &[Vec3], fine: &mut [Vec3]) {
+/// `fine[p] += coarse[J]·scale` for each node `p` of each aggregate `J` (a coarse level's nodes
+/// all move; the finest level's correction is [`Operator::jacobi_dot`]'s).
+fn prolong(down: &Restriction, coarse: &[Vec3], fine: &mut [Vec3], scale: f64) {
     let size = team::chunk_size(fine.len(), MIN_NODES);
     team::for_each_chunk([fine], size, &|chunk, [fine]| {
         for (i, e) in fine.iter_mut().enumerate() {
             let p = chunk * size + i;
-            *e += coarse[down.parent[p] as usize];
+            *e += coarse[down.parent[p] as usize] * scale;
         }
     });
 }
