@@ -21,9 +21,8 @@
 //! iterations in 2.2 s against 2 074 in 3.6 s). The coarse levels, an eighth of the size each,
 //! are solved by a V-cycle that smooths with damped block Jacobi before and after the next
 //! level's correction (the same smoother on both sides, so the preconditioner is symmetric, as
-//! conjugate gradients need), a level of [`W_CYCLE_NODES`] or more taking that correction twice,
-//! a large one under no such level taking it scaled up ([`OVER_CORRECTION`]); the coarsest by a
-//! few Jacobi sweeps. A coarse level's residual
+//! conjugate gradients need), a large level taking that correction scaled up
+//! ([`OVER_CORRECTION`]); the coarsest by a few Jacobi sweeps. A coarse level's residual
 //! `r − A·e` is a product in stencil order ([`LevelStencil`]: the aggregates of a lattice form a
 //! lattice), in single precision where the fine products are, with the pairs found at the
 //! iterate added after; on a level of small lattices ([`STENCIL_NODES`]), a loop over its list of
@@ -60,27 +59,18 @@ const FINE_OMEGA: f64 = 0.7;
 /// (`pile.toml` under backward Euler at 1/60 s, 1 s: 7 % slower in stencil order at every level).
 const STENCIL_NODES: usize = 512;
 
-/// Nodes from which a coarse level takes the next level's correction twice (a W-cycle there,
-/// a V-cycle below). The aggregates' coarse spaces lose more with each level, so a large
-/// lattice's conjugate gradients need more iterations than a small one's: the 64³ cube resting
-/// on a floor (BackwardEuler at 1/60 s, its first second, 2 threads, AMD EPYC with AVX-512)
-/// took 30.8 a step against 16.8 at 32³. With its first coarse level (32³ nodes) cycled twice,
-/// 24.4, and 0.048 → 0.056× real time; with every level of 4 096 nodes or more, 22.3 and 0.058×,
-/// but the 32³ cube then runs slower (16.8 → 14.3 iterations for 0.81 → 0.76× real time, every
-/// coarse level twice): its coarse levels cost more than they save.
-const W_CYCLE_NODES: usize = 32 * 1024;
-
-/// The factor of a coarse level's correction on a level of [`OVER_CORRECTED_NODES`] or more
-/// whose V-cycle is under no W-cycle. A correction constant over each aggregate (the
-/// prolongation here) underestimates the smooth error it corrects, the more so the further down
-/// it comes from, and scaled up it corrects more (the over-correction of aggregation multigrid;
-/// with the same smoother before and after it the cycle stays symmetric, and positive below 2).
-/// Conjugate-gradient iterations a step, BackwardEuler at 1/60 s over the first second, 1.0 →
-/// 1.4: a 32³ cube resting on a floor 17.0 → 14.0, dropped on it 26.1 → 22.6, at 16³ 7.2 → 6.6
-/// and 10.3 → 9.5 (1.3 and 1.5 did less). Under a W-cycle (the 64³ cube's first coarse level)
-/// the correction taken twice overshoots: 24.0 → 31.6 at 1.3. On levels of small lattices it
-/// changes little and costs the hardest worlds of the corpus (8³, levels of 64 nodes and
-/// fewer; `leapfrog.w` took 42 % more at 1.3), so they keep theirs.
+/// The factor of a coarse level's correction on a level of [`OVER_CORRECTED_NODES`] or more.
+/// A correction constant over each aggregate (the prolongation here) underestimates the smooth
+/// error it corrects, the more so the further down it comes from, and scaled up it corrects
+/// more (the over-correction of aggregation multigrid; with the same smoother before and after
+/// it the cycle stays symmetric, and positive below 2). Conjugate-gradient iterations a step,
+/// BackwardEuler at 1/60 s over the first second (2 threads, AMD EPYC with AVX-512), 1.0 → 1.4:
+/// a 32³ cube resting on a floor 17.0 → 14.0, dropped on it 26.1 → 22.6, at 16³ 7.2 → 6.6 and
+/// 10.3 → 9.5 (1.3 and 1.5 did less); at 64³ 22.5 and 32.6, from 24.0 and 33.8 with the
+/// W-cycle that the 64³ cube's first coarse level took before (its correction twice; with both,
+/// 31.6 at 1.3: the correction overshoots), 0.061 → 0.065× and 0.041 → 0.045× real time. On
+/// levels of small lattices it changes little and costs the hardest worlds of the corpus (8³,
+/// levels of 64 nodes and fewer; `leapfrog.w` took 42 % more at 1.3), so they keep theirs.
 const OVER_CORRECTION: f64 = 1.4;
 
 /// Nodes from which a coarse level takes the next one's correction times
@@ -363,9 +353,9 @@ pub(super) struct Multigrid {
     /// The fine level's points.
     points: usize,
     levels: Vec<Level>,
-    /// The least nodes of a level that takes the next level's correction twice, where not
-    /// [`W_CYCLE_NODES`] (tests).
-    twice_from: Option<usize>,
+    /// The least nodes of a level whose correction is over-corrected, where not
+    /// [`OVER_CORRECTED_NODES`] (tests).
+    over_corrected_from: Option<usize>,
 }
 
 impl Multigrid {
@@ -462,8 +452,8 @@ impl Multigrid {
             return fine.jacobi_dot(r, 1.0, None, z, sums);
         };
         restrict(&self.down, r, &mut first.r);
-        let twice_from = self.twice_from.unwrap_or(W_CYCLE_NODES);
-        cycle(&mut self.levels, precision, twice_from, true);
+        let over_from = self.over_corrected_from.unwrap_or(OVER_CORRECTED_NODES);
+        cycle(&mut self.levels, precision, over_from);
         let correction = (&self.down.parent[..], &self.levels[0].e[..]);
         fine.jacobi_dot(r, FINE_OMEGA, Some(correction), z, sums)
     }
@@ -484,10 +474,9 @@ impl Level {
 }
 
 /// One V-cycle from `levels[0].r` into `levels[0].e`, the levels' products in `precision`; a
-/// level of at least `twice_from` nodes takes the next level's correction twice (see
-/// [`W_CYCLE_NODES`]), and with `over` (no W-cycle above) the correction of a level of
-/// [`OVER_CORRECTED_NODES`] or more is scaled by [`OVER_CORRECTION`].
-fn cycle(levels: &mut [Level], precision: Precision, twice_from: usize, over: bool) {
+/// level of at least `over_from` nodes takes the next level's correction times
+/// [`OVER_CORRECTION`].
+fn cycle(levels: &mut [Level], precision: Precision, over_from: usize) {
     let Some((this, coarser)) = levels.split_first_mut() else {
         return;
     };
@@ -510,22 +499,13 @@ fn cycle(levels: &mut [Level], precision: Precision, twice_from: usize, over: bo
         op.jacobi(r, OMEGA, &mut e);
         residual(&e, &mut t);
         restrict(&this.down, &t, &mut next.r);
-        let over = over && e.len() < twice_from;
-        cycle(coarser, precision, twice_from, over);
-        let scale = if over && e.len() >= OVER_CORRECTED_NODES {
+        cycle(coarser, precision, over_from);
+        let scale = if e.len() >= over_from {
             OVER_CORRECTION
         } else {
             1.0
         };
         prolong(&this.down, &coarser[0].e, &mut e, scale);
-        if e.len() >= twice_from {
-            // Once more from the corrected residual (a W-cycle at this level): symmetric still,
-            // the two corrections being one operator applied twice.
-            residual(&e, &mut t);
-            restrict(&this.down, &t, &mut coarser[0].r);
-            cycle(coarser, precision, twice_from, false);
-            prolong(&this.down, &coarser[0].e, &mut e, 1.0);
-        }
         residual(&e, &mut t);
         op.jacobi(&t, OMEGA, &mut e);
     } else {
@@ -929,19 +909,19 @@ mod tests {
             v.iter().zip(&fine.free).map(|(&v, &f)| v * f).collect()
         };
         let (a, b) = (mask(random(n, 21)), mask(random(n, 22)));
-        // As a V-cycle, and with every coarse level taking the next one's correction twice
-        // (which changes the answer).
-        let mut w_cycle = mg.clone();
-        w_cycle.twice_from = Some(0);
+        // As built, and with every coarse level's correction over-corrected (this model's
+        // levels are below `OVER_CORRECTED_NODES`; it changes the answer).
+        let mut over = mg.clone();
+        over.over_corrected_from = Some(0);
         let (mut v, mut w) = (vec![Vec3::ZERO; n], vec![Vec3::ZERO; n]);
         let mut sums = vec![0.0; super::super::cg::sum_chunks(n)];
         let av = mg.precondition(&fine.operator(), &a, &mut v, Precision::Double, &mut sums);
-        w_cycle.precondition(&fine.operator(), &a, &mut w, Precision::Double, &mut sums);
-        assert_ne!(v, w, "the W-cycle is another preconditioner");
+        over.precondition(&fine.operator(), &a, &mut w, Precision::Double, &mut sums);
+        assert_ne!(v, w, "over-corrected, another preconditioner");
         // It returns `r·z` with the bits of the conjugate gradients' dot product.
         let summed = super::super::cg::dot(&a, &v, &mut sums);
         assert_eq!(av.to_bits(), summed.to_bits());
-        for mg in [&mut mg, &mut w_cycle] {
+        for mg in [&mut mg, &mut over] {
             for (precision, tolerance) in [(Precision::Double, 1e-12), (Precision::Single, 1e-5)] {
                 let (mut za, mut zb) = (vec![Vec3::ZERO; n], vec![Vec3::ZERO; n]);
                 mg.precondition(&fine.operator(), &a, &mut za, precision, &mut sums);
