@@ -166,7 +166,7 @@ fn a_failure_after_good_substeps_undoes_them() {
     };
     let found = (5..=12u32).find_map(|iterations| {
         let half = with(iterations, DT / 2.0, 0);
-        (0..100u64).find_map(|seed| {
+        (0..400u64).find_map(|seed| {
             let mut rng = Rng(seed);
             let mut start = State::at_rest(&half);
             let scale = 0.02 + 0.0004 * seed as f64;
