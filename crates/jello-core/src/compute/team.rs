@@ -457,6 +457,36 @@ pub fn for_each_chunk<T: Send, const K: usize>(
     });
 }
 
+/// Chunk `i` of each of two sets of slices, as [`for_each_chunk_pair`] hands them over.
+pub type ChunkPair<'a, T, U, const K: usize, const L: usize> = ([&'a mut [T]; K], [&'a mut [U]; L]);
+
+/// [`for_each_chunk`] over two sets of slices of different types (all of one length), chunk
+/// `i` of each handed to `body` together.
+pub fn for_each_chunk_pair<T: Send, U: Send, const K: usize, const L: usize>(
+    (first, second): ChunkPair<'_, T, U, K, L>,
+    size: usize,
+    body: &(dyn Fn(usize, ChunkPair<'_, T, U, K, L>) + Sync),
+) {
+    let len = first.first().map_or(0, |s| s.len());
+    assert!(first.iter().all(|s| s.len() == len) && second.iter().all(|s| s.len() == len));
+    assert!(size > 0);
+    let (a, b) = (
+        first.map(|s| Base(s.as_mut_ptr())),
+        second.map(|s| Base(s.as_mut_ptr())),
+    );
+    for_each(len.div_ceil(size), &|i| {
+        let (start, end) = (i * size, ((i + 1) * size).min(len));
+        // SAFETY: as in `for_each_chunk`: each chunk runs once, and chunks do not overlap.
+        let parts = unsafe {
+            (
+                a.map(|p| std::slice::from_raw_parts_mut(p.at(start), end - start)),
+                b.map(|p| std::slice::from_raw_parts_mut(p.at(start), end - start)),
+            )
+        };
+        body(i, parts)
+    });
+}
+
 /// [`for_each_chunk`], with what `body` returns for chunk `i` stored in `out[i]` (`out` has one
 /// element per chunk): a reduction's partial results, for the caller to combine in order.
 pub fn for_each_chunk_into<T: Send, R: Send, const K: usize>(

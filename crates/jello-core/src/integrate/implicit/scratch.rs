@@ -80,6 +80,9 @@ pub struct ImplicitScratch {
     /// Per point: the damping matrix `dCollision·Σ n nᵀ` of the walls, plane and obstacles it is
     /// in at the step's start.
     pub(super) start_damping: Vec<Sym>,
+    /// Whether each point touches a wall, the plane, an obstacle or another body at the step's
+    /// start.
+    pub(super) touching: Vec<bool>,
     /// The dampers between bodies: the samples that touch another body at the step's start.
     pub(super) start_touches: Vec<Touch>,
     /// Where the points were when the touches were found (the start of a backward-Euler step,
@@ -205,6 +208,7 @@ impl ImplicitScratch {
             kept_across: 0,
             keep_across: None,
             start_damping: vec![[0.0; 6]; n],
+            touching: vec![false; n],
             touched_at: vec![Vec3::ZERO; if several { n } else { 0 }],
             start_touches: Vec::with_capacity(if several {
                 (model.bodies().iter())
@@ -368,17 +372,26 @@ impl ImplicitScratch {
         self.springs.start_dampers(x0, directions);
         let free = &self.free[..];
         let size = super::chunk_size(x0.len());
-        team::for_each_chunk([&mut self.start_damping[..]], size, &|chunk, [damping]| {
-            for (j, d) in damping.iter_mut().enumerate() {
+        let parts = ([&mut self.start_damping[..]], [&mut self.touching[..]]);
+        team::for_each_chunk_pair(parts, size, &|chunk, ([damping], [touching])| {
+            for (j, (d, touches)) in damping.iter_mut().zip(touching).enumerate() {
                 let i = chunk * size + j;
-                *d = [0.0; 6];
+                (*d, *touches) = ([0.0; 6], false);
                 if free[i] == 0.0 {
                     continue;
                 }
                 for c in model.contacts_of(i, x0[i]) {
                     add_outer(d, c.normal, model.d_collision);
+                    *touches = true;
                 }
             }
         });
+        for t in &self.start_touches {
+            for (&p, &w) in t.points.iter().zip(&t.weights) {
+                if w != 0.0 {
+                    self.touching[p as usize] = true;
+                }
+            }
+        }
     }
 }
