@@ -680,6 +680,27 @@ mod tests {
     }
 
     /// Runs that overlap would lend an element twice: refused.
+    /// Each chunk of the two sets covers the same items, each once.
+    #[test]
+    fn chunk_pairs_cover_both_sets_alike() {
+        let pool = pool(2);
+        let (mut a, mut b) = (vec![0u32; 1000], vec![0.0f64; 1000]);
+        pool.install(|| {
+            run(|| {
+                let parts = ([&mut a[..]], [&mut b[..]]);
+                for_each_chunk_pair(parts, 64, &|c, ([a], [b])| {
+                    assert_eq!(a.len(), b.len());
+                    for (j, (a, b)) in a.iter_mut().zip(b).enumerate() {
+                        *a += (c * 64 + j) as u32;
+                        *b += 1.0;
+                    }
+                });
+            })
+        });
+        assert!(a.iter().enumerate().all(|(i, &v)| v == i as u32));
+        assert!(b.iter().all(|&v| v == 1.0));
+    }
+
     #[test]
     #[should_panic]
     fn overlapping_runs_are_refused() {
