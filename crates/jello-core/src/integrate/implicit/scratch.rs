@@ -187,7 +187,9 @@ impl ImplicitScratch {
             listed_rows: Vec::with_capacity(model.spring_count()),
             loaded: None,
             spring_pairs: Vec::with_capacity(model.spring_count()),
-            spring_blocks: Vec::with_capacity(model.spring_count()),
+            // Zero pages until written (the assembly writes each block; `resize` in
+            // `list_springs` would touch them all on the leader first).
+            spring_blocks: vec![[0.0; 6]; model.spring_count()],
             springs: SpringMatrix::new(model),
             start_dir: Vec::with_capacity(model.spring_count()),
             field: zeros.clone(),
@@ -331,7 +333,6 @@ impl ImplicitScratch {
         self.spring_pairs
             .extend(self.rows.iter().map(|r| [r.a, r.b]));
         self.spring_blocks.resize(self.rows.len(), [0.0; 6]);
-        self.start_dir.resize(self.rows.len(), Vec3::ZERO);
         self.falls
             .resize(fall_chunks(self.mass.len(), self.rows.len()), [0.0; 3]);
         self.shortest_spring = self
@@ -367,8 +368,14 @@ impl ImplicitScratch {
         } else {
             self.start_touches.clear();
         }
-        // The directions by spring serve the line search's potential alone.
-        let directions = has_potential(model).then_some(&mut self.start_dir[..]);
+        // The directions by spring serve the line search's potential alone (sized here, only
+        // for a model that has one: 12 MB at 32³).
+        let directions = if has_potential(model) {
+            self.start_dir.resize(self.rows.len(), Vec3::ZERO);
+            Some(&mut self.start_dir[..])
+        } else {
+            None
+        };
         self.springs.start_dampers(x0, directions);
         let free = &self.free[..];
         let size = super::chunk_size(x0.len());
