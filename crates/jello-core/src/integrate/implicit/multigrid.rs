@@ -436,9 +436,9 @@ impl Multigrid {
     /// it (into `sums`, one per chunk of [`sum_chunk`] points).
     ///
     /// The fine level's smoothing and the coarse correction are one pass after the cycle (the
-    /// smoothing needs only `r`), with `r·z` summed in it: three passes over the points before
-    /// (filling `z` with zeros on the leader alone, the smoothing, the correction) and a fourth
-    /// for `r·z`.
+    /// smoothing needs only `r`), with `r·z` summed in it, where they took three passes over the
+    /// points (`z` filled with zeros on the leader alone, the smoothing, the correction) and the
+    /// conjugate gradients a fourth for `r·z`.
     pub fn precondition(
         &mut self,
         fine: &Operator,

@@ -278,10 +278,10 @@ pub(super) fn shift_by_momentum(
 ) -> f64 {
     let mut largest: f64 = 0.0;
     for body in model.bodies() {
-        // Not a body that touches anything at the step's start: what holds it up is missing
-        // from the mean, and shifted it presses further in. Such shifts were rejected, each
-        // after a residual: a 32³ cube resting on a floor (its first second at 1/60 s) 45 of
-        // 47, dropped on it 36 of 36, while its 24 shifts in free fall were all kept.
+        // A body that touches anything at the step's start is not shifted: what holds it up
+        // is missing from the mean, and shifted it presses further in. Such shifts were
+        // rejected, each after a residual: a 32³ cube resting on a floor (its first second at
+        // 1/60 s) 45 of 47, dropped on it 36 of 36, while its 24 shifts in free fall were kept.
         if s.touching[body.points()].contains(&true) {
             s.dv[body.points()].fill(Vec3::ZERO);
             continue;
