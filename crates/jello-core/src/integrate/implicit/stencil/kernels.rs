@@ -238,7 +238,7 @@ crate::compute::simd::multiversion! {
         let (n0, n1, n2) = (&xn[0][..n], &xn[1][..n], &xn[2][..n]);
         let (s0, s1, s2) = (&start.0[0][..n], &start.0[1][..n], &start.0[2][..n]);
         let (t0, t1, t2) = (&start.1[0][..n], &start.1[1][..n], &start.1[2][..n]);
-        let (rest, k, d) = (&springs[0][..n], &springs[1][..n], &springs[2][..n]);
+        let (rest, k, factor) = (&springs[0][..n], &springs[1][..n], &springs[2][..n]);
         let [h, floor] = hf;
         let h2 = h * h;
         for i in 0..n {
@@ -260,14 +260,15 @@ crate::compute::simd::multiversion! {
             } else {
                 [0.0; 6]
             };
-            let (u0, u1, u2) = (s0[i] - t0[i], s1[i] - t1[i], s2[i] - t2[i]);
-            let cd = h * d[i];
-            m[0] += cd * u0 * u0;
-            m[1] += cd * u1 * u1;
-            m[2] += cd * u2 * u2;
-            m[3] += cd * u0 * u1;
-            m[4] += cd * u0 * u2;
-            m[5] += cd * u1 * u2;
+            // The damper along the spring at the start, `L₀`.
+            let (l0, l1, l2) = (s0[i] - t0[i], s1[i] - t1[i], s2[i] - t2[i]);
+            let cd = h * factor[i];
+            m[0] += cd * l0 * l0;
+            m[1] += cd * l1 * l1;
+            m[2] += cd * l2 * l2;
+            m[3] += cd * l0 * l1;
+            m[4] += cd * l0 * l2;
+            m[5] += cd * l1 * l2;
             (b0[i], b1[i], b2[i]) = (m[0], m[1], m[2]);
             (b3[i], b4[i], b5[i]) = (m[3], m[4], m[5]);
         }
