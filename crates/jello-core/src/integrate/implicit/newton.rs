@@ -70,11 +70,8 @@ pub(super) fn newton(
     let mut last = (CG_REDUCTION, f64::INFINITY);
     let mut shift = 0.0;
     let (mut stalled, mut symmetric, mut switches, mut best) = (0, 0, 0, norm2);
-    // Whether the last iteration was in Newton's fast regime (see `solve_to`); so was the last
-    // step's where its `A` is kept (its first iteration then solved to `CG_REDUCTION` and the
-    // second to the target: a resting 32³ cube 1.40 → 1.25 Newton iterations a step, dropped
-    // 1.87 → 1.75, the corpus at 1/60 s as many conjugate-gradient iterations).
-    let mut fast = keep;
+    // Whether the last iteration was in Newton's fast regime (see `solve_to`).
+    let mut fast = false;
     loop {
         let (norm, vmax) = max_norms(&s.g, &s.v);
         let target = target(model, floor, vmax);
