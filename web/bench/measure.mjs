@@ -82,7 +82,7 @@ try {
   ];
   for (const [integrator, dt, tolerance] of methods) {
     const label = tolerance === 1e-9 ? integrator : `${integrator} ${tolerance}`;
-    for (const n of [6, 7, 8, 9, 10, 11, 12, 14, 16, 20, 24]) {
+    for (const n of [6, 7, 8, 9, 10, 11, 12, 14, 16, 20, 24, 28, 32]) {
       await page.evaluate(
         ([n, integrator, dt, tolerance]) => {
           const app = window.jello;

@@ -295,8 +295,6 @@ impl BroadPhase {
                 }
             }
         }
-        // Each cell's box and span (on the team's threads: cells are independent), only for
-        // cells that meet a box a sample may come from; then how many entries each bucket gets.
         // Per body: the largest reach of the bodies whose samples may be in its cells.
         for (farthest, list) in self.farthest.iter_mut().zip(&self.neighbours) {
             *farthest = (list.iter()).fold(0.0, |m: f64, &a| m.max(self.reach[a as usize]));
@@ -304,6 +302,8 @@ impl BroadPhase {
         let (cell_body, cell_corner) = (&self.cell_body, &self.cell_corner);
         let (neighbours, body_boxes, reach) = (&self.neighbours, &self.body_boxes, &self.reach);
         let farthest = &self.farthest;
+        // Each cell's box and span (on the team's threads: cells are independent), only for
+        // cells that meet a box a sample may come from.
         let size = crate::compute::team::chunk_size(cell_body.len(), 512);
         let place = |g: usize| -> Option<([[i32; 3]; 2], [Vec3; 2])> {
             let b = cell_body[g] as usize;
