@@ -269,7 +269,7 @@ impl BroadPhase {
     /// cells that box overlaps grown by the largest reach of the bodies whose samples may come.
     fn sort(&mut self, model: &Model, [px, py, pz]: [&[f64]; 3], margin: f64) {
         let inv = 1.0 / self.side;
-        let grid = |c: Vec3| map3((c * inv).to_array(), |x| x.floor() as i32);
+        let grid = |c: Vec3| map3((c * inv).to_array(), floor_i32);
         let mask = self.starts.len() - 2;
         let bodies = model.bodies();
         let even = |d: f64| Vec3::new(d, d, d);
@@ -446,7 +446,7 @@ impl BroadPhase {
         reach: f64,
         mut near: impl FnMut(usize) -> bool,
     ) {
-        let key = map3((p * (1.0 / self.side)).to_array(), |x| x.floor() as i32);
+        let key = map3((p * (1.0 / self.side)).to_array(), floor_i32);
         let bucket = hash(key) & (self.starts.len() - 2);
         let (start, end) = (
             self.starts[bucket] as usize,
@@ -663,6 +663,19 @@ impl crate::compute::team::Bucketed for CellKeys<'_> {
     }
 }
 
+/// `x.floor() as i32` (saturating, 0 for a NaN) without the library call `floor` is on the
+/// baseline target (SSE2 has no rounding instruction): a cast truncates towards zero, one
+/// below it where that rounded a negative number up.
+#[inline]
+fn floor_i32(x: f64) -> i32 {
+    let t = x as i32;
+    if t as f64 > x {
+        t.saturating_sub(1)
+    } else {
+        t
+    }
+}
+
 /// A hash of a grid cell (the three large primes of Teschner et al. 2003).
 #[inline]
 fn hash(c: [i32; 3]) -> usize {
@@ -803,6 +816,32 @@ mod tests {
                     }
                 }
             }
+        }
+    }
+
+    /// The grid's floor is `f64::floor`'s, cast: at and around integers of either sign, far
+    /// past the range of `i32`, at infinities and for a NaN.
+    #[test]
+    fn floor_i32_is_the_floor_cast() {
+        let mut xs = vec![
+            0.0,
+            -0.0,
+            f64::NAN,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            1e300,
+            -1e300,
+        ];
+        for k in -5..=5 {
+            for d in [-0.5, -1e-12, 0.0, 1e-12, 0.5] {
+                xs.push(k as f64 + d);
+            }
+        }
+        for m in [i32::MIN as f64, i32::MAX as f64] {
+            xs.extend([m - 1.5, m - 0.5, m, m + 0.5, m + 1.5]);
+        }
+        for x in xs {
+            assert_eq!(floor_i32(x), x.floor() as i32, "{x}");
         }
     }
 }

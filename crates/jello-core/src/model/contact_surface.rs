@@ -452,7 +452,9 @@ fn sub_cell(
     uvw: [f64; 3],
 ) -> (usize, [f64; 3]) {
     let r = refine as f64;
-    let sub = map3(uvw, |u| ((u * r).floor() as usize).min(refine - 1));
+    // (A cast truncates towards zero and takes what is below zero, or not a number, to 0: the
+    // floor's own result here, without the library call `floor` is on the baseline target.)
+    let sub = map3(uvw, |u| ((u * r) as usize).min(refine - 1));
     let t = map3([0, 1, 2], |a| uvw[a] * r - sub[a] as f64);
     let [_, ry, rz] = refined;
     let base = ((refine * ci + sub[0]) * ry + refine * cj + sub[1]) * rz + refine * ck + sub[2];
