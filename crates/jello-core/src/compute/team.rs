@@ -679,7 +679,6 @@ mod tests {
         }
     }
 
-    /// Runs that overlap would lend an element twice: refused.
     /// Each chunk of the two sets covers the same items, each once.
     #[test]
     fn chunk_pairs_cover_both_sets_alike() {
@@ -701,6 +700,7 @@ mod tests {
         assert!(b.iter().all(|&v| v == 1.0));
     }
 
+    /// Runs that overlap would lend an element twice: refused.
     #[test]
     #[should_panic]
     fn overlapping_runs_are_refused() {
