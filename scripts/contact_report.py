@@ -7,16 +7,16 @@ metres of each other: how deep a vertex of one skin is inside the other (the ove
 none is, how far apart the skins are (the gap). For each body, how its skin passes through
 itself: the pairs of its triangles that share no vertex and cross (a triangle–triangle test on
 the pairs whose boxes overlap in a uniform grid), the length of the curve they cross along, the
-longest one pair's segment of it, and the deepest pair (the farthest a corner of either triangle
-is behind the other's plane, the lesser of the two); 0 pairs when no face is through another.
-Faces pressed together by a penalty contact cross a little (as deep as the contact gives); faces
-gone through each other cross as deep as a triangle is wide. With --apart M, the same again of
-only the pairs whose triangles were more than M apart in the first frame (a run's start): parts
-of the skin that came together, not a crease where neighbours fold into each other (which
-self-contact, acting only between cells that share no corner, leaves alone). With --all-frames,
-also each measure's largest over all frames, the frame with the most pairs and how many frames
-have any. With --drift, how far each body's centre (the mean of its skin's vertices) moved
-horizontally from the first frame, as a fraction of its size.
+longest one pair's segment of it, and the deepest pair (of each triangle, the deepest of its
+points over the other that lies behind it; the lesser of the two); 0 pairs when no face is
+through another. Faces pressed together by a penalty contact cross a little (as deep as the
+contact gives); faces gone through each other cross as deep as a triangle is wide. With
+--apart M, the same again of only the pairs whose triangles were more than M apart in the first
+frame (a run's start): parts of the skin that came together, not a crease where neighbours fold
+into each other (which self-contact, acting only between places more than half a cell apart at
+rest, leaves alone). With --all-frames, also each measure's largest over all frames, the frame
+with the most pairs and how many frames have any. With --drift, how far each body's centre (the
+mean of its skin's vertices) moved horizontally from the first frame, as a fraction of its size.
 
     scripts/contact_report.py DIR [--near M] [--frame N] [--apart M] [--all-frames] [--drift] [--json]
 
@@ -127,13 +127,66 @@ def candidate_pairs(tri):
     return i[keep], j[keep]
 
 
+def behind_over(tri, other):
+    """For each k, how far the deepest point of triangle tri[k] that lies over other[k] (its foot
+    on other[k]'s plane inside other[k]) is behind other[k] (against its outward normal); 0 where
+    none is. Exact: that part of tri[k] is a convex polygon, whose deepest point is one of its
+    corners: a corner of tri[k], a point where an edge of tri[k] meets one of the four planes that
+    bound the region behind and over other[k] (its own plane and the three through its edges,
+    square to it), or a point where two of those planes meet tri[k]'s plane."""
+    a, b, c = other[:, 0], other[:, 1], other[:, 2]
+    n = np.cross(b - a, c - a)
+    n = n / np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-300)
+    # The region's four bounding planes, (normal, point), inside where (p − point)·normal ≥ 0.
+    planes = [(-n, a)] + [(np.cross(n, v - u), u) for u, v in ((a, b), (b, c), (c, a))]
+    normals = np.stack([p[0] for p in planes], axis=1)            # (m, 4, 3)
+    points = np.stack([p[1] for p in planes], axis=1)             # (m, 4, 3)
+    normals = normals / np.maximum(np.linalg.norm(normals, axis=2, keepdims=True), 1e-300)
+    offsets = np.einsum("mkj,mkj->mk", normals, points)           # (m, 4)
+    candidates = [tri[:, 0], tri[:, 1], tri[:, 2]]
+    for e in range(3):
+        p, q = tri[:, e], tri[:, (e + 1) % 3]
+        for k in range(4):
+            sp = np.einsum("mj,mj->m", p, normals[:, k]) - offsets[:, k]
+            sq = np.einsum("mj,mj->m", q, normals[:, k]) - offsets[:, k]
+            t = np.clip(sp / np.where(sp != sq, sp - sq, 1.0), 0.0, 1.0)
+            candidates.append(p + t[:, None] * (q - p))
+    ta, tb, tc = tri[:, 0], tri[:, 1], tri[:, 2]
+    own = np.cross(tb - ta, tc - ta)
+    own = own / np.maximum(np.linalg.norm(own, axis=1, keepdims=True), 1e-300)
+    for i in range(4):
+        for j in range(i + 1, 4):
+            m = np.stack([own, normals[:, i], normals[:, j]], axis=1)
+            rhs = np.stack([np.einsum("mj,mj->m", own, ta), offsets[:, i], offsets[:, j]], axis=1)
+            det = np.linalg.det(m)
+            ok = np.abs(det) > 1e-12
+            p = np.full_like(ta, np.nan)
+            if ok.any():
+                p[ok] = np.linalg.solve(m[ok], rhs[ok][..., None])[..., 0]
+            candidates.append(p)
+    cand = np.stack(candidates, axis=1)                           # (m, 21, 3)
+    # Rounding allowed on the tests below: a billionth of the pair's size.
+    size = (np.linalg.norm(tri - tri[:, :1], axis=2).max(axis=1)
+            + np.linalg.norm(other - other[:, :1], axis=2).max(axis=1))[:, None]
+    # Candidates on tri[k] (the plane-pair points may lie off it) and in the region.
+    keep = ~np.isnan(cand[..., 0])
+    for u, v in ((ta, tb), (tb, tc), (tc, ta)):
+        side = np.einsum("mkj,mj->mk", np.cross((v - u)[:, None, :], cand - u[:, None, :]), own)
+        keep &= side >= -1e-9 * size * size
+    into = np.einsum("mkj,mlj->mkl", np.nan_to_num(cand), normals) - offsets[:, None, :]
+    keep &= (into >= -1e-9 * size[..., None]).all(axis=2)
+    return np.maximum(np.where(keep, into[:, :, 0], 0.0).max(axis=1), 0.0)
+
+
 def crossings(ta, tb):
     """Where triangles ta[k] and tb[k] (each (m, 3, 3), outward: counter-clockwise seen from
     outside) cross: whether they do, the length of the segment they cross along, and how deep:
-    the lesser of the two triangles' depths, each the farthest of its corners behind the other's
-    plane (against its outward normal). The segment's ends are where an edge of one passes
-    through the other (strictly: an edge that only touches the other's plane, and coplanar
-    triangles, do not cross)."""
+    the lesser of the two triangles' depths, each the deepest of its points over the other
+    behind it (`behind_over`; a corner behind the other's plane but beside the other is not
+    through it: faces pressed together at a slant cross along a short segment, and their
+    corners lie far behind each other's planes). The segment's ends are where an edge of one
+    passes through the other (strictly: an edge that only touches the other's plane, and
+    coplanar triangles, do not cross)."""
     points = []
     for tri, other in ((ta, tb), (tb, ta)):
         a, b, c = other[:, 0], other[:, 1], other[:, 2]
@@ -157,12 +210,7 @@ def crossings(ta, tb):
     length = np.zeros(len(hit))
     length[hit] = np.linalg.norm(ends[:, :, None, :] - ends[:, None, :, :], axis=3).max(axis=(1, 2))
     depth = np.zeros(len(hit))
-    behind = []
-    for tri, other in ((ta[hit], tb[hit]), (tb[hit], ta[hit])):
-        n = np.cross(other[:, 1] - other[:, 0], other[:, 2] - other[:, 0])
-        n /= np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-300)
-        behind.append(np.maximum(-np.einsum("ikj,ij->ik", tri - other[:, :1], n), 0).max(axis=1))
-    depth[hit] = np.minimum(*behind)
+    depth[hit] = np.minimum(behind_over(ta[hit], tb[hit]), behind_over(tb[hit], ta[hit]))
     return hit, length, depth
 
 

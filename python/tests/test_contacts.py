@@ -132,6 +132,23 @@ def test_the_report_finds_a_skin_through_itself(tmp_path: Path) -> None:
     assert report_on(tmp_path, "--apart", "1")["self"]["ring"]["apart"] == nothing
 
 
+def test_faces_pressed_together_at_a_slant_are_as_deep_as_they_press(tmp_path: Path) -> None:
+    """Two triangles face to face, crossing along y = x: B on z = 0 facing up (x, y ≥ 0,
+    x + y ≤ 1), A on z = 0.2 (x − y) facing down (x, y ≤ 0.8, x + y ≥ 0.6). They cross along
+    (0.3, 0.3, 0)–(0.5, 0.5, 0). A's points over B lie at most 0.16 behind it (at (0, 0.8)); B's
+    over A at most 0.16·√1.08/1.04 behind it (its point (0, 0.8·1.08/1.04), whose foot on A is
+    on A's edge y = 0.8), the lesser. Corners lie further behind the other's plane (A's
+    (−0.2, 0.8) 0.2 behind B's, B's (0, 1) 0.2/√1.08 behind A's) but beside the other
+    triangle: not through it."""
+    b = [[0, 0, 0], [1, 0, 0], [0, 1, 0]]
+    a = [[x, y, 0.2 * (x - y)] for x, y in ((0.8, 0.8), (0.8, -0.2), (-0.2, 0.8))]
+    write_frame(tmp_path / "frame_000000.obj", {"pressed": (b + a, [[0, 1, 2], [3, 4, 5]])})
+    pressed = report_on(tmp_path)["self"]["pressed"]
+    assert pressed["pairs"] == 1, pressed
+    assert abs(pressed["length"] - 0.2 * 2**0.5) < 1e-12, pressed
+    assert abs(pressed["deepest"] - 0.16 * 1.08**0.5 / 1.04) < 1e-12, pressed
+
+
 def test_the_time_spent_on_contacts_is_counted_where_bodies_may_touch() -> None:
     """Two cubes stacked on the floor spend some of their steps' time on contacts between them,
     and a cube alone none; changing the model starts the count again."""
