@@ -86,9 +86,10 @@ for n in $(seq 0 19); do
 done
 create "$out/pile.toml" --bounds=-1,-1,-1,1,1,2.5 --dt 0.0005 --collision-stiffness 5e5 --collision-damping 150 "${pile[@]}"
 # A soft ring standing on its edge between two panes (the walls, 0.3 m apart), squashed by a
-# heavy block until its hole closes and its inner faces press on each other, with self-contact
-# on. Without self-contact the ring folds down through itself (scripts/contact_report.py counts
-# the faces that cross, docs/scenes.md#the-example-scenes). Self-contact is stiff for an explicit
+# heavy block, with self-contact on: as the block lands the ring's hole closes for a moment and
+# its inner faces meet, and its crushed cells are kept right side out. Without self-contact the
+# ring folds down through itself (scripts/contact_report.py counts the faces that cross,
+# docs/scenes.md#the-example-scenes). Self-contact is stiff for an explicit
 # step: dt 0.5 ms. Standing free, the ring falls over; flat, its hole never closes.
 "$jello" shape torus "$meshes/ring.obj" --detail 8 --size 0.8 >/dev/null
 create "$out/ring.toml" --dt 0.0005 --collision-stiffness 2e5 --collision-damping 50 --self-contact \

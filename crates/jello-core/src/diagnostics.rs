@@ -19,7 +19,8 @@ pub struct Energy {
     pub kinetic: f64,
     /// `Σ ½ k (|L| − R)²` over the lattice springs.
     pub spring: f64,
-    /// `Σ ½ kCollision depth²` over the box, plane, obstacle and body-to-body penalty springs.
+    /// `Σ ½ kCollision depth²` over the box, plane, obstacle and body-to-body penalty springs,
+    /// and under self-contact the cells' guard's energy (see [`crate::contact::cell_guard`]).
     pub collision: f64,
 }
 
@@ -67,6 +68,7 @@ pub fn energy(model: &Model, state: &State) -> Energy {
     }
     if model.surfaces_touch() {
         collision += crate::contact::overlap(model, &state.pos).1;
+        collision += crate::contact::cell_guard::energy(model, &state.pos);
     }
     Energy {
         kinetic,

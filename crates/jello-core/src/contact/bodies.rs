@@ -24,7 +24,9 @@
 //! nearer, it is the same piece of surface (a sample on a face its cell shares with the next is
 //! in both). Cells that share no corner with the sample's are always that far; cells next to it
 //! hold the sample only where the body folds over itself (their corners pass each other), and
-//! the fold is pushed apart as any other touch.
+//! the fold is pushed apart as any other touch. Under self-contact the cells are also kept
+//! from turning inside out ([`super::cell_guard`]), whose forces the contact pass adds: an
+//! inverted cell's distance field is meaningless.
 //!
 //! So skins touch: at rest a body sinks into the one under it by its weight over the collision
 //! stiffness of its touching samples, and stands no gap above it. Its limits: a sample moving
@@ -79,6 +81,9 @@ pub struct Contacts {
     mass: Vec<f64>,
     /// The samples that touched another body in the last [`Contacts::compute`].
     touches: Vec<Touch>,
+    /// The points the cells' guard pushed in the last [`Contacts::compute`] (under
+    /// self-contact, see [`super::cell_guard`]), with repeats.
+    guarded: Vec<u32>,
     /// The samples cut into chunks of one body's, searched on the team's threads; each chunk's
     /// touches are summed in order after, so the forces do not depend on the thread count.
     chunks: Vec<SampleChunk>,
@@ -228,11 +233,21 @@ impl Contacts {
                 });
             }
         }
+        // Room for every corner of every cell to be squeezed, so that stepping does not
+        // allocate.
+        let corners = match model.self_contact {
+            true => bodies
+                .iter()
+                .map(|b| 32 * b.contact_surface().cells().len())
+                .sum(),
+            false => 0,
+        };
         Contacts {
             forces: Soa::zeros(model.point_count()),
             grid: BroadPhase::new(model),
             mass: bodies.iter().map(|b| b.material.mass).collect(),
             touches: Vec::with_capacity(samples),
+            guarded: Vec::with_capacity(corners),
             chunks,
             spent: std::time::Duration::ZERO,
         }
@@ -271,19 +286,23 @@ impl Contacts {
             grid,
             mass,
             touches,
+            guarded,
             chunks,
             ..
         } = self;
-        // Only the points of the last pass's touches hold forces (a dense fill was a serial
-        // tenth of a pass on 2 threads).
+        // Only the points of the last pass's touches and guard hold forces (a dense fill was a
+        // serial tenth of a pass on 2 threads).
         let [fx, fy, fz] = forces.parts_mut();
-        for touch in touches.iter() {
-            for &q in &touch.points {
-                let q = q as usize;
-                (fx[q], fy[q], fz[q]) = (0.0, 0.0, 0.0);
-            }
+        let last = touches
+            .iter()
+            .flat_map(|t| t.points.iter())
+            .chain(guarded.iter());
+        for &q in last {
+            let q = q as usize;
+            (fx[q], fy[q], fz[q]) = (0.0, 0.0, 0.0);
         }
         touches.clear();
+        guarded.clear();
         if !model.surfaces_touch() {
             return;
         }
@@ -308,6 +327,15 @@ impl Contacts {
                 touches.push(*touch);
             }
         }
+        // Under self-contact, the cells kept right side out (in the cells' order).
+        let at = |q: usize| Vec3::new(px[q], py[q], pz[q]);
+        super::cell_guard::for_each_squeezed(model, at, |s| {
+            for (&q, g) in s.points.iter().zip(s.gradient) {
+                let f = g * s.push;
+                (fx[q], fy[q], fz[q]) = (fx[q] + f.x, fy[q] + f.y, fz[q] + f.z);
+                guarded.push(q as u32);
+            }
+        });
     }
 
     /// The samples of each body inside another at positions `p`, or outside it by less than
@@ -1080,7 +1108,8 @@ mod tests {
 
     /// Every touch by a search over every kept cell of every other body, in the cells' order,
     /// the first cell that holds a sample inside its body's surface deciding (one that holds it
-    /// outside passes the search on to the next body): the forces the grid's visits must give.
+    /// outside passes the search on to the next body), and under self-contact the cells' guard:
+    /// the forces the grid's visits must give.
     fn by_every_cell(model: &Model, pos: &[Vec3], vel: &[Vec3]) -> Vec<Vec3> {
         let mut force = vec![Vec3::ZERO; pos.len()];
         let bodies = model.bodies();
@@ -1141,6 +1170,16 @@ mod tests {
                 }
             }
         }
+        // And under self-contact the cells' guard, which the contact pass adds.
+        super::super::cell_guard::for_each_squeezed(
+            model,
+            |p| pos[p],
+            |s| {
+                for (&p, g) in s.points.iter().zip(s.gradient) {
+                    force[p] += g * s.push;
+                }
+            },
+        );
         force
     }
 

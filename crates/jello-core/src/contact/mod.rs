@@ -4,6 +4,7 @@
 //!   deepest penetration;
 //! - [`bodies`]: contacts between bodies' surfaces (and of a body with itself), their penalty
 //!   law and the overlap diagnostics;
+//! - [`cell_guard`]: under self-contact, the penalty that keeps cells from turning inside out;
 //! - [`broad_phase`]: the hashed uniform grid that finds the cells of bodies near a point;
 //! - [`friction`]: Coulomb friction, on obstacles (anchored ties) and between bodies (sliding);
 //! - [`tunnelling`]: points a step carried through an obstacle, read off two successive states;
@@ -14,6 +15,7 @@
 
 pub mod bodies;
 pub mod broad_phase;
+pub mod cell_guard;
 pub mod friction;
 pub mod obstacles;
 pub mod tunnel_warning;

@@ -12,6 +12,7 @@
 use crate::compute::soa::Soa;
 use crate::compute::team;
 use crate::contact::bodies::Touch;
+use crate::contact::cell_guard;
 use crate::contact::friction::{self, anchored_surfaces, Anchors};
 use crate::contact::Contacts;
 use crate::model::Model;
@@ -101,8 +102,8 @@ fn spread(points: &[u32; 16], weights: &[f64; 16], f: Vec3, free: &[f64], force:
 }
 
 /// What the residual's force pass leaves out, added to `force` (N per point): friction at the
-/// positions `x_soa` and velocities `v`, and the contacts between bodies at `touches` (found
-/// with the points at `x0`). `mass` per point (kg), `free` 1 for a moving point (0: nothing is
+/// positions `x_soa` and velocities `v`, the contacts between bodies at `touches` (found
+/// with the points at `x0`), and under self-contact the cells' guard at `x_soa`. `mass` per point (kg), `free` 1 for a moving point (0: nothing is
 /// added to it).
 #[allow(clippy::too_many_arguments)]
 pub(super) fn add_forces(
@@ -148,6 +149,13 @@ pub(super) fn add_forces(
         });
     }
     add_touches(model, touches, at, x0, v, free, force);
+    cell_guard::for_each_squeezed(model, at, |s| {
+        for (&p, g) in s.points.iter().zip(s.gradient) {
+            if free[p] != 0.0 {
+                force[p] += g * s.push;
+            }
+        }
+    });
 }
 
 /// A touch's part of `A` at positions `x` and velocities `v` (step `h`): the penalty spring's

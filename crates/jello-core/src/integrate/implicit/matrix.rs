@@ -136,6 +136,22 @@ pub(super) fn assemble(
         let c = h * pull.damping + h2 * pull.stiffness;
         e[..3].iter_mut().for_each(|e| *e += c);
     }
+    // Under self-contact, the cells' guard at the iterate: the Gauss–Newton curvature of each
+    // squeezed corner's energy, `k·ggᵀ`, at each of its points (its couplings between points
+    // left out: `A` stays positive definite where the guard acts, and Newton's method, judged
+    // on the residual, converges on without them).
+    let (free, extra) = (&s.free, &mut s.extra);
+    crate::contact::cell_guard::for_each_squeezed(
+        model,
+        |i| at(i, &s.v),
+        |q| {
+            for (&p, &g) in q.points.iter().zip(&q.gradient) {
+                if free[p] != 0.0 {
+                    super::sym::add_outer(&mut extra[p], g, h2 * q.stiffness);
+                }
+            }
+        },
+    );
     // Contacts between bodies: each touch found at the step's start, its penalty spring along
     // the normal it had then while it is in, its sliding friction, and its damper where it
     // touched at the start, each on the sample's displacement relative to the other body.
