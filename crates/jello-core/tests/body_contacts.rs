@@ -308,8 +308,9 @@ fn ell() -> Body {
 
 /// One cell of 0.1 m (springs of 100 N/m, points of 10 g, no damping, no gravity) with its
 /// corner (1, 1, 1) pushed 0.6 of the way along the diagonal toward the opposite one, at rest:
-/// that corner's volume is under a tenth of its volume at rest, where under self-contact the
-/// cells' guard pushes it back out (a cell alone has no other surface to touch).
+/// that corner is turned inside out (its volume −0.8 of its volume at rest), and under
+/// self-contact the cells' guard pushes it back out (a cell alone has no other surface to
+/// touch).
 fn squeezed_cell(
     self_contact: bool,
     integrator: jello_core::Integrator,

@@ -121,7 +121,7 @@ mod tests {
     use crate::model::{Aabb, ModelBuilder};
 
     /// One cell (2×2×2 points, spacing 0.1 m, springs of 100 N/m), under self-contact or not.
-    pub(crate) fn cell(self_contact: bool) -> Model {
+    fn cell(self_contact: bool) -> Model {
         let lattice = Lattice::new([2, 2, 2], Vec3::new(0.1, 0.1, 0.1));
         let material = Material {
             mass: 0.01,

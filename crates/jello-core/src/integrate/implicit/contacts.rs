@@ -102,9 +102,9 @@ fn spread(points: &[u32; 16], weights: &[f64; 16], f: Vec3, free: &[f64], force:
 }
 
 /// What the residual's force pass leaves out, added to `force` (N per point): friction at the
-/// positions `x_soa` and velocities `v`, the contacts between bodies at `touches` (found
-/// with the points at `x0`), and under self-contact the cells' guard at `x_soa`. `mass` per point (kg), `free` 1 for a moving point (0: nothing is
-/// added to it).
+/// positions `x_soa` and velocities `v`, the contacts between bodies at `touches` (found with
+/// the points at `x0`), and under self-contact the cells' guard at `x_soa`. `mass` per point
+/// (kg), `free` 1 for a moving point (0: nothing is added to it).
 #[allow(clippy::too_many_arguments)]
 pub(super) fn add_forces(
     model: &Model,
