@@ -86,11 +86,11 @@ for n in $(seq 0 19); do
 done
 create "$out/pile.toml" --bounds=-1,-1,-1,1,1,2.5 --dt 0.0005 --collision-stiffness 5e5 --collision-damping 150 "${pile[@]}"
 # A soft ring standing on its edge between two panes (the walls, 0.3 m apart), squashed by a
-# heavy block, with self-contact on: as the block lands the ring's hole closes for a moment and
-# its inner faces meet, and its crushed cells are kept right side out. Without self-contact the
-# ring folds down through itself (scripts/contact_report.py counts the faces that cross,
-# docs/scenes.md#the-example-scenes). Self-contact is stiff for an explicit
-# step: dt 0.5 ms. Standing free, the ring falls over; flat, its hole never closes.
+# heavy block, with self-contact on: as the block lands the inner faces of the ring's hole meet
+# for a moment, and its crushed cells are kept right side out. Without self-contact the ring
+# folds down through itself (scripts/contact_report.py counts the faces that cross,
+# docs/scenes.md#the-example-scenes). Self-contact is stiff for an explicit step: dt 0.5 ms.
+# Standing free, the ring falls over; flat, its hole never closes.
 "$jello" shape torus "$meshes/ring.obj" --detail 8 --size 0.8 >/dev/null
 create "$out/ring.toml" --dt 0.0005 --collision-stiffness 2e5 --collision-damping 50 --self-contact \
   --bounds=-0.6,-0.15,0,0.6,0.15,1.2 \
