@@ -330,8 +330,7 @@ impl Contacts {
         // Under self-contact, the cells kept right side out (in the cells' order).
         let at = |q: usize| Vec3::new(px[q], py[q], pz[q]);
         super::cell_guard::for_each_squeezed(model, at, |s| {
-            for (&q, g) in s.points.iter().zip(s.gradient) {
-                let f = g * s.push;
+            for (q, f) in s.forces() {
                 (fx[q], fy[q], fz[q]) = (fx[q] + f.x, fy[q] + f.y, fz[q] + f.z);
                 guarded.push(q as u32);
             }
@@ -1174,11 +1173,7 @@ mod tests {
         super::super::cell_guard::for_each_squeezed(
             model,
             |p| pos[p],
-            |s| {
-                for (&p, g) in s.points.iter().zip(s.gradient) {
-                    force[p] += g * s.push;
-                }
-            },
+            |s| s.forces().for_each(|(p, f)| force[p] += f),
         );
         force
     }

@@ -41,15 +41,25 @@ pub const STIFFNESS: f64 = 5.0;
 
 /// A corner of a cell squeezed below [`FROM`] of its volume at rest: its point and its three
 /// neighbours' (flat indices into the model's points), the gradient of its volume with respect
-/// to each, the guard's push (`k·(FROM·D₀ − D)`, > 0: the force on point `i` is
-/// `gradient[i]·push`), its stiffness `k` and its energy.
+/// to each, the guard's push (`k·(FROM·D₀ − D)`, > 0) and its stiffness `k`.
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct Squeezed {
     pub points: [usize; 4],
     pub gradient: [Vec3; 4],
     pub push: f64,
     pub stiffness: f64,
-    pub energy: f64,
+}
+
+impl Squeezed {
+    /// The guard's force on each of the four points: `gradient·push`.
+    pub(crate) fn forces(&self) -> impl Iterator<Item = (usize, Vec3)> + '_ {
+        (self.points.iter().zip(&self.gradient)).map(|(&p, &g)| (p, g * self.push))
+    }
+
+    /// Its energy, `½·k·(FROM·D₀ − D)²` (J).
+    pub(crate) fn energy(&self) -> f64 {
+        0.5 * self.push * self.push / self.stiffness
+    }
 }
 
 /// Calls `each` for every squeezed corner of `model`'s bodies at positions `at`, body by body,
@@ -99,7 +109,6 @@ pub(crate) fn for_each_squeezed(
                     gradient: [-(gu + gv + gw), gu, gv, gw],
                     push: stiffness * short,
                     stiffness,
-                    energy: 0.5 * stiffness * short * short,
                 });
             }
         }
@@ -109,7 +118,7 @@ pub(crate) fn for_each_squeezed(
 /// The guards' energy at positions `pos` (J): a diagnostic.
 pub fn energy(model: &Model, pos: &[Vec3]) -> f64 {
     let mut energy = 0.0;
-    for_each_squeezed(model, |p| pos[p], |s| energy += s.energy);
+    for_each_squeezed(model, |p| pos[p], |s| energy += s.energy());
     energy
 }
 
@@ -151,11 +160,7 @@ mod tests {
         for_each_squeezed(
             model,
             |p| pos[p],
-            |s| {
-                for (&p, g) in s.points.iter().zip(s.gradient) {
-                    f[p] += g * s.push;
-                }
-            },
+            |s| s.forces().for_each(|(p, force)| f[p] += force),
         );
         f
     }

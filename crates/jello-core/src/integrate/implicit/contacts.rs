@@ -150,10 +150,8 @@ pub(super) fn add_forces(
     }
     add_touches(model, touches, at, x0, v, free, force);
     cell_guard::for_each_squeezed(model, at, |s| {
-        for (&p, g) in s.points.iter().zip(s.gradient) {
-            if free[p] != 0.0 {
-                force[p] += g * s.push;
-            }
+        for (p, f) in s.forces().filter(|&(p, _)| free[p] != 0.0) {
+            force[p] += f;
         }
     });
 }
