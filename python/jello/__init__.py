@@ -12,6 +12,7 @@ numpy arrays in and out, Python exceptions, and parameter sweeps on Dask (:func:
 from jello._jello import (
     BlowUp,
     Body,
+    ContactWork,
     Energy,
     GpuError,
     Obstacle,
@@ -40,6 +41,7 @@ from jello.sweep import sweep
 __all__ = [
     "BlowUp",
     "Body",
+    "ContactWork",
     "Energy",
     "GpuError",
     "Obstacle",

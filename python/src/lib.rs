@@ -50,6 +50,7 @@ fn _jello(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<simulation::Simulation>()?;
     m.add_class::<simulation::Energy>()?;
     m.add_class::<simulation::SolverStats>()?;
+    m.add_class::<simulation::ContactWork>()?;
     m.add_class::<build::Body>()?;
     m.add_class::<build::Obstacle>()?;
     m.add_class::<build::Pin>()?;

@@ -558,6 +558,22 @@ impl Simulation {
         }
     }
 
+    /// The contact passes' work between bodies since the model last changed, counted: the same
+    /// on any machine and thread count, where `contact_seconds` drifts (all zero for a model
+    /// whose surfaces cannot touch, and on the GPU).
+    #[getter]
+    fn contact_work(&self) -> ContactWork {
+        let w = self.sim.contact_work();
+        ContactWork {
+            passes: w.passes,
+            sorts: w.sorts,
+            listed: w.listed,
+            placed: w.placed,
+            placings: w.placings,
+            touches: w.touches,
+        }
+    }
+
     /// Steps per displayed frame (the world file's `n`).
     #[getter]
     fn steps_per_frame(&self) -> u32 {
@@ -678,6 +694,35 @@ impl Energy {
             self.spring,
             self.collision,
             self.total()
+        )
+    }
+}
+
+/// The contact passes' work between bodies (see `Simulation.contact_work`), summed over the
+/// passes.
+#[pyclass(module = "jello", frozen, get_all)]
+#[derive(Clone, Copy)]
+pub struct ContactWork {
+    /// Contact passes: four a step of `RK4`, one a step of an implicit integrator.
+    pub passes: u64,
+    /// Sorts of the broad phase's grid, each listing anew the samples that may touch.
+    pub sorts: u64,
+    /// Samples listed, summed over the sorts.
+    pub listed: u64,
+    /// Listed samples looked for in their cells, summed over the passes.
+    pub placed: u64,
+    /// Cells a sample was sought in, summed over the passes.
+    pub placings: u64,
+    /// Touches found, summed over the passes.
+    pub touches: u64,
+}
+
+#[pymethods]
+impl ContactWork {
+    fn __repr__(&self) -> String {
+        format!(
+            "ContactWork(passes={}, sorts={}, listed={}, placed={}, placings={}, touches={})",
+            self.passes, self.sorts, self.listed, self.placed, self.placings, self.touches
         )
     }
 }

@@ -150,16 +150,19 @@ def test_faces_pressed_together_at_a_slant_are_as_deep_as_they_press(tmp_path: P
 
 
 def test_the_time_spent_on_contacts_is_counted_where_bodies_may_touch() -> None:
-    """Two cubes stacked on the floor spend some of their steps' time on contacts between them,
-    and a cube alone none; changing the model starts the count again."""
+    """Two cubes stacked on the floor spend some of their steps' time and work on contacts
+    between them, and a cube alone none; changing the model starts the count again."""
     lower = jello.cube(4, 0.5, centre=(0, 0, -1.7), total_mass=1)
     upper = jello.cube(4, 0.5, centre=(0, 0, -1.15), total_mass=1)
     pair = jello.create([lower, upper])
     assert pair.contact_seconds == 0.0
     pair.run(200)
     assert pair.contact_seconds > 0.0
+    work = pair.contact_work
+    assert work.passes == 4 * 200 and work.sorts >= 1, work  # RK4: four passes a step
+    assert work.listed > 0 and work.placed >= work.touches, work
     pair.dt = pair.dt / 2
-    assert pair.contact_seconds == 0.0
+    assert pair.contact_seconds == 0.0 and pair.contact_work.passes == 0
     alone = jello.create([jello.cube(4, 0.5, centre=(0, 0, -1.7), total_mass=1)])
     alone.run(200)
-    assert alone.contact_seconds == 0.0
+    assert alone.contact_seconds == 0.0 and alone.contact_work.passes == 0

@@ -324,6 +324,11 @@ fn the_upper_of_two_stacked_cubes_stays_on_top() {
         .and_then(|(share, _)| share.parse().ok())
         .unwrap_or_else(|| panic!("no share of the contacts in {line}"));
     assert!(share > 0.0 && share < 100.0, "{line}");
+    // And the contact passes' work, counted: 200 steps of RK4 are 800 passes.
+    let work = (out.lines())
+        .find(|l| l.starts_with("contact work: "))
+        .unwrap_or_else(|| panic!("no contact work in {out}"));
+    assert!(work.starts_with("contact work: 800 passes, "), "{work}");
 }
 
 #[test]

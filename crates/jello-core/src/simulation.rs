@@ -65,6 +65,12 @@ impl Simulation {
         self.scratch.contact_time()
     }
 
+    /// The contact passes' work between bodies since this simulation was made, counted (see
+    /// [`ContactWork`](crate::contact::bodies::ContactWork)): the same on any machine.
+    pub fn contact_work(&self) -> crate::contact::bodies::ContactWork {
+        self.scratch.contact_work()
+    }
+
     /// The implicit solver's work since this simulation was made (see [`SolverStats`]).
     pub fn solver_stats(&self) -> SolverStats {
         self.scratch.solver_stats()

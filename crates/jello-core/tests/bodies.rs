@@ -398,6 +398,54 @@ fn many_small_bodies_are_bit_identical_on_any_thread_count() {
     touch_with_the_same_bits_on_2_3_and_5_threads(&model, &start);
 }
 
+/// The contact passes' work is counted as the passes run: RK4 makes four passes a step, a
+/// touch comes from a placed sample, a placed sample from a listed one; the counts are the same
+/// on any thread count (they are what `jello run --timings` prints, to judge a change by where
+/// timings drift), and an implicit integrator's own pass, which holds a step's touches, is
+/// counted (and timed) too.
+#[test]
+fn the_contact_passes_work_is_counted_the_same_on_any_thread_count() {
+    let cubes: Vec<Body> = (0..8)
+        .map(|c| {
+            let at = Vec3::new(0.45 * (c % 2) as f64, 0.05 + 0.32 * (c / 2) as f64, 0.0);
+            cube(7, 0.3, at, jelly(0.01))
+        })
+        .collect();
+    let (model, start) = thrown_together(cubes, 0.3);
+    let steps = 80;
+    let work_on = |model: &Model, threads| {
+        common::on_threads(threads, || {
+            let (mut state, mut scratch) = (start.clone(), Scratch::new(model));
+            for _ in 0..steps {
+                step(model, &mut state, &Control::none(), &mut scratch).expect("no blow-up");
+            }
+            (scratch.contact_work(), scratch.contact_time())
+        })
+    };
+    let (one, _) = work_on(&model, 1);
+    assert_eq!(one.passes, 4 * steps as u64, "{one:?}");
+    assert!(
+        one.touches > 0 && one.sorts >= 1 && one.sorts <= one.passes,
+        "{one:?}"
+    );
+    assert!(
+        one.placings >= one.touches && one.placed >= one.touches,
+        "{one:?}"
+    );
+    assert!(one.listed >= one.sorts, "{one:?}");
+    for threads in [2, 3] {
+        assert_eq!(work_on(&model, threads).0, one, "{threads} threads");
+    }
+    let mut implicit = model.clone();
+    implicit.integrator = Integrator::BackwardEuler;
+    let (work, time) = work_on(&implicit, 1);
+    assert!(work.passes >= steps as u64 && work.touches > 0, "{work:?}");
+    assert!(
+        time > std::time::Duration::ZERO,
+        "the implicit pass is timed"
+    );
+}
+
 /// `cubes` on a floor (y up) with friction, each thrown at 2 m/s along x, the odd ones the
 /// other way, down at 1 m/s and along z at `spread` m/s times its index.
 fn thrown_together(cubes: Vec<Body>, spread: f64) -> (Model, State) {

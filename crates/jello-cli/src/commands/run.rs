@@ -4,6 +4,7 @@ use std::path::PathBuf;
 use std::time::Instant;
 
 use clap::Args;
+use jello_core::contact::ContactWork;
 use jello_core::diagnostics::{
     bodies_sunk, energy, max_penetration, obstacles_through, TunnelWatch,
 };
@@ -309,6 +310,10 @@ pub fn run(args: RunArgs) -> Result<(), CliError> {
             100.0 * contacts / wall.max(1e-9),
             (wall - contacts).max(0.0)
         );
+        let work = sim.contact_work();
+        if work.passes > 0 {
+            println!("{}", contact_work_line(&work));
+        }
     }
     // Warnings after the summary, on stderr: the run itself succeeded.
     let names = body_names(&source, &sim.model);
@@ -362,6 +367,22 @@ pub(crate) fn body_names(source: &Source, model: &jello_core::Model) -> Vec<Stri
             .map(|b| format!("body{b}"))
             .collect(),
     }
+}
+
+/// The `--timings` line of the contact passes' work (see [`ContactWork`]): the same on any
+/// machine and thread count, where the timings line's times drift.
+fn contact_work_line(work: &ContactWork) -> String {
+    let per = |n: u64, of: u64| n as f64 / of.max(1) as f64;
+    format!(
+        "contact work: {} passes, {} sorts of the grid; {:.0} samples listed a sort; a pass \
+         placed {:.1} samples in {:.1} cells and found {:.1} touches",
+        work.passes,
+        work.sorts,
+        per(work.listed, work.sorts),
+        per(work.placed, work.passes),
+        per(work.placings, work.passes),
+        per(work.touches, work.passes),
+    )
 }
 
 #[cfg(test)]

@@ -90,6 +90,48 @@ pub struct Contacts {
     /// Wall-clock time spent in [`Contacts::compute`] and [`Contacts::near`] (none counted in
     /// the browser, whose wasm has no clock here).
     spent: std::time::Duration,
+    /// The passes, sorts and touches counted so far (the chunks count the rest: see
+    /// [`Contacts::work`]).
+    work: ContactWork,
+}
+
+/// The contact pass's work, counted (`jello run --timings`): unlike its time, the same on any
+/// machine and thread count, so that a change to the pass can be judged by it where timings
+/// drift. Sums over the passes since the buffers were made.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct ContactWork {
+    /// Contact passes ([`Contacts::compute`] and [`Contacts::near`] calls on a model whose
+    /// surfaces may touch).
+    pub passes: u64,
+    /// Sorts of the broad phase's grid (each lists the samples that may touch anew).
+    pub sorts: u64,
+    /// Samples listed, summed over the sorts: those in some cell's box, with the cells they
+    /// may touch until the next sort.
+    pub listed: u64,
+    /// Samples placed, summed over the passes: listed samples not passed over as too far from
+    /// every cell on their lists, each looked for in those cells.
+    pub placed: u64,
+    /// Cells a sample was sought in (by the test of its box and hull, then Newton's method),
+    /// summed over the passes.
+    pub placings: u64,
+    /// Touches found (samples inside another body, or within the implicit step's margin),
+    /// summed over the passes.
+    pub touches: u64,
+}
+
+impl std::ops::Add for ContactWork {
+    type Output = ContactWork;
+
+    fn add(self, o: ContactWork) -> ContactWork {
+        ContactWork {
+            passes: self.passes + o.passes,
+            sorts: self.sorts + o.sorts,
+            listed: self.listed + o.listed,
+            placed: self.placed + o.placed,
+            placings: self.placings + o.placings,
+            touches: self.touches + o.touches,
+        }
+    }
 }
 
 /// A clock's reading to time the contact pass by, where `std` has a clock (not in the browser's
@@ -153,6 +195,8 @@ struct SampleChunk {
     /// path.
     pair: Vec<u32>,
     found: Vec<(Touch, Vec3)>,
+    /// Its part of [`ContactWork`]: `listed`, `placed` and `placings`.
+    work: ContactWork,
 }
 
 /// Each active sample of a chunk (its index into the body's samples) and where the cells it may
@@ -230,6 +274,7 @@ impl Contacts {
                     pair: Vec::new(),
                     samples,
                     found,
+                    work: ContactWork::default(),
                 });
             }
         }
@@ -250,6 +295,7 @@ impl Contacts {
             guarded: Vec::with_capacity(corners),
             chunks,
             spent: std::time::Duration::ZERO,
+            work: ContactWork::default(),
         }
     }
 
@@ -272,6 +318,12 @@ impl Contacts {
         self.spent
     }
 
+    /// The work of the contact passes since these buffers were made (see [`ContactWork`]).
+    pub fn work(&self) -> ContactWork {
+        let chunks = self.chunks.iter().map(|c| c.work);
+        chunks.fold(self.work, |sum, w| sum + w)
+    }
+
     /// The contact forces between the bodies of `model` at positions `p` and velocities `v`.
     pub fn compute(&mut self, model: &Model, p: &Soa, v: &Soa) {
         let start = Started::now();
@@ -288,6 +340,7 @@ impl Contacts {
             touches,
             guarded,
             chunks,
+            work,
             ..
         } = self;
         // Only the points of the last pass's touches and guard hold forces (a dense fill was a
@@ -308,6 +361,8 @@ impl Contacts {
         }
         let (px, py, pz) = (p.x(), p.y(), p.z());
         let sorted = grid.refresh(model, [px, py, pz], 0.0);
+        work.passes += 1;
+        work.sorts += u64::from(sorted);
         let (grid, mass) = (&*grid, &*mass);
         crate::compute::team::for_each_mut(chunks, &|_, chunk| {
             if sorted {
@@ -327,6 +382,7 @@ impl Contacts {
                 touches.push(*touch);
             }
         }
+        work.touches += touches.len() as u64;
         // Under self-contact, the cells kept right side out (in the cells' order).
         let at = |q: usize| Vec3::new(px[q], py[q], pz[q]);
         super::cell_guard::for_each_squeezed(model, at, |s| {
@@ -358,7 +414,10 @@ impl Contacts {
         }
         let (px, py, pz) = (p.x(), p.y(), p.z());
         let grid = &mut self.grid;
-        if grid.refresh(model, [px, py, pz], margin) {
+        let sorted = grid.refresh(model, [px, py, pz], margin);
+        self.work.passes += 1;
+        self.work.sorts += u64::from(sorted);
+        if sorted {
             let grid = &*grid;
             crate::compute::team::for_each_mut(&mut self.chunks, &|_, chunk| {
                 mark_active(model, grid, p, margin, chunk);
@@ -366,15 +425,17 @@ impl Contacts {
         }
         let grid = &self.grid;
         let at = |q: usize| Vec3::new(px[q], py[q], pz[q]);
-        for chunk in &self.chunks {
+        for chunk in &mut self.chunks {
             let a = chunk.body;
             let body = &bodies[a];
             let surface = body.contact_surface();
             let first = body.points().start;
+            chunk.work.placed += chunk.active.len() as u64;
             for (s, these) in each_active(&chunk.active) {
                 let cells = &chunk.cells[these];
                 let sample = &surface.samples[s];
                 let (points, w, ps) = sample_place(surface, first, sample, at);
+                let placings = &mut chunk.work.placings;
                 let own = body.lattice().coords(sample.corner as usize);
                 // The cell that holds the sample inside its body's surface; else, of the cells
                 // that hold it outside their body's surface by less than the margin, the one
@@ -395,6 +456,7 @@ impl Contacts {
                         .lattice()
                         .coords(corner - bodies[b].points().start);
                     let start = start_in(b == a, sample, own, cell);
+                    *placings += 1;
                     let Some((uvw, rows)) = locate_near(&corners, ps, margin / h, start) else {
                         return false;
                     };
@@ -473,6 +535,7 @@ impl Contacts {
                 out.extend(found.and_then(|(_, touch)| touch));
             }
         }
+        self.work.touches += out.len() as u64;
     }
 }
 
@@ -516,6 +579,7 @@ fn find_touches(
         calm,
         pair,
         found,
+        work,
         ..
     } = chunk;
     let body_path = grid.path(a);
@@ -546,6 +610,8 @@ fn find_touches(
         }
         let distances = &mut distances[these.clone()];
         let (outside, apart) = (&mut outside[these.clone()], &mut apart[these]);
+        work.placed += 1;
+        let placings = &mut work.placings;
         let sample = &surface.samples[s];
         let (mut points, mut w, ps) = sample_place(surface, first, sample, at);
         let own = body.lattice().coords(sample.corner as usize);
@@ -596,6 +662,7 @@ fn find_touches(
             } else {
                 [0.5; 3]
             };
+            *placings += 1;
             let (uvw, rows) = match locate_or_apart(&corners, ps, start) {
                 Ok(found) => found,
                 Err(clear) => {
@@ -670,6 +737,7 @@ fn mark_active(model: &Model, grid: &BroadPhase, p: &Soa, margin: f64, chunk: &m
         quiet,
         calm,
         pair,
+        work: chunk_work,
         ..
     } = chunk;
     let a = *a;
@@ -727,6 +795,7 @@ fn mark_active(model: &Model, grid: &BroadPhase, p: &Soa, margin: f64, chunk: &m
             pair.push(b);
         }
     }
+    chunk_work.listed += active.len() as u64;
     distances.resize(cells.len(), DistanceCache::EMPTY);
     outside.resize(cells.len(), f64::NEG_INFINITY);
     apart.resize(cells.len(), f64::NEG_INFINITY);

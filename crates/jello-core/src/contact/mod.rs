@@ -21,5 +21,5 @@ pub mod obstacles;
 pub mod tunnel_warning;
 pub mod tunnelling;
 
-pub use bodies::{closest, overlap, touch_force, Closest, Contacts};
+pub use bodies::{closest, overlap, touch_force, Closest, ContactWork, Contacts};
 pub use obstacles::max_penetration;

@@ -142,6 +142,12 @@ impl ForceScratch {
         self.contacts.time_spent()
     }
 
+    /// The contact passes' work between bodies since these buffers were made (see
+    /// [`Contacts::work`]).
+    pub fn contact_work(&self) -> crate::contact::bodies::ContactWork {
+        self.contacts.work()
+    }
+
     /// Where the points touching obstacles are tied (empty without friction or obstacles).
     pub(crate) fn anchors(&self) -> &Anchors {
         &self.anchors

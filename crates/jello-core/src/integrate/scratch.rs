@@ -42,9 +42,17 @@ impl Scratch {
     }
 
     /// Wall-clock time spent on contacts between bodies (finding them, and their forces) since
-    /// these buffers were made; zero for a model whose surfaces cannot touch, and in the browser.
+    /// these buffers were made, by the force routine's contact pass and the implicit step's own
+    /// (which holds a step's touches for its matrix); zero for a model whose surfaces cannot
+    /// touch, and in the browser.
     pub fn contact_time(&self) -> std::time::Duration {
-        self.force.contact_time()
+        self.force.contact_time() + self.implicit.contact_time()
+    }
+
+    /// The work of the contact passes between bodies since these buffers were made (both
+    /// passes', as [`Scratch::contact_time`]).
+    pub fn contact_work(&self) -> crate::contact::bodies::ContactWork {
+        self.force.contact_work() + self.implicit.contact_work()
     }
 
     /// The implicit solver's work (solves, Newton and conjugate-gradient iterations,

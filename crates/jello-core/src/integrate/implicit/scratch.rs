@@ -166,6 +166,16 @@ impl ImplicitScratch {
         self.stats
     }
 
+    /// Wall-clock time its own contact pass took so far (see [`Contacts::time_spent`]).
+    pub(crate) fn contact_time(&self) -> std::time::Duration {
+        self.contacts.time_spent()
+    }
+
+    /// Its own contact pass's work so far (see [`Contacts::work`]).
+    pub(crate) fn contact_work(&self) -> crate::contact::bodies::ContactWork {
+        self.contacts.work()
+    }
+
     pub(super) fn fits(&self, model: &Model) -> bool {
         let n = model.point_count();
         self.mass.len() == n
