@@ -703,7 +703,8 @@ impl Energy {
 #[pyclass(module = "jello", frozen, get_all)]
 #[derive(Clone, Copy)]
 pub struct ContactWork {
-    /// Contact passes: four a step of `RK4`, one a step of an implicit integrator.
+    /// Contact passes: one each time the forces between bodies are found (four a step of
+    /// `RK4`), or an implicit step's touches are.
     pub passes: u64,
     /// Sorts of the broad phase's grid, each listing anew the samples that may touch.
     pub sorts: u64,
