@@ -9,7 +9,9 @@ capsule, 0.4 m across, nine to a layer 0.45 m apart, each turned its own way), t
 its start with `jello run SCENE --time T --timings` on 1 and 2 threads (RAYON_NUM_THREADS), the
 wall-clock time of the contacts (timed in the core) against the rest of the run. Each thread
 count runs `--repeat` times, the counts taking turns (a shared machine's speed drifts by more
-than the differences measured): the table has the run of the median share, and the range.
+than the differences measured): the table has the run of the median share, and the range. Under
+it, the contact passes' work as `--timings` counts it, which must be the same in every run (it
+does not depend on the machine or the thread count): a change to the pass shows there first.
 
     scripts/contact_share.py [--time 2.5] [--threads 1,2] [--repeat 3] [--out BENCHMARKS.md]
 """
