@@ -100,8 +100,8 @@ pub struct Contacts {
 /// drift. Sums over the passes since the buffers were made.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct ContactWork {
-    /// Contact passes ([`Contacts::compute`] and [`Contacts::near`] calls on a model whose
-    /// surfaces may touch).
+    /// Contact passes on a model whose surfaces may touch: [`Contacts::compute`] calls, and
+    /// the implicit step's own passes (which find the touches it holds a step to).
     pub passes: u64,
     /// Sorts of the broad phase's grid (each lists the samples that may touch anew).
     pub sorts: u64,
