@@ -387,13 +387,7 @@ fn several_bodies_are_bit_identical_on_any_thread_count() {
 /// results on 1 to 5 threads.
 #[test]
 fn many_small_bodies_are_bit_identical_on_any_thread_count() {
-    let cubes: Vec<Body> = (0..8)
-        .map(|c| {
-            let at = Vec3::new(0.45 * (c % 2) as f64, 0.05 + 0.32 * (c / 2) as f64, 0.0);
-            cube(7, 0.3, at, jelly(0.01))
-        })
-        .collect();
-    let (model, start) = thrown_together(cubes, 0.3);
+    let (model, start) = eight_small_cubes_thrown_together();
     assert!(model.bodies().iter().all(|b| b.len() < 2048) && model.point_count() >= 2048);
     touch_with_the_same_bits_on_2_3_and_5_threads(&model, &start);
 }
@@ -405,13 +399,7 @@ fn many_small_bodies_are_bit_identical_on_any_thread_count() {
 /// counted (and timed) too.
 #[test]
 fn the_contact_passes_work_is_counted_the_same_on_any_thread_count() {
-    let cubes: Vec<Body> = (0..8)
-        .map(|c| {
-            let at = Vec3::new(0.45 * (c % 2) as f64, 0.05 + 0.32 * (c / 2) as f64, 0.0);
-            cube(7, 0.3, at, jelly(0.01))
-        })
-        .collect();
-    let (model, start) = thrown_together(cubes, 0.3);
+    let (model, start) = eight_small_cubes_thrown_together();
     let steps = 80;
     let work_on = |model: &Model, threads| {
         common::on_threads(threads, || {
@@ -444,6 +432,18 @@ fn the_contact_passes_work_is_counted_the_same_on_any_thread_count() {
         time > std::time::Duration::ZERO,
         "the implicit pass is timed"
     );
+}
+
+/// Eight cubes of 7³ points, two columns of four, thrown into each other and onto the floor
+/// (see [`thrown_together`]).
+fn eight_small_cubes_thrown_together() -> (Model, State) {
+    let cubes: Vec<Body> = (0..8)
+        .map(|c| {
+            let at = Vec3::new(0.45 * (c % 2) as f64, 0.05 + 0.32 * (c / 2) as f64, 0.0);
+            cube(7, 0.3, at, jelly(0.01))
+        })
+        .collect();
+    thrown_together(cubes, 0.3)
 }
 
 /// `cubes` on a floor (y up) with friction, each thrown at 2 m/s along x, the odd ones the
