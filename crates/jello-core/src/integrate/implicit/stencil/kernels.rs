@@ -2,6 +2,8 @@
 //! rows summed entry by entry ([`rows`]), in `f64` or `f32` ([`Lane`]), and the per-slot
 //! kernels (spring and damper forces, directions, blocks).
 
+#[cfg(doc)]
+use super::TILE;
 use super::{RowRange, Span};
 use crate::vec3::Vec3;
 
@@ -48,14 +50,21 @@ impl Lane for f32 {
 }
 
 /// Rows `start .. start + out.len()` of `own(p) + springs·x` into `out` (see the module
-/// documentation for the order of the sum), with `forces` for each entry's spring forces:
-/// `entry_forces(at, q, o, f, x, xn)` puts the forces `B·(x − xn)` of the springs at slots
-/// `at .. at + f.len()` into `f` (their first ends `q ..`, their second `q + o ..`).
+/// documentation for the order of the sum), with `forces` (at least `tile` long) for the
+/// spring forces of one stencil entry in one tile: `entry_forces(at, q, o, f, x, xn)` puts the
+/// forces `B·(x − xn)` of the springs at slots `at .. at + f.len()` into `f` (their first ends
+/// `q ..`, their second `q + o ..`).
 ///
 /// Each spring's force `B·(x[q] − x[q + o])` is computed once, into `forces`, and added to its
-/// first end's row and taken from its second end's (in that order for each entry, as the
-/// module documentation sums): `−(B·(a − b))` is `B·(b − a)` to the bit, so this is the sum
-/// of the documentation, and each block is read once rather than once from each end.
+/// first end's row and taken from its second end's: `−(B·(a − b))` is `B·(b − a)` to the bit,
+/// and each block is read once rather than once from each end. The springs are taken by tiles
+/// of their first ends, `k·tile .. (k + 1)·tile` counted from point 0 whatever the range,
+/// every entry of one tile before the next tile: a tile's forces stay in the L1 cache between
+/// their computing and their two uses, where a whole range's forces of one entry did not. So
+/// each row sums `own`, then the forces of its springs tile by tile (its second ends' tiles
+/// come before its own), within a tile entry by entry, an entry's force from the row as first
+/// end before that as second end: the same order whoever computes the row, as long as `tile` is
+/// the same ([`TILE`] in every product).
 #[allow(clippy::too_many_arguments)]
 pub(super) fn rows<T: Lane>(
     spans: &[Span],
@@ -65,6 +74,7 @@ pub(super) fn rows<T: Lane>(
     start: usize,
     out: [&mut [T]; 3],
     forces: &mut [Vec<T>; 3],
+    tile: usize,
     entry_forces: impl Fn(usize, usize, usize, [&mut [T]; 3], [&[T]; 3], [&[T]; 3]),
 ) {
     let end = start + out[0].len();
@@ -81,45 +91,49 @@ pub(super) fn rows<T: Lane>(
         if lo >= hi {
             continue;
         }
-        for (e, &o) in span.offset.iter().enumerate() {
-            if o == 0 || o >= span.len {
-                continue;
-            }
-            // The springs from q to q + o with either end a row here: q from the body's first
-            // point (or o before the first row) to below the first row past the range or past
-            // the body's end minus o.
-            let (q0, q1) = (
-                lo.saturating_sub(o).max(span.first),
-                hi.min(span.first + span.len - o),
-            );
-            if q0 >= q1 {
-                continue;
-            }
-            let len = q1 - q0;
-            let f = [&mut f0[..len], &mut f1[..len], &mut f2[..len]];
-            let (x, xn, at) = (xs(q0, len), xs(q0 + o, len), e * n + q0);
-            entry_forces(at, q0, o, f, x, xn);
-            // Their first ends among the rows…
-            let a = q0.max(lo);
-            if a < q1 {
-                let y = [
-                    &mut o0[a - start..q1 - start],
-                    &mut o1[a - start..q1 - start],
-                    &mut o2[a - start..q1 - start],
-                ];
-                let f = [&f0[a - q0..len], &f1[a - q0..len], &f2[a - q0..len]];
-                T::add(y, f);
-            }
-            // …and their second ends (q + o below the range's end).
-            let b = q1.min(hi.saturating_sub(o));
-            if q0 < b {
-                let y = [
-                    &mut o0[q0 + o - start..b + o - start],
-                    &mut o1[q0 + o - start..b + o - start],
-                    &mut o2[q0 + o - start..b + o - start],
-                ];
-                let f = [&f0[..b - q0], &f1[..b - q0], &f2[..b - q0]];
-                T::subtract(y, f);
+        let entries = span.offset.iter().enumerate();
+        let entries = entries.filter(|&(_, &o)| o != 0 && o < span.len);
+        // The first ends of the springs with either end a row here: from the body's first
+        // point (or the longest offset before the first row) to below the range's end.
+        let reach = entries.clone().map(|(_, &o)| o).max().unwrap_or(0);
+        let first = lo.saturating_sub(reach).max(span.first);
+        for t in first / tile..hi.div_ceil(tile) {
+            let (t0, t1) = (t * tile, (t + 1) * tile);
+            for (e, &o) in entries.clone() {
+                // This tile's springs from q to q + o with either end a row here: q from the
+                // body's first point (or o before the first row) to below the first row past
+                // the range or past the body's end minus o.
+                let q0 = t0.max(lo.saturating_sub(o)).max(span.first);
+                let q1 = t1.min(hi).min(span.first + span.len - o);
+                if q0 >= q1 {
+                    continue;
+                }
+                let len = q1 - q0;
+                let f = [&mut f0[..len], &mut f1[..len], &mut f2[..len]];
+                let (x, xn, at) = (xs(q0, len), xs(q0 + o, len), e * n + q0);
+                entry_forces(at, q0, o, f, x, xn);
+                // Their first ends among the rows…
+                let a = q0.max(lo);
+                if a < q1 {
+                    let y = [
+                        &mut o0[a - start..q1 - start],
+                        &mut o1[a - start..q1 - start],
+                        &mut o2[a - start..q1 - start],
+                    ];
+                    let f = [&f0[a - q0..len], &f1[a - q0..len], &f2[a - q0..len]];
+                    T::add(y, f);
+                }
+                // …and their second ends (q + o below the range's end).
+                let b = q1.min(hi.saturating_sub(o));
+                if q0 < b {
+                    let y = [
+                        &mut o0[q0 + o - start..b + o - start],
+                        &mut o1[q0 + o - start..b + o - start],
+                        &mut o2[q0 + o - start..b + o - start],
+                    ];
+                    let f = [&f0[..b - q0], &f1[..b - q0], &f2[..b - q0]];
+                    T::subtract(y, f);
+                }
             }
         }
     }

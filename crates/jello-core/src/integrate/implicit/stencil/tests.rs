@@ -229,7 +229,7 @@ fn blocks_by_slot_are_the_blocks_of_each_spring() {
 
 /// Rows computed in ranges (as threads compute them) have the bits of rows computed at
 /// once, wherever the ranges start: inside a body, across a body's end, within one stencil
-/// offset of the next range.
+/// offset of the next range; whatever the tile, as long as it is the same.
 #[test]
 fn rows_in_ranges_have_the_bits_of_rows_at_once() {
     let model = two_bodies();
@@ -258,8 +258,8 @@ fn rows_in_ranges_have_the_bits_of_rows_at_once() {
     ];
     let own = |p: usize| sym_mul(&own[p], x[p]);
     // Rows `range` of the blocks' product in single and in double precision and of the
-    // dampers', as bits.
-    let rows_of = |range: std::ops::Range<usize>| -> Vec<u64> {
+    // dampers', in tiles of `tile` springs, as bits.
+    let rows_of = |range: std::ops::Range<usize>, tile: usize| -> Vec<u64> {
         let start = range.start;
         let mut single: [Vec<f32>; 3] = std::array::from_fn(|_| vec![0.0; range.len()]);
         let mut double: [Vec<f64>; 6] = std::array::from_fn(|_| vec![0.0; range.len()]);
@@ -268,10 +268,30 @@ fn rows_in_ranges_have_the_bits_of_rows_at_once() {
         let spans = &matrix.spans;
         let [a, b, c] = &mut single;
         let blocks = entry_forces(spring_forces_single, &matrix.blocks_single);
-        rows(spans, n, own, &x32, start, [a, b, c], &mut forces32, blocks);
+        rows(
+            spans,
+            n,
+            own,
+            &x32,
+            start,
+            [a, b, c],
+            &mut forces32,
+            tile,
+            blocks,
+        );
         let [a, b, c, d, e, g] = &mut double;
         let blocks = entry_forces(spring_forces, &matrix.blocks);
-        rows(spans, n, own, &x64, start, [a, b, c], &mut forces64, blocks);
+        rows(
+            spans,
+            n,
+            own,
+            &x64,
+            start,
+            [a, b, c],
+            &mut forces64,
+            tile,
+            blocks,
+        );
         let (ends, factor) = (&matrix.start, &matrix.factor);
         let dampers =
             |at: usize, q: usize, o: usize, f: [&mut [f64]; 3], v: [&[f64]; 3], vn: [&[f64]; 3]| {
@@ -287,26 +307,32 @@ fn rows_in_ranges_have_the_bits_of_rows_at_once() {
             start,
             [d, e, g],
             &mut forces64,
+            tile,
             dampers,
         );
         let single = single.iter().flatten().map(|v| u64::from(v.to_bits()));
         let double = double.iter().flatten().map(|v| v.to_bits());
         single.chain(double).collect()
     };
-    let whole = rows_of(0..n);
-    for cuts in &cuts {
-        let mut bounds = vec![0];
-        bounds.extend(cuts);
-        bounds.push(n);
-        let mut parts: Vec<Vec<u64>> = bounds.windows(2).map(|w| rows_of(w[0]..w[1])).collect();
-        // Each part is its rows' three axes of each product: regroup as the whole is.
-        let mut joined = Vec::new();
-        for block in 0..9 {
-            for (w, part) in bounds.windows(2).zip(&mut parts) {
-                let len = w[1] - w[0];
-                joined.extend_from_slice(&part[block * len..(block + 1) * len]);
+    for tile in [1, 5, 64, TILE] {
+        let whole = rows_of(0..n, tile);
+        for cuts in &cuts {
+            let mut bounds = vec![0];
+            bounds.extend(cuts);
+            bounds.push(n);
+            let mut parts: Vec<Vec<u64>> = bounds
+                .windows(2)
+                .map(|w| rows_of(w[0]..w[1], tile))
+                .collect();
+            // Each part is its rows' three axes of each product: regroup as the whole is.
+            let mut joined = Vec::new();
+            for block in 0..9 {
+                for (w, part) in bounds.windows(2).zip(&mut parts) {
+                    let len = w[1] - w[0];
+                    joined.extend_from_slice(&part[block * len..(block + 1) * len]);
+                }
             }
+            assert_eq!(joined, whole, "tile {tile}, cut at {cuts:?}");
         }
-        assert_eq!(joined, whole, "cut at {cuts:?}");
     }
 }
