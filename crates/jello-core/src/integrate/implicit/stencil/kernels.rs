@@ -229,13 +229,67 @@ crate::compute::simd::multiversion! {
     }
 }
 
+/// Each spring's block of `A` (`[xx, yy, zz, xy, xz, yz]`), its ends at `x` and `xn`:
+/// `axial·ûûᵀ + transverse·(I − ûûᵀ)`, `axial = h²·k`,
+/// `transverse = axial·max(1 − rest/l, floor)` (zero for a spring of zero length), plus its
+/// damper `h·d·u₀u₀ᵀ` as `h·c·L₀L₀ᵀ` ([`damper_factors`]), its ends at the step's start at
+/// `start` (`springs = [rest, k, c]`, `hf = [h, floor]`). Zero where there is no spring
+/// (`k` and `c` zero). Computed in double precision, stored in `T`'s.
+#[inline(always)]
+fn blocks_into<T: Lane>(
+    b: [&mut [T]; 6],
+    ends: ([&[f64]; 3], [&[f64]; 3]),
+    start: ([&[f64]; 3], [&[f64]; 3]),
+    springs: [&[f64]; 3],
+    hf: [f64; 2],
+) {
+    let [b0, b1, b2, b3, b4, b5] = b;
+    let n = b0.len();
+    let (b1, b2, b3) = (&mut b1[..n], &mut b2[..n], &mut b3[..n]);
+    let (b4, b5) = (&mut b4[..n], &mut b5[..n]);
+    let (x, xn) = ends;
+    let (x0, x1, x2) = (&x[0][..n], &x[1][..n], &x[2][..n]);
+    let (n0, n1, n2) = (&xn[0][..n], &xn[1][..n], &xn[2][..n]);
+    let (s0, s1, s2) = (&start.0[0][..n], &start.0[1][..n], &start.0[2][..n]);
+    let (t0, t1, t2) = (&start.1[0][..n], &start.1[1][..n], &start.1[2][..n]);
+    let (rest, k, factor) = (&springs[0][..n], &springs[1][..n], &springs[2][..n]);
+    let [h, floor] = hf;
+    let h2 = h * h;
+    for i in 0..n {
+        let (dx, dy, dz) = (x0[i] - n0[i], x1[i] - n1[i], x2[i] - n2[i]);
+        let l = (dx * dx + dy * dy + dz * dz).sqrt();
+        let axial = h2 * k[i];
+        let transverse = axial * (1.0 - rest[i] / l).max(floor);
+        let (ux, uy, uz) = (dx / l, dy / l, dz / l);
+        let c = axial - transverse;
+        let mut m = if l > 0.0 {
+            [
+                transverse + c * ux * ux,
+                transverse + c * uy * uy,
+                transverse + c * uz * uz,
+                0.0 + c * ux * uy,
+                0.0 + c * ux * uz,
+                0.0 + c * uy * uz,
+            ]
+        } else {
+            [0.0; 6]
+        };
+        // The damper along the spring at the start, `L₀`.
+        let (l0, l1, l2) = (s0[i] - t0[i], s1[i] - t1[i], s2[i] - t2[i]);
+        let cd = h * factor[i];
+        m[0] += cd * l0 * l0;
+        m[1] += cd * l1 * l1;
+        m[2] += cd * l2 * l2;
+        m[3] += cd * l0 * l1;
+        m[4] += cd * l0 * l2;
+        m[5] += cd * l1 * l2;
+        (b0[i], b1[i], b2[i]) = (T::of(m[0]), T::of(m[1]), T::of(m[2]));
+        (b3[i], b4[i], b5[i]) = (T::of(m[3]), T::of(m[4]), T::of(m[5]));
+    }
+}
+
 crate::compute::simd::multiversion! {
-    /// Each spring's block of `A` (`[xx, yy, zz, xy, xz, yz]`), its ends at `x` and `xn`:
-    /// `axial·ûûᵀ + transverse·(I − ûûᵀ)`, `axial = h²·k`,
-    /// `transverse = axial·max(1 − rest/l, floor)` (zero for a spring of zero length), plus its
-    /// damper `h·d·u₀u₀ᵀ` as `h·c·L₀L₀ᵀ` ([`damper_factors`]), its ends at the step's start at
-    /// `start` (`springs = [rest, k, c]`, `hf = [h, floor]`). Zero where there is no spring
-    /// (`k` and `c` zero).
+    /// [`blocks_into`] in double precision.
     pub(super) fn spring_blocks(
         b: [&mut [f64]; 6],
         ends: ([&[f64]; 3], [&[f64]; 3]),
@@ -243,49 +297,20 @@ crate::compute::simd::multiversion! {
         springs: [&[f64]; 3],
         hf: [f64; 2],
     ) {
-        let [b0, b1, b2, b3, b4, b5] = b;
-        let n = b0.len();
-        let (b1, b2, b3) = (&mut b1[..n], &mut b2[..n], &mut b3[..n]);
-        let (b4, b5) = (&mut b4[..n], &mut b5[..n]);
-        let (x, xn) = ends;
-        let (x0, x1, x2) = (&x[0][..n], &x[1][..n], &x[2][..n]);
-        let (n0, n1, n2) = (&xn[0][..n], &xn[1][..n], &xn[2][..n]);
-        let (s0, s1, s2) = (&start.0[0][..n], &start.0[1][..n], &start.0[2][..n]);
-        let (t0, t1, t2) = (&start.1[0][..n], &start.1[1][..n], &start.1[2][..n]);
-        let (rest, k, factor) = (&springs[0][..n], &springs[1][..n], &springs[2][..n]);
-        let [h, floor] = hf;
-        let h2 = h * h;
-        for i in 0..n {
-            let (dx, dy, dz) = (x0[i] - n0[i], x1[i] - n1[i], x2[i] - n2[i]);
-            let l = (dx * dx + dy * dy + dz * dz).sqrt();
-            let axial = h2 * k[i];
-            let transverse = axial * (1.0 - rest[i] / l).max(floor);
-            let (ux, uy, uz) = (dx / l, dy / l, dz / l);
-            let c = axial - transverse;
-            let mut m = if l > 0.0 {
-                [
-                    transverse + c * ux * ux,
-                    transverse + c * uy * uy,
-                    transverse + c * uz * uz,
-                    0.0 + c * ux * uy,
-                    0.0 + c * ux * uz,
-                    0.0 + c * uy * uz,
-                ]
-            } else {
-                [0.0; 6]
-            };
-            // The damper along the spring at the start, `L₀`.
-            let (l0, l1, l2) = (s0[i] - t0[i], s1[i] - t1[i], s2[i] - t2[i]);
-            let cd = h * factor[i];
-            m[0] += cd * l0 * l0;
-            m[1] += cd * l1 * l1;
-            m[2] += cd * l2 * l2;
-            m[3] += cd * l0 * l1;
-            m[4] += cd * l0 * l2;
-            m[5] += cd * l1 * l2;
-            (b0[i], b1[i], b2[i]) = (m[0], m[1], m[2]);
-            (b3[i], b4[i], b5[i]) = (m[3], m[4], m[5]);
-        }
+        blocks_into(b, ends, start, springs, hf)
+    }
+}
+
+crate::compute::simd::multiversion! {
+    /// [`blocks_into`], rounded to single precision.
+    pub(super) fn spring_blocks_single(
+        b: [&mut [f32]; 6],
+        ends: ([&[f64]; 3], [&[f64]; 3]),
+        start: ([&[f64]; 3], [&[f64]; 3]),
+        springs: [&[f64]; 3],
+        hf: [f64; 2],
+    ) {
+        blocks_into(b, ends, start, springs, hf)
     }
 }
 

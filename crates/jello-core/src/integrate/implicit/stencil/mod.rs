@@ -28,7 +28,7 @@
 //! (`L₀·(c·(L₀·Δv))` a spring): loops over contiguous runs of slots that vectorise, where the
 //! loops over springs they replace gathered and scattered by index.
 //!
-//! The blocks are also kept rounded to single precision, and the products of the solves to the
+//! The blocks are assembled rounded to single precision, and the products of the solves to the
 //! usual reductions (1e-2) are computed in it (`f32`, without fused multiply-adds, so the same
 //! bits on every SIMD tier and thread count): such a product only steers the conjugate
 //! gradients, whose direction Newton's method corrects at its next iteration, while the
@@ -36,9 +36,11 @@
 //! precision. The rounding (a relative 6e-8 of each block and sum, times the condition of `A`
 //! in the direction) is far below those reductions, but not below an exact solve's 1e-8: those
 //! take [`Precision::Double`] (with single-precision exact solves, `leapfrog.w` at 1/60 s took
-//! 58 steps in parts and 1 386 conjugate-gradient iterations a step instead of 15 and 382).
-//! Half the bytes and twice the lanes: the 16³ benchmark's first 3 s at 1/60 s took 18 % less
-//! time on one thread (a Zen 3 EPYC), its iteration counts unchanged; 8³ 25 % less.
+//! 58 steps in parts and 1 386 conjugate-gradient iterations a step instead of 15 and 382), for
+//! which the blocks are computed again in double precision, once an assembly. Half the bytes
+//! and twice the lanes: the 16³ benchmark's first 3 s at 1/60 s took 18 % less time on one
+//! thread (a Zen 3 EPYC), its iteration counts unchanged; 8³ 25 % less. The diagonal and the
+//! multigrid, which only precondition, are made from the rounded blocks too.
 
 mod kernels;
 mod level;
@@ -48,7 +50,8 @@ mod tests;
 pub(super) use level::LevelStencil;
 
 use kernels::{
-    damper_factors, damper_forces, rows, spring_blocks, spring_forces, spring_forces_single, Lane,
+    damper_factors, damper_forces, rows, spring_blocks, spring_blocks_single, spring_forces,
+    spring_forces_single, Lane,
 };
 
 use super::sym::{sym_mul, Sym};
@@ -110,10 +113,20 @@ pub(super) struct SpringMatrix {
     /// ([`SpringMatrix::assemble`]) come from each array in order.
     rank: Vec<u32>,
     slot: Vec<u32>,
-    /// The blocks' six components (`[xx, yy, zz, xy, xz, yz]`), each `16·n` long, and the same
-    /// rounded to single precision (see the module documentation).
-    blocks: [Vec<f64>; 6],
+    /// The blocks' six components (`[xx, yy, zz, xy, xz, yz]`), each `16·n` long, rounded to
+    /// single precision (see the module documentation), and in double precision for exact
+    /// solves: computed only when one asks for them after an assembly
+    /// ([`SpringMatrix::double_blocks`]). Most steps have no exact solve, and writing and
+    /// reading back the double-precision blocks was 40 % of an assembly's time (32³, one
+    /// thread: 10.9 → 6.6 ms with the diagonal). Allocated from the start all the same: no
+    /// step allocates.
     blocks_single: [Vec<f32>; 6],
+    blocks: [Vec<f64>; 6],
+    /// Whether `blocks` are behind the last assembly, which was at `ends` with `[h, floor]`
+    /// (the end positions as structure of arrays).
+    double_behind: bool,
+    ends: [Vec<f64>; 3],
+    assembled_with: [f64; 2],
     /// The springs' rest lengths, stiffnesses and dampings by the same slots (0 where there is
     /// none).
     rest: Vec<f64>,
@@ -167,8 +180,11 @@ impl SpringMatrix {
             changed: false,
             rank: Vec::with_capacity(model.spring_count()),
             slot: Vec::with_capacity(model.spring_count()),
-            blocks: std::array::from_fn(|_| vec![0.0; 16 * n]),
             blocks_single: std::array::from_fn(|_| vec![0.0; 16 * n]),
+            blocks: std::array::from_fn(|_| vec![0.0; 16 * n]),
+            double_behind: false,
+            ends: std::array::from_fn(|_| vec![0.0; n]),
+            assembled_with: [0.0; 2],
             rest: vec![0.0; 16 * n],
             stiffness: vec![0.0; 16 * n],
             damping: vec![0.0; 16 * n],
@@ -308,31 +324,43 @@ impl SpringMatrix {
         });
     }
 
-    /// The springs' blocks of `A` at the end positions `x0 + h·v` (see
-    /// [`spring_blocks`]; `floor` bounds `1 − rest/l` from below), and into `blocks` by spring
-    /// (in slot order).
+    /// The springs' blocks of `A` at the end positions `x0 + h·v` (see [`spring_blocks`];
+    /// `floor` bounds `1 − rest/l` from below) in single precision, and into `blocks` by spring
+    /// (in slot order) as rounded: they make the preconditioner.
     pub fn assemble(&mut self, x0: &[Vec3], v: &[Vec3], h: f64, floor: f64, blocks: &mut [Sym]) {
         self.load_end_positions(x0, v, h);
-        let (xs, n) = (&self.x, self.n);
+        (self.double_behind, self.assembled_with) = (true, [h, floor]);
+        self.compute_blocks(Precision::Single);
+        let (all, slots) = (&self.blocks_single, &self.slot);
+        let size = team::chunk_size(blocks.len(), MIN_POINTS_PER_RANGE);
+        team::for_each_chunk([blocks], size, &|chunk, [blocks]| {
+            for (block, &slot) in blocks.iter_mut().zip(&slots[chunk * size..]) {
+                *block = std::array::from_fn(|c| f64::from(all[c][slot as usize]));
+            }
+        });
+    }
+
+    /// The double-precision blocks of the last assembly, where they are behind it: from its end
+    /// positions and the dampers' factors as they are now (a step whose first Newton iteration
+    /// keeps the last step's `A` has new ones, and its exact solves take them).
+    fn double_blocks(&mut self) {
+        if std::mem::take(&mut self.double_behind) {
+            self.compute_blocks(Precision::Double);
+        }
+    }
+
+    /// The blocks at the assembly's end positions into the slot arrays of `precision`.
+    fn compute_blocks(&mut self, precision: Precision) {
+        let (xs, n, [h, floor]) = (&self.ends, self.n, self.assembled_with);
         let (start, rest, stiffness, factor) =
             (&self.start, &self.rest, &self.stiffness, &self.factor);
-        let [b0, b1, b2, b3, b4, b5] = &mut self.blocks;
-        let [s0, s1, s2, s3, s4, s5] = &mut self.blocks_single;
+        let (double, single) = (&mut self.blocks, &mut self.blocks_single);
         for_each_run(&self.spans, |e, q, len, o| {
             let at = e * n + q;
-            let r = at..at + len;
-            let b = [
-                &mut b0[r.clone()],
-                &mut b1[r.clone()],
-                &mut b2[r.clone()],
-                &mut b3[r.clone()],
-                &mut b4[r.clone()],
-                &mut b5[r.clone()],
-            ];
             // The run in chunks over the team (each slot's block depends on its slot alone).
             let size = team::chunk_size(len, MIN_POINTS_PER_RANGE);
-            team::for_each_chunk(b, size, &|chunk, b| {
-                let (at, q, len) = (at + chunk * size, q + chunk * size, b[0].len());
+            let inputs = |chunk: usize, len: usize| {
+                let (at, q) = (at + chunk * size, q + chunk * size);
                 let springs = [
                     &rest[at..at + len],
                     &stiffness[at..at + len],
@@ -340,38 +368,23 @@ impl SpringMatrix {
                 ];
                 let ends = (part(xs, q, len), part(xs, q + o, len));
                 let start_ends = (part(start, q, len), part(start, q + o, len));
-                spring_blocks(b, ends, start_ends, springs, [h, floor]);
-            });
-            // Rounded, in the same chunks.
-            let double: [&[f64]; 6] = [
-                &b0[r.clone()],
-                &b1[r.clone()],
-                &b2[r.clone()],
-                &b3[r.clone()],
-                &b4[r.clone()],
-                &b5[r.clone()],
-            ];
-            let single = [
-                &mut s0[r.clone()],
-                &mut s1[r.clone()],
-                &mut s2[r.clone()],
-                &mut s3[r.clone()],
-                &mut s4[r.clone()],
-                &mut s5[r],
-            ];
-            team::for_each_chunk(single, size, &|chunk, single| {
-                for (single, double) in single.into_iter().zip(double) {
-                    for (s, &b) in single.iter_mut().zip(&double[chunk * size..]) {
-                        *s = b as f32;
-                    }
+                (ends, start_ends, springs)
+            };
+            match precision {
+                Precision::Single => {
+                    let b = single.each_mut().map(|b| &mut b[at..at + len]);
+                    team::for_each_chunk(b, size, &|chunk, b| {
+                        let (ends, start, springs) = inputs(chunk, b[0].len());
+                        spring_blocks_single(b, ends, start, springs, [h, floor]);
+                    });
                 }
-            });
-        });
-        let (all, slots) = (&self.blocks, &self.slot);
-        let size = team::chunk_size(blocks.len(), MIN_POINTS_PER_RANGE);
-        team::for_each_chunk([blocks], size, &|chunk, [blocks]| {
-            for (block, &slot) in blocks.iter_mut().zip(&slots[chunk * size..]) {
-                *block = std::array::from_fn(|c| all[c][slot as usize]);
+                Precision::Double => {
+                    let b = double.each_mut().map(|b| &mut b[at..at + len]);
+                    team::for_each_chunk(b, size, &|chunk, b| {
+                        let (ends, start, springs) = inputs(chunk, b[0].len());
+                        spring_blocks(b, ends, start, springs, [h, floor]);
+                    });
+                }
             }
         });
     }
@@ -381,9 +394,9 @@ impl SpringMatrix {
         load(&mut self.x, x);
     }
 
-    /// `x0 + h·v` into the product's input.
+    /// `x0 + h·v` into `ends`.
     fn load_end_positions(&mut self, x0: &[Vec3], v: &[Vec3], h: f64) {
-        let [p0, p1, p2] = &mut self.x;
+        let [p0, p1, p2] = &mut self.ends;
         let size = team::chunk_size(x0.len(), MIN_POINTS_PER_RANGE);
         team::for_each_chunk([p0, p1, p2], size, &|chunk, [p0, p1, p2]| {
             let at = chunk * size;
@@ -404,6 +417,9 @@ impl SpringMatrix {
         y: &mut [Vec3],
         precision: Precision,
     ) {
+        if precision == Precision::Double {
+            self.double_blocks();
+        }
         let blocks = (&self.blocks, &self.blocks_single);
         let buffers = (&mut self.x, &mut self.x_single);
         let (spans, n) = (&self.spans[..], self.n);
@@ -445,8 +461,9 @@ impl SpringMatrix {
         });
     }
 
-    /// The diagonal blocks of `A`'s springs' part plus `own` into `diag`: each point's `own`,
-    /// then the block of each stencil entry's spring from it, then of each entry's spring to
+    /// The diagonal blocks of `A`'s springs' part plus `own` into `diag`, from the blocks in
+    /// single precision (the diagonal serves the preconditioner): each point's `own`, then the
+    /// block of each stencil entry's spring from it, then of each entry's spring to
     /// it, in the entries' order. Each point's sum is taken in that order whoever computes it
     /// (the points in chunks over the team); every block is read from its slot in order, where
     /// a gather by each point's springs read it twice, far apart (5 % of the 16³ benchmark's
@@ -455,7 +472,7 @@ impl SpringMatrix {
         // Points per pass over the entries: their sums, component by component, stay in the L1
         // cache, and each pass adds two contiguous runs (vectorised).
         const BLOCK: usize = 256;
-        let (spans, blocks, n) = (&self.spans[..], &self.blocks, self.n);
+        let (spans, blocks, n) = (&self.spans[..], &self.blocks_single, self.n);
         let size = team::chunk_size(n, MIN_POINTS_PER_RANGE);
         team::for_each_chunk([diag], size, &|chunk, [diag]| {
             let start = chunk * size;
@@ -473,7 +490,7 @@ impl SpringMatrix {
                         for (sum, block) in sums.iter_mut().zip(blocks) {
                             let block = &block[base + from - back..base + to - back];
                             for (s, &b) in sum[from - p0..to - p0].iter_mut().zip(block) {
-                                *s += b;
+                                *s += f64::from(b);
                             }
                         }
                     }

@@ -114,9 +114,9 @@ fn the_stencil_product_is_the_product_over_springs() {
     }
 }
 
-/// The diagonal in stencil order is `own` plus each spring's block at both its ends, on
-/// lattices with holes, several bodies and more points than a pass takes, with the same bits
-/// on any number of threads (chunks of 2 048 points over a team).
+/// The diagonal in stencil order is `own` plus each spring's block (rounded to single precision)
+/// at both its ends, on lattices with holes, several bodies and more points than a pass takes,
+/// with the same bits on any number of threads (chunks of 2 048 points over a team).
 #[test]
 fn the_diagonal_by_slot_is_the_sum_over_springs() {
     use super::super::sym::add_sym;
@@ -141,8 +141,10 @@ fn the_diagonal_by_slot_is_the_sum_over_springs() {
     let own: Vec<Sym> = (0..n).map(|_| sym()).collect();
     let mut want = own.clone();
     for (&[a, b], m) in springs.iter().zip(&blocks) {
-        add_sym(&mut want[a], m);
-        add_sym(&mut want[b], m);
+        // From the blocks in single precision.
+        let m = m.map(|m| f64::from(m as f32));
+        add_sym(&mut want[a], &m);
+        add_sym(&mut want[b], &m);
     }
     let run = |threads: usize| {
         let pool = rayon::ThreadPoolBuilder::new()
@@ -169,8 +171,9 @@ fn the_diagonal_by_slot_is_the_sum_over_springs() {
 }
 
 /// The blocks assembled by slot are each spring's block as [`super::super::spring_block`]
-/// forms it with its damper at the start, to the bit (a spring of zero length too), and the
-/// start directions are each spring's.
+/// forms it with its damper at the start, rounded to single precision, and to the bit in double
+/// precision once a product asks for that (a spring of zero length too), each assembly's; and
+/// the start directions are each spring's.
 #[test]
 fn blocks_by_slot_are_the_blocks_of_each_spring() {
     use super::super::matrix::spring_block;
@@ -200,6 +203,7 @@ fn blocks_by_slot_are_the_blocks_of_each_spring() {
     for floor in [f64::MIN, 0.0] {
         let mut blocks = vec![[0.0; 6]; springs.len()];
         matrix.assemble(&x0, &v, h, floor, &mut blocks);
+        let mut by_slot = Vec::new();
         for (i, (&[a, b], &[rest, k, d])) in springs.iter().zip(&values).enumerate() {
             let s = matrix.rank(i);
             let d0 = x0[a] - x0[b];
@@ -217,13 +221,47 @@ fn blocks_by_slot_are_the_blocks_of_each_spring() {
             let c = if l0 > 0.0 { d / d0.dot(d0) } else { 0.0 };
             add_outer(&mut want, d0, h * c);
             let bits = |m: &Sym| m.map(f64::to_bits);
-            assert_eq!(bits(&blocks[s]), bits(&want), "spring {i}, floor {floor}");
+            let rounded = want.map(|w| f64::from(w as f32));
+            assert_eq!(
+                bits(&blocks[s]),
+                bits(&rounded),
+                "spring {i}, floor {floor}"
+            );
             let slot = matrix.slot[s] as usize;
-            let by_slot: Sym = std::array::from_fn(|c| matrix.blocks[c][slot]);
-            assert_eq!(bits(&by_slot), bits(&want), "spring {i}'s slot");
             let single: [f32; 6] = std::array::from_fn(|c| matrix.blocks_single[c][slot]);
             assert_eq!(single, want.map(|w| w as f32), "spring {i}'s rounded block");
+            by_slot.push((slot, want));
         }
+        // In double precision when a product asks for them.
+        let slot = by_slot[1].0;
+        assert!(floor != f64::MIN || (0..6).all(|c| matrix.blocks[c][slot] == 0.0));
+        let (own, free) = (vec![[0.0; 6]; n], vec![1.0; n]);
+        let (x, mut y) = (vec![Vec3::ZERO; n], vec![Vec3::ZERO; n]);
+        matrix.apply(&own, &free, &x, &mut y, Precision::Double);
+        for (slot, want) in by_slot {
+            let by_slot: Sym = std::array::from_fn(|c| matrix.blocks[c][slot]);
+            assert_eq!(
+                by_slot.map(f64::to_bits),
+                want.map(f64::to_bits),
+                "slot {slot}"
+            );
+        }
+    }
+    // An assembly puts them behind again: at other end positions, the blocks of those.
+    let mut blocks = vec![[0.0; 6]; springs.len()];
+    let v2: Vec<Vec3> = v.iter().map(|&v| v * 3.0).collect();
+    matrix.assemble(&x0, &v2, h, 0.0, &mut blocks);
+    let (own, free) = (vec![[0.0; 6]; n], vec![1.0; n]);
+    let (x, mut y) = (vec![Vec3::ZERO; n], vec![Vec3::ZERO; n]);
+    matrix.apply(&own, &free, &x, &mut y, Precision::Double);
+    for (s, block) in blocks.iter().enumerate() {
+        let slot = matrix.slot[s] as usize;
+        let double: Sym = std::array::from_fn(|c| matrix.blocks[c][slot]);
+        assert_eq!(
+            double.map(|b| f64::from(b as f32)),
+            *block,
+            "spring {s} after v changed"
+        );
     }
 }
 
