@@ -96,8 +96,27 @@ pub(super) fn advance(s: &mut ImplicitScratch, alpha: f64) -> (f64, bool) {
     team::for_each_chunk_into([&mut s.dv, &mut s.r], size, sums, &|c, [dv, r]| {
         let at = c * size;
         let (p, ap, mass) = (&p[at..], &ap[at..], &mass[at..]);
+        advance_chunk(p, ap, mass, alpha, bound, dv, r)
+    });
+    let rr = s.advanced.iter().map(|&(rr, _)| rr).sum();
+    (rr, s.advanced.iter().all(|&(_, within)| within))
+}
+
+crate::compute::simd::multiversion! {
+    /// One chunk of [`advance`]'s points, compiled per tier (the same bits on each).
+    fn advance_chunk(
+        p: &[Vec3],
+        ap: &[Vec3],
+        mass: &[f64],
+        alpha: f64,
+        bound: f64,
+        dv: &mut [Vec3],
+        r: &mut [Vec3],
+    ) -> (f64, bool) {
+        let n = dv.len();
+        let (p, ap, mass, r) = (&p[..n], &ap[..n], &mass[..n], &mut r[..n]);
         let (mut rr, mut within) = (0.0, bound > 0.0);
-        for i in 0..dv.len() {
+        for i in 0..n {
             dv[i] += p[i] * alpha;
             r[i] -= ap[i] * alpha;
             let r2 = r[i].length_squared();
@@ -105,9 +124,7 @@ pub(super) fn advance(s: &mut ImplicitScratch, alpha: f64) -> (f64, bool) {
             within &= r2 <= (mass[i] * bound) * (mass[i] * bound);
         }
         (rr, within)
-    });
-    let rr = s.advanced.iter().map(|&(rr, _)| rr).sum();
-    (rr, s.advanced.iter().all(|&(_, within)| within))
+    }
 }
 
 /// The preconditioner of [`solve`].

@@ -229,22 +229,11 @@ impl Operator<'_> {
     ) -> f64 {
         let size = sum_chunk(z.len());
         team::for_each_chunk_into([z], size, sums, &|chunk, [z]| {
-            let at = chunk * size;
-            for (j, z) in z.iter_mut().enumerate() {
-                let i = at + j;
-                let f = self.free.map_or(1.0, |f| f[i]);
-                let mut e = Vec3::ZERO;
-                e += sym_mul(&self.diag_inv[i], r[i]) * (omega * f);
-                if let Some((parent, coarse)) = correction {
-                    e += coarse[parent[i] as usize] * f;
-                }
-                *z = e;
-            }
-            r[at..at + z.len()]
-                .iter()
-                .zip(z.iter())
-                .map(|(r, z)| r.dot(*z))
-                .sum()
+            let at = chunk * size..chunk * size + z.len();
+            let free = self.free.map(|f| &f[at.clone()]);
+            let correction = correction.map(|(parent, coarse)| (&parent[at.clone()], coarse));
+            let (r, diag_inv) = (&r[at.clone()], &self.diag_inv[at]);
+            jacobi_dot_chunk(r, diag_inv, free, omega, correction, z)
         });
         sums.iter().sum()
     }
@@ -456,6 +445,34 @@ impl Multigrid {
         cycle(&mut self.levels, precision, over_from);
         let correction = (&self.down.parent[..], &self.levels[0].e[..]);
         fine.jacobi_dot(r, FINE_OMEGA, Some(correction), z, sums)
+    }
+}
+
+crate::compute::simd::multiversion! {
+    /// One chunk of [`Operator::jacobi_dot`]: `z = ω·D⁻¹·r·f + e[parent]·f` point by point
+    /// (`f` the point's `free`, 1 without), then `r·z` summed in order. Compiled per tier like
+    /// the stencil's kernels (the same bits on each): on the baseline this loop of 3×3 blocks
+    /// ran two lanes at a time at best, and took 6.7 % of a dropped 32³ cube's step.
+    fn jacobi_dot_chunk(
+        r: &[Vec3],
+        diag_inv: &[Sym],
+        free: Option<&[f64]>,
+        omega: f64,
+        correction: Option<(&[u32], &[Vec3])>,
+        z: &mut [Vec3],
+    ) -> f64 {
+        let n = z.len();
+        let (r, diag_inv) = (&r[..n], &diag_inv[..n]);
+        for i in 0..n {
+            let f = free.map_or(1.0, |f| f[i]);
+            let mut e = Vec3::ZERO;
+            e += sym_mul(&diag_inv[i], r[i]) * (omega * f);
+            if let Some((parent, coarse)) = correction {
+                e += coarse[parent[i] as usize] * f;
+            }
+            z[i] = e;
+        }
+        r.iter().zip(z.iter()).map(|(r, z)| r.dot(*z)).sum()
     }
 }
 

@@ -17,6 +17,10 @@ pub(super) trait Lane: Copy + Send + Sync {
     fn subtract(y: [&mut [Self]; 3], f: [&[Self]; 3]);
     /// A range's rows and forces buffer in this precision.
     fn buffers(range: &mut RowRange) -> (&mut [Vec<Self>; 3], &mut [Vec<Self>; 3]);
+    /// `x` (as many as `soa` holds) into `soa`, rounded to this precision.
+    fn load(x: &[Vec3], soa: [&mut [Self]; 3]);
+    /// `out[·][i] = own(start + i)`, rounded to this precision.
+    fn own_rows(start: usize, own: &impl Fn(usize) -> Vec3, out: [&mut [Self]; 3]);
 }
 
 impl Lane for f64 {
@@ -32,6 +36,12 @@ impl Lane for f64 {
     fn buffers(range: &mut RowRange) -> (&mut [Vec<f64>; 3], &mut [Vec<f64>; 3]) {
         (&mut range.y, &mut range.forces)
     }
+    fn load(x: &[Vec3], soa: [&mut [f64]; 3]) {
+        load_double(x, soa);
+    }
+    fn own_rows(start: usize, own: &impl Fn(usize) -> Vec3, out: [&mut [f64]; 3]) {
+        own_rows_double(start, own, out);
+    }
 }
 
 impl Lane for f32 {
@@ -46,6 +56,62 @@ impl Lane for f32 {
     }
     fn buffers(range: &mut RowRange) -> (&mut [Vec<f32>; 3], &mut [Vec<f32>; 3]) {
         (&mut range.y_single, &mut range.forces_single)
+    }
+    fn load(x: &[Vec3], soa: [&mut [f32]; 3]) {
+        load_single(x, soa);
+    }
+    fn own_rows(start: usize, own: &impl Fn(usize) -> Vec3, out: [&mut [f32]; 3]) {
+        own_rows_single(start, own, out);
+    }
+}
+
+/// `x` into `soa` (as many points as it holds), rounded to `T`'s precision (inlined into each
+/// tier's copy of the callers below).
+#[inline(always)]
+fn load_each<T: Lane>(x: &[Vec3], [x0, x1, x2]: [&mut [T]; 3]) {
+    let n = x0.len();
+    let (x, x1, x2) = (&x[..n], &mut x1[..n], &mut x2[..n]);
+    for i in 0..n {
+        (x0[i], x1[i], x2[i]) = (T::of(x[i].x), T::of(x[i].y), T::of(x[i].z));
+    }
+}
+
+/// `out[·][i] = own(start + i)` rounded to `T`'s precision (inlined as [`load_each`] is).
+#[inline(always)]
+fn own_each<T: Lane>(start: usize, own: &impl Fn(usize) -> Vec3, [o0, o1, o2]: [&mut [T]; 3]) {
+    let n = o0.len();
+    let (o1, o2) = (&mut o1[..n], &mut o2[..n]);
+    for i in 0..n {
+        let v = own(start + i);
+        (o0[i], o1[i], o2[i]) = (T::of(v.x), T::of(v.y), T::of(v.z));
+    }
+}
+
+crate::compute::simd::multiversion! {
+    /// [`own_each`] in double precision.
+    fn own_rows_double(start: usize, own: &impl Fn(usize) -> Vec3, out: [&mut [f64]; 3]) {
+        own_each(start, own, out)
+    }
+}
+
+crate::compute::simd::multiversion! {
+    /// [`own_each`] in single precision.
+    fn own_rows_single(start: usize, own: &impl Fn(usize) -> Vec3, out: [&mut [f32]; 3]) {
+        own_each(start, own, out)
+    }
+}
+
+crate::compute::simd::multiversion! {
+    /// [`load_each`] in double precision.
+    fn load_double(x: &[Vec3], soa: [&mut [f64]; 3]) {
+        load_each(x, soa)
+    }
+}
+
+crate::compute::simd::multiversion! {
+    /// [`load_each`] in single precision.
+    fn load_single(x: &[Vec3], soa: [&mut [f32]; 3]) {
+        load_each(x, soa)
     }
 }
 
@@ -79,10 +145,7 @@ pub(super) fn rows<T: Lane>(
 ) {
     let end = start + out[0].len();
     let [o0, o1, o2] = out;
-    for p in start..end {
-        let v = own(p);
-        (o0[p - start], o1[p - start], o2[p - start]) = (T::of(v.x), T::of(v.y), T::of(v.z));
-    }
+    T::own_rows(start, &own, [&mut *o0, &mut *o1, &mut *o2]);
     let xs = |at: usize, len: usize| -> [&[T]; 3] { std::array::from_fn(|c| &x[c][at..at + len]) };
     let [f0, f1, f2] = forces;
     for span in spans {

@@ -581,20 +581,51 @@ fn product(
     let ranges = &*ranges;
     team::for_each_chunk([y], ranges.size(), &|r, [y]| {
         let range = &ranges.0[r];
-        let row = |i: usize| match precision {
+        match precision {
             Precision::Single => {
                 let [y0, y1, y2] = &range.y_single;
-                Vec3::new(f64::from(y0[i]), f64::from(y1[i]), f64::from(y2[i]))
+                out_rows_single(range.start, [y0, y1, y2], out, y);
             }
             Precision::Double => {
                 let [y0, y1, y2] = &range.y;
-                Vec3::new(y0[i], y1[i], y2[i])
+                out_rows_double(range.start, [y0, y1, y2], out, y);
             }
-        };
-        for (i, y) in y.iter_mut().enumerate() {
-            *y = out(range.start + i, row(i));
         }
     });
+}
+
+crate::compute::simd::multiversion! {
+    /// `y[i] = out(start + i, rows[·][i])`: a range's rows of a product in single precision
+    /// out, compiled per tier (the same bits on each).
+    fn out_rows_single(
+        start: usize,
+        rows: [&[f32]; 3],
+        out: &impl Fn(usize, Vec3) -> Vec3,
+        y: &mut [Vec3],
+    ) {
+        let n = y.len();
+        let [y0, y1, y2] = rows.map(|r| &r[..n]);
+        for i in 0..n {
+            let row = Vec3::new(f64::from(y0[i]), f64::from(y1[i]), f64::from(y2[i]));
+            y[i] = out(start + i, row);
+        }
+    }
+}
+
+crate::compute::simd::multiversion! {
+    /// [`out_rows_single`] in double precision.
+    fn out_rows_double(
+        start: usize,
+        rows: [&[f64]; 3],
+        out: &impl Fn(usize, Vec3) -> Vec3,
+        y: &mut [Vec3],
+    ) {
+        let n = y.len();
+        let [y0, y1, y2] = rows.map(|r| &r[..n]);
+        for i in 0..n {
+            y[i] = out(start + i, Vec3::new(y0[i], y1[i], y2[i]));
+        }
+    }
 }
 
 /// Each range's [`rows`] over the team, into its buffers of `T`'s precision.
@@ -618,10 +649,8 @@ fn ranges_rows<T: Lane>(
 fn load<T: Lane>(soa: &mut [Vec<T>; 3], x: &[Vec3]) {
     let [x0, x1, x2] = soa;
     let size = team::chunk_size(x.len(), MIN_POINTS_PER_RANGE);
-    team::for_each_chunk([x0, x1, x2], size, &|chunk, [x0, x1, x2]| {
-        for (i, v) in x[chunk * size..].iter().take(x0.len()).enumerate() {
-            (x0[i], x1[i], x2[i]) = (T::of(v.x), T::of(v.y), T::of(v.z));
-        }
+    team::for_each_chunk([x0, x1, x2], size, &|chunk, soa| {
+        T::load(&x[chunk * size..], soa)
     });
 }
 
