@@ -14,7 +14,6 @@ use super::{chunk_size, precision_for, ImplicitScratch, MAX_CG, MIN_CHUNK};
 #[allow(clippy::too_many_arguments)]
 pub(super) fn apply_to(
     springs: &mut SpringMatrix,
-    extra: &[Sym],
     free: &[f64],
     pair_rows: &[[u32; 2]],
     pair_blocks: &[Sym],
@@ -23,7 +22,7 @@ pub(super) fn apply_to(
     y: &mut [Vec3],
     precision: Precision,
 ) {
-    springs.apply(extra, free, x, y, precision);
+    springs.apply(free, x, y, precision);
     for (&[a, c], b) in pair_rows.iter().zip(pair_blocks) {
         let (a, c) = (a as usize, c as usize);
         let f = sym_mul(b, x[a] - x[c]);
@@ -46,7 +45,6 @@ fn apply(s: &mut ImplicitScratch, precision: Precision) {
     let pairs = (&s.pair_rows[..], &s.pair_blocks[..]);
     apply_to(
         &mut s.springs,
-        &s.extra,
         &s.free,
         pairs.0,
         pairs.1,
@@ -224,7 +222,7 @@ fn solve_swirl(s: &mut ImplicitScratch, reduction: f64, preconditioner: Precondi
         let precision = precision_for(reduction);
         let apply = |x: &[Vec3], y: &mut [Vec3]| {
             apply_to(
-                springs, &s.extra, &s.free, pairs.0, pairs.1, correction, x, y, precision,
+                springs, &s.free, pairs.0, pairs.1, correction, x, y, precision,
             );
         };
         let mut sums = std::mem::take(&mut s.dots);

@@ -262,10 +262,9 @@ mod tests {
         assemble(model, &control, force.anchors(), &mut s, x0, H, shift);
         let mut ad = vec![Vec3::ZERO; d.len()];
         let (rows, blocks) = (&s.pair_rows[..], &s.pair_blocks[..]);
-        let (extra, free) = (&s.extra[..], &s.free[..]);
+        let free = &s.free[..];
         apply_to(
             &mut s.springs,
-            extra,
             free,
             rows,
             blocks,

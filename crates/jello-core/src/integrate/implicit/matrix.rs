@@ -172,7 +172,8 @@ pub(super) fn assemble(
     }
     // The diagonal blocks: the point's own part plus each spring's block at both ends, in
     // stencil order, and each contact's; then the coarse levels.
-    s.springs.diagonal(&s.extra, &mut s.diag_inv);
+    s.springs.set_own(&s.extra);
+    s.springs.diagonal(&mut s.diag_inv);
     Operator::add_and_invert((&s.pair_rows, &s.pair_blocks), &mut s.diag_inv);
     s.multigrid.assemble(&fine_operator!(s));
 }

@@ -431,7 +431,6 @@ fn a_with_the_swirl_is_the_derivative_of_the_residual() {
     let pairs = (&s.pair_rows[..], &s.pair_blocks[..]);
     apply_to(
         &mut s.springs,
-        &s.extra,
         &s.free,
         pairs.0,
         pairs.1,
@@ -452,7 +451,6 @@ fn a_with_the_swirl_is_the_derivative_of_the_residual() {
     // Without the swirl's correction, A·d misses it by far more.
     apply_to(
         &mut s.springs,
-        &s.extra,
         &s.free,
         pairs.0,
         pairs.1,

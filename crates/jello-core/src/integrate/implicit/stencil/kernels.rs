@@ -88,6 +88,23 @@ fn own_each<T: Lane>(start: usize, own: &impl Fn(usize) -> Vec3, [o0, o1, o2]: [
 }
 
 crate::compute::simd::multiversion! {
+    /// `out = own·x` point by point, `own` the points' blocks (`[xx, yy, zz, xy, xz, yz]`) and
+    /// `x` in single precision, as structure of arrays.
+    pub(super) fn own_rows_soa(own: [&[f32]; 6], x: [&[f32]; 3], out: [&mut [f32]; 3]) {
+        let [o0, o1, o2] = out;
+        let n = o0.len();
+        let (o1, o2) = (&mut o1[..n], &mut o2[..n]);
+        let [xx, yy, zz, xy, xz, yz] = own.map(|o| &o[..n]);
+        let [x0, x1, x2] = x.map(|x| &x[..n]);
+        for i in 0..n {
+            o0[i] = xx[i] * x0[i] + xy[i] * x1[i] + xz[i] * x2[i];
+            o1[i] = xy[i] * x0[i] + yy[i] * x1[i] + yz[i] * x2[i];
+            o2[i] = xz[i] * x0[i] + yz[i] * x1[i] + zz[i] * x2[i];
+        }
+    }
+}
+
+crate::compute::simd::multiversion! {
     /// [`own_each`] in double precision.
     fn own_rows_double(start: usize, own: &impl Fn(usize) -> Vec3, out: [&mut [f64]; 3]) {
         own_each(start, own, out)
@@ -135,7 +152,7 @@ crate::compute::simd::multiversion! {
 pub(super) fn rows<T: Lane>(
     spans: &[Span],
     n: usize,
-    own: impl Fn(usize) -> Vec3,
+    init: impl Fn(usize, [&mut [T]; 3]),
     x: &[Vec<T>; 3],
     start: usize,
     out: [&mut [T]; 3],
@@ -145,7 +162,7 @@ pub(super) fn rows<T: Lane>(
 ) {
     let end = start + out[0].len();
     let [o0, o1, o2] = out;
-    T::own_rows(start, &own, [&mut *o0, &mut *o1, &mut *o2]);
+    init(start, [&mut *o0, &mut *o1, &mut *o2]);
     let xs = |at: usize, len: usize| -> [&[T]; 3] { std::array::from_fn(|c| &x[c][at..at + len]) };
     let [f0, f1, f2] = forces;
     for span in spans {

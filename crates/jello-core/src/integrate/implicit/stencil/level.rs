@@ -141,7 +141,7 @@ impl LevelStencil {
             (spans, n),
             blocks,
             buffers,
-            own,
+            (own, None),
             e,
             precision,
             t,

@@ -50,8 +50,8 @@ mod tests;
 pub(super) use level::LevelStencil;
 
 use kernels::{
-    damper_factors, damper_forces, rows, spring_blocks, spring_blocks_single, spring_forces,
-    spring_forces_single, Lane,
+    damper_factors, damper_forces, own_rows_soa, rows, spring_blocks, spring_blocks_single,
+    spring_forces, spring_forces_single, Lane,
 };
 
 use super::sym::{sym_mul, Sym};
@@ -138,6 +138,13 @@ pub(super) struct SpringMatrix {
     /// stored by slot.
     start: [Vec<f64>; 3],
     factor: Vec<f64>,
+    /// Each point's own block of `A` (its mass, walls, contacts: see [`SpringMatrix::set_own`]),
+    /// and the same rounded to single precision as structure of arrays (`[xx, yy, zz, xy, xz,
+    /// yz]`), from which a single-precision product's rows start vectorised: from the blocks of
+    /// points and `x` in double precision, point by point, that took 4.8 % of a dropped 32³
+    /// cube's step on one thread.
+    own: Vec<Sym>,
+    own_single: [Vec<f32>; 6],
     /// `x` as structure of arrays, and in single precision for the products with the blocks.
     x: [Vec<f64>; 3],
     x_single: [Vec<f32>; 3],
@@ -190,6 +197,8 @@ impl SpringMatrix {
             damping: vec![0.0; 16 * n],
             start: std::array::from_fn(|_| vec![0.0; n]),
             factor: vec![0.0; 16 * n],
+            own: vec![[0.0; 6]; n],
+            own_single: std::array::from_fn(|_| vec![0.0; n]),
             x: std::array::from_fn(|_| vec![0.0; n]),
             x_single: std::array::from_fn(|_| vec![0.0; n]),
             ranges: Ranges::default(),
@@ -407,16 +416,24 @@ impl SpringMatrix {
         });
     }
 
-    /// `y = (own·x + springs·x)`, then scaled by `free` per point; the springs' part in
+    /// The points' own blocks of `A` ([`SpringMatrix::apply`], [`SpringMatrix::diagonal`]).
+    pub fn set_own(&mut self, own: &[Sym]) {
+        self.own.copy_from_slice(own);
+        let size = team::chunk_size(own.len(), MIN_POINTS_PER_RANGE);
+        let [a, b, c, d, e, f] = &mut self.own_single;
+        team::for_each_chunk([a, b, c, d, e, f], size, &|chunk, mut single| {
+            for (i, own) in own[chunk * size..].iter().take(single[0].len()).enumerate() {
+                for (single, &o) in single.iter_mut().zip(own) {
+                    single[i] = o as f32;
+                }
+            }
+        });
+    }
+
+    /// `y = (own·x + springs·x)`, then scaled by `free` per point, `own` the points' blocks
+    /// ([`SpringMatrix::set_own`]); the springs' part, and in single precision `own·x` too, in
     /// `precision` (see the module documentation).
-    pub fn apply(
-        &mut self,
-        own: &[Sym],
-        free: &[f64],
-        x: &[Vec3],
-        y: &mut [Vec3],
-        precision: Precision,
-    ) {
+    pub fn apply(&mut self, free: &[f64], x: &[Vec3], y: &mut [Vec3], precision: Precision) {
         if precision == Precision::Double {
             self.double_blocks();
         }
@@ -429,7 +446,7 @@ impl SpringMatrix {
             (spans, n),
             blocks,
             buffers,
-            own,
+            (&self.own, Some(&self.own_single)),
             x,
             precision,
             y,
@@ -444,7 +461,9 @@ impl SpringMatrix {
         self.load_x(v);
         let (spans, n) = (&self.spans[..], self.n);
         let (start, factor) = (&self.start, &self.factor);
-        let own = |p: usize| sym_mul(&own[p], v[p]);
+        let own = |start: usize, out: [&mut [f64]; 3]| {
+            f64::own_rows(start, &|p: usize| sym_mul(&own[p], v[p]), out);
+        };
         let forces =
             |at: usize, q: usize, o: usize, f: [&mut [f64]; 3], v: [&[f64]; 3], vn: [&[f64]; 3]| {
                 let len = f[0].len();
@@ -461,18 +480,19 @@ impl SpringMatrix {
         });
     }
 
-    /// The diagonal blocks of `A`'s springs' part plus `own` into `diag`, from the blocks in
+    /// The diagonal blocks of `A`'s springs' part plus the points' own ([`SpringMatrix::set_own`])
+    /// into `diag`, from the blocks in
     /// single precision (the diagonal serves the preconditioner): each point's `own`, then the
     /// block of each stencil entry's spring from it, then of each entry's spring to
     /// it, in the entries' order. Each point's sum is taken in that order whoever computes it
     /// (the points in chunks over the team); every block is read from its slot in order, where
     /// a gather by each point's springs read it twice, far apart (5 % of the 16³ benchmark's
     /// samples on 2 threads).
-    pub fn diagonal(&self, own: &[Sym], diag: &mut [Sym]) {
+    pub fn diagonal(&self, diag: &mut [Sym]) {
         // Points per pass over the entries: their sums, component by component, stay in the L1
         // cache, and each pass adds two contiguous runs (vectorised).
         const BLOCK: usize = 256;
-        let (spans, blocks, n) = (&self.spans[..], &self.blocks_single, self.n);
+        let (spans, blocks, n, own) = (&self.spans[..], &self.blocks_single, self.n, &self.own);
         let size = team::chunk_size(n, MIN_POINTS_PER_RANGE);
         team::for_each_chunk([diag], size, &|chunk, [diag]| {
             let start = chunk * size;
@@ -553,7 +573,8 @@ impl Ranges {
 }
 
 /// The product of the blocks (in both precisions; by slot `e·n + p` of the `spans`' stencil
-/// entries) and `own` with `x` in `precision`, into `y` through `out(p, row)`; `buffers` hold
+/// entries) and `own` (and, where given, its copy in single precision, which a single-precision
+/// product then takes) with `x` in `precision`, into `y` through `out(p, row)`; `buffers` hold
 /// `x` in each precision.
 #[allow(clippy::too_many_arguments)]
 fn product(
@@ -561,22 +582,31 @@ fn product(
     (spans, n): (&[Span], usize),
     (blocks, blocks_single): (&[Vec<f64>; 6], &[Vec<f32>; 6]),
     (x_double, x_single): (&mut [Vec<f64>; 3], &mut [Vec<f32>; 3]),
-    own: &[Sym],
+    (own, own_single): (&[Sym], Option<&[Vec<f32>; 6]>),
     x: &[Vec3],
     precision: Precision,
     y: &mut [Vec3],
     out: &(impl Fn(usize, Vec3) -> Vec3 + Sync),
 ) {
     ranges.fit(n);
-    let own = |p: usize| sym_mul(&own[p], x[p]);
+    let own_x = |p: usize| sym_mul(&own[p], x[p]);
     if precision == Precision::Single {
         load(x_single, x);
         let forces = entry_forces(spring_forces_single, blocks_single);
-        ranges_rows(&mut ranges.0, spans, n, &own, x_single, &forces);
+        let xs = &*x_single;
+        let init = |start: usize, out: [&mut [f32]; 3]| match own_single {
+            Some(own) => {
+                let len = out[0].len();
+                own_rows_soa(part(own, start, len), part(xs, start, len), out);
+            }
+            None => f32::own_rows(start, &own_x, out),
+        };
+        ranges_rows(&mut ranges.0, spans, n, &init, x_single, &forces);
     } else {
         load(x_double, x);
         let forces = entry_forces(spring_forces, blocks);
-        ranges_rows(&mut ranges.0, spans, n, &own, x_double, &forces);
+        let init = |start: usize, out: [&mut [f64]; 3]| f64::own_rows(start, &own_x, out);
+        ranges_rows(&mut ranges.0, spans, n, &init, x_double, &forces);
     }
     let ranges = &*ranges;
     team::for_each_chunk([y], ranges.size(), &|r, [y]| {
@@ -633,7 +663,7 @@ fn ranges_rows<T: Lane>(
     ranges: &mut [RowRange],
     spans: &[Span],
     n: usize,
-    own: &(impl Fn(usize) -> Vec3 + Sync),
+    init: &(impl Fn(usize, [&mut [T]; 3]) + Sync),
     x: &[Vec<T>; 3],
     entry_forces: &(impl Fn(usize, usize, usize, [&mut [T]; 3], [&[T]; 3], [&[T]; 3]) + Sync),
 ) {
@@ -641,7 +671,7 @@ fn ranges_rows<T: Lane>(
         let start = range.start;
         let ([y0, y1, y2], forces) = T::buffers(range);
         let out = [&mut y0[..], &mut y1[..], &mut y2[..]];
-        rows(spans, n, own, x, start, out, forces, TILE, entry_forces);
+        rows(spans, n, init, x, start, out, forces, TILE, entry_forces);
     });
 }
 

@@ -48,7 +48,8 @@ fn the_stencil_product_is_the_product_over_springs() {
     };
     let (exact, rounded) = (product(|v| v), product(|v| f64::from(v as f32)));
     let mut y = vec![Vec3::ZERO; n];
-    matrix.apply(&own, &free, &x, &mut y, Precision::Double);
+    matrix.set_own(&own);
+    matrix.apply(&free, &x, &mut y, Precision::Double);
     for p in 0..n {
         let want = exact[p];
         assert!(
@@ -59,7 +60,7 @@ fn the_stencil_product_is_the_product_over_springs() {
     }
     // In single precision: the blocks rounded, and the sums with a relative error of about
     // 1e-7 (the values are of order 1), so not the exact product.
-    matrix.apply(&own, &free, &x, &mut y, Precision::Single);
+    matrix.apply(&free, &x, &mut y, Precision::Single);
     for p in 0..n {
         let want = rounded[p];
         assert!(
@@ -103,7 +104,8 @@ fn the_stencil_product_is_the_product_over_springs() {
     matrix.finish();
     matrix.set(0, &[1.0, 1.0, 1.0, 0.0, 0.0, 0.0]);
     let zero = vec![[0.0; 6]; n];
-    matrix.apply(&zero, &free, &x, &mut y, Precision::Double);
+    matrix.set_own(&zero);
+    matrix.apply(&free, &x, &mut y, Precision::Double);
     let mut want = vec![Vec3::ZERO; n];
     let lattice = model.body(0).lattice();
     let b = lattice.index(0, 0, 1);
@@ -146,13 +148,14 @@ fn the_diagonal_by_slot_is_the_sum_over_springs() {
         add_sym(&mut want[a], &m);
         add_sym(&mut want[b], &m);
     }
+    matrix.set_own(&own);
     let run = |threads: usize| {
         let pool = rayon::ThreadPoolBuilder::new()
             .num_threads(threads)
             .build()
             .unwrap();
         let mut diag = vec![[0.0; 6]; n];
-        pool.install(|| team::run(|| matrix.diagonal(&own, &mut diag)));
+        pool.install(|| team::run(|| matrix.diagonal(&mut diag)));
         diag
     };
     let one = run(1);
@@ -237,7 +240,8 @@ fn blocks_by_slot_are_the_blocks_of_each_spring() {
         assert!(floor != f64::MIN || (0..6).all(|c| matrix.blocks[c][slot] == 0.0));
         let (own, free) = (vec![[0.0; 6]; n], vec![1.0; n]);
         let (x, mut y) = (vec![Vec3::ZERO; n], vec![Vec3::ZERO; n]);
-        matrix.apply(&own, &free, &x, &mut y, Precision::Double);
+        matrix.set_own(&own);
+        matrix.apply(&free, &x, &mut y, Precision::Double);
         for (slot, want) in by_slot {
             let by_slot: Sym = std::array::from_fn(|c| matrix.blocks[c][slot]);
             assert_eq!(
@@ -253,7 +257,8 @@ fn blocks_by_slot_are_the_blocks_of_each_spring() {
     matrix.assemble(&x0, &v2, h, 0.0, &mut blocks);
     let (own, free) = (vec![[0.0; 6]; n], vec![1.0; n]);
     let (x, mut y) = (vec![Vec3::ZERO; n], vec![Vec3::ZERO; n]);
-    matrix.apply(&own, &free, &x, &mut y, Precision::Double);
+    matrix.set_own(&own);
+    matrix.apply(&free, &x, &mut y, Precision::Double);
     for (s, block) in blocks.iter().enumerate() {
         let slot = matrix.slot[s] as usize;
         let double: Sym = std::array::from_fn(|c| matrix.blocks[c][slot]);
@@ -294,7 +299,16 @@ fn rows_in_ranges_have_the_bits_of_rows_at_once() {
         vec![second - 1, second + 3],
         vec![n / 2],
     ];
-    let own = |p: usize| sym_mul(&own[p], x[p]);
+    // The points' own part: in single precision from its own copy, as structure of arrays.
+    matrix.set_own(&own);
+    let own_single = &matrix.own_single;
+    let single_own = |start: usize, out: [&mut [f32]; 3]| {
+        let len = out[0].len();
+        own_rows_soa(part(own_single, start, len), part(&x32, start, len), out);
+    };
+    let own = |start: usize, out: [&mut [f64]; 3]| {
+        f64::own_rows(start, &|p: usize| sym_mul(&own[p], x[p]), out);
+    };
     // Rows `range` of the blocks' product in single and in double precision and of the
     // dampers', in tiles of `tile` springs, as bits.
     let rows_of = |range: std::ops::Range<usize>, tile: usize| -> Vec<u64> {
@@ -309,7 +323,7 @@ fn rows_in_ranges_have_the_bits_of_rows_at_once() {
         rows(
             spans,
             n,
-            own,
+            single_own,
             &x32,
             start,
             [a, b, c],
