@@ -132,8 +132,8 @@ crate::compute::simd::multiversion! {
     }
 }
 
-/// Rows `start .. start + out.len()` of `own(p) + springs·x` into `out` (see the module
-/// documentation for the order of the sum), with `forces` (at least `tile` long) for the
+/// Rows `start .. start + out.len()` of `own·x + springs·x` into `out` (`init(start, out)`
+/// puts the rows of `own·x` there), with `forces` (at least `tile` long) for the
 /// spring forces of one stencil entry in one tile: `entry_forces(at, q, o, f, x, xn)` puts the
 /// forces `B·(x − xn)` of the springs at slots `at .. at + f.len()` into `f` (their first ends
 /// `q ..`, their second `q + o ..`).
