@@ -75,13 +75,16 @@ pub(super) fn dot(a: &[Vec3], b: &[Vec3], sums: &mut [f64]) -> f64 {
     let size = sum_chunk(a.len());
     team::for_each_mut(sums, &|c, sum| {
         let chunk = c * size..((c + 1) * size).min(a.len());
-        *sum = a[chunk.clone()]
-            .iter()
-            .zip(&b[chunk])
-            .map(|(a, b)| a.dot(*b))
-            .sum();
+        *sum = dot_chunk(&a[chunk.clone()], &b[chunk]);
     });
     sums.iter().sum()
+}
+
+crate::compute::simd::multiversion! {
+    /// `a·b` over one chunk, in order, compiled per tier (the same bits on each).
+    fn dot_chunk(a: &[Vec3], b: &[Vec3]) -> f64 {
+        a.iter().zip(b).map(|(a, b)| a.dot(*b)).sum()
+    }
 }
 
 /// One step of the conjugate gradients, `Δv += α·p` and `r −= α·A·p`, on the team; returns
@@ -122,6 +125,15 @@ crate::compute::simd::multiversion! {
             within &= r2 <= (mass[i] * bound) * (mass[i] * bound);
         }
         (rr, within)
+    }
+}
+
+crate::compute::simd::multiversion! {
+    /// `p = z + β·p`, compiled per tier (the same bits on each).
+    fn next_direction(z: &[Vec3], beta: f64, p: &mut [Vec3]) {
+        for (p, &z) in p.iter_mut().zip(z) {
+            *p = z + *p * beta;
+        }
     }
 }
 
@@ -199,9 +211,7 @@ pub(super) fn solve(
         let z = &s.z;
         let size = chunk_size(z.len());
         team::for_each_chunk([&mut s.p], size, &|c, [p]| {
-            for (p, &z) in p.iter_mut().zip(&z[c * size..]) {
-                *p = z + *p * beta;
-            }
+            next_direction(&z[c * size..], beta, p);
         });
     }
     true

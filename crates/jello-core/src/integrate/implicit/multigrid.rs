@@ -207,11 +207,9 @@ impl Operator<'_> {
     fn jacobi(&self, r: &[Vec3], omega: f64, e: &mut [Vec3]) {
         let size = team::chunk_size(e.len(), MIN_NODES);
         team::for_each_chunk([e], size, &|chunk, [e]| {
-            for (j, e) in e.iter_mut().enumerate() {
-                let i = chunk * size + j;
-                let f = self.free.map_or(1.0, |f| f[i]);
-                *e += sym_mul(&self.diag_inv[i], r[i]) * (omega * f);
-            }
+            let at = chunk * size..chunk * size + e.len();
+            let free = self.free.map(|f| &f[at.clone()]);
+            jacobi_chunk(&r[at.clone()], &self.diag_inv[at], free, omega, e);
         });
     }
 
@@ -445,6 +443,19 @@ impl Multigrid {
         cycle(&mut self.levels, precision, over_from);
         let correction = (&self.down.parent[..], &self.levels[0].e[..]);
         fine.jacobi_dot(r, FINE_OMEGA, Some(correction), z, sums)
+    }
+}
+
+crate::compute::simd::multiversion! {
+    /// One chunk of [`Operator::jacobi`]: `e += ω·D⁻¹·r·f` point by point (`f` the point's
+    /// `free`, 1 without), compiled per tier (the same bits on each).
+    fn jacobi_chunk(r: &[Vec3], diag_inv: &[Sym], free: Option<&[f64]>, omega: f64, e: &mut [Vec3]) {
+        let n = e.len();
+        let (r, diag_inv) = (&r[..n], &diag_inv[..n]);
+        for i in 0..n {
+            let f = free.map_or(1.0, |f| f[i]);
+            e[i] += sym_mul(&diag_inv[i], r[i]) * (omega * f);
+        }
     }
 }
 
