@@ -11,6 +11,8 @@ use crate::vec3::Vec3;
 pub(super) trait Lane: Copy + Send + Sync {
     /// `v` rounded to this precision.
     fn of(v: f64) -> Self;
+    /// This number in double precision.
+    fn wide(self) -> f64;
     /// `y += f` element by element.
     fn add(y: [&mut [Self]; 3], f: [&[Self]; 3]);
     /// `y −= f` element by element.
@@ -21,11 +23,21 @@ pub(super) trait Lane: Copy + Send + Sync {
     fn load(x: &[Vec3], soa: [&mut [Self]; 3]);
     /// `out[·][i] = own(start + i)`, rounded to this precision.
     fn own_rows(start: usize, own: &impl Fn(usize) -> Vec3, out: [&mut [Self]; 3]);
+    /// `y[i] = out(start + i, rows[·][i])`: a range's rows of a product out.
+    fn out_rows(
+        start: usize,
+        rows: [&[Self]; 3],
+        out: &impl Fn(usize, Vec3) -> Vec3,
+        y: &mut [Vec3],
+    );
 }
 
 impl Lane for f64 {
     fn of(v: f64) -> Self {
         v
+    }
+    fn wide(self) -> f64 {
+        self
     }
     fn add(y: [&mut [f64]; 3], f: [&[f64]; 3]) {
         add_forces(y, f);
@@ -42,11 +54,22 @@ impl Lane for f64 {
     fn own_rows(start: usize, own: &impl Fn(usize) -> Vec3, out: [&mut [f64]; 3]) {
         own_rows_double(start, own, out);
     }
+    fn out_rows(
+        start: usize,
+        rows: [&[f64]; 3],
+        out: &impl Fn(usize, Vec3) -> Vec3,
+        y: &mut [Vec3],
+    ) {
+        out_rows_double(start, rows, out, y);
+    }
 }
 
 impl Lane for f32 {
     fn of(v: f64) -> Self {
         v as f32
+    }
+    fn wide(self) -> f64 {
+        f64::from(self)
     }
     fn add(y: [&mut [f32]; 3], f: [&[f32]; 3]) {
         add_forces_single(y, f);
@@ -62,6 +85,14 @@ impl Lane for f32 {
     }
     fn own_rows(start: usize, own: &impl Fn(usize) -> Vec3, out: [&mut [f32]; 3]) {
         own_rows_single(start, own, out);
+    }
+    fn out_rows(
+        start: usize,
+        rows: [&[f32]; 3],
+        out: &impl Fn(usize, Vec3) -> Vec3,
+        y: &mut [Vec3],
+    ) {
+        out_rows_single(start, rows, out, y);
     }
 }
 
@@ -84,6 +115,48 @@ fn own_each<T: Lane>(start: usize, own: &impl Fn(usize) -> Vec3, [o0, o1, o2]: [
     for i in 0..n {
         let v = own(start + i);
         (o0[i], o1[i], o2[i]) = (T::of(v.x), T::of(v.y), T::of(v.z));
+    }
+}
+
+/// `y[i] = out(start + i, rows[·][i])` (inlined as [`load_each`] is).
+#[inline(always)]
+fn out_each<T: Lane>(
+    start: usize,
+    rows: [&[T]; 3],
+    out: &impl Fn(usize, Vec3) -> Vec3,
+    y: &mut [Vec3],
+) {
+    let n = y.len();
+    let [y0, y1, y2] = rows.map(|r| &r[..n]);
+    for i in 0..n {
+        y[i] = out(
+            start + i,
+            Vec3::new(y0[i].wide(), y1[i].wide(), y2[i].wide()),
+        );
+    }
+}
+
+crate::compute::simd::multiversion! {
+    /// [`out_each`] in double precision.
+    fn out_rows_double(
+        start: usize,
+        rows: [&[f64]; 3],
+        out: &impl Fn(usize, Vec3) -> Vec3,
+        y: &mut [Vec3],
+    ) {
+        out_each(start, rows, out, y)
+    }
+}
+
+crate::compute::simd::multiversion! {
+    /// [`out_each`] from single precision.
+    fn out_rows_single(
+        start: usize,
+        rows: [&[f32]; 3],
+        out: &impl Fn(usize, Vec3) -> Vec3,
+        y: &mut [Vec3],
+    ) {
+        out_each(start, rows, out, y)
     }
 }
 

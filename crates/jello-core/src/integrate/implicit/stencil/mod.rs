@@ -615,48 +615,14 @@ fn product(
         match precision {
             Precision::Single => {
                 let [y0, y1, y2] = &range.y_single;
-                out_rows_single(range.start, [y0, y1, y2], out, y);
+                f32::out_rows(range.start, [y0, y1, y2], out, y);
             }
             Precision::Double => {
                 let [y0, y1, y2] = &range.y;
-                out_rows_double(range.start, [y0, y1, y2], out, y);
+                f64::out_rows(range.start, [y0, y1, y2], out, y);
             }
         }
     });
-}
-
-crate::compute::simd::multiversion! {
-    /// `y[i] = out(start + i, rows[·][i])`: a range's rows of a product in single precision
-    /// out, compiled per tier (the same bits on each).
-    fn out_rows_single(
-        start: usize,
-        rows: [&[f32]; 3],
-        out: &impl Fn(usize, Vec3) -> Vec3,
-        y: &mut [Vec3],
-    ) {
-        let n = y.len();
-        let [y0, y1, y2] = rows.map(|r| &r[..n]);
-        for i in 0..n {
-            let row = Vec3::new(f64::from(y0[i]), f64::from(y1[i]), f64::from(y2[i]));
-            y[i] = out(start + i, row);
-        }
-    }
-}
-
-crate::compute::simd::multiversion! {
-    /// [`out_rows_single`] in double precision.
-    fn out_rows_double(
-        start: usize,
-        rows: [&[f64]; 3],
-        out: &impl Fn(usize, Vec3) -> Vec3,
-        y: &mut [Vec3],
-    ) {
-        let n = y.len();
-        let [y0, y1, y2] = rows.map(|r| &r[..n]);
-        for i in 0..n {
-            y[i] = out(start + i, Vec3::new(y0[i], y1[i], y2[i]));
-        }
-    }
 }
 
 /// Each range's [`rows`] over the team, into its buffers of `T`'s precision.
