@@ -105,8 +105,8 @@ pub(crate) fn implicit_cap(mass: f64, dt: f64, kc: f64) -> f64 {
 /// zero). A tie that holds (`|f| ≤ μ·kc·depth`) is a spring and damper across the normal:
 /// `c = h·(h·kc + dc)`; once it slides, its force keeps the limit's size and turns with the
 /// offset and the velocity: `c = h·(h·kc + dc)·limit/|f|`, and nothing along the force `e`. No
-/// anchor: [`sliding_tangent`]. No friction: nothing. The limit's growth with depth and the
-/// normal's turning are left out (they would make `A` unsymmetric).
+/// anchor: [`sliding_tangent`]. No friction: nothing. The limit's growth with depth, which is
+/// not symmetric, is [`limit_growth`]'s; the normal's turning is left out.
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn obstacle_tangent(
     p: Vec3,
@@ -132,6 +132,47 @@ pub(crate) fn obstacle_tangent(
     } else {
         (c, None)
     }
+}
+
+/// What the growth of the friction limit `μ·kc·depth` with depth adds to the Newton matrix
+/// where [`obstacle`]'s friction slides at that full size (a tie beyond the cone, or a point
+/// without an anchor beyond its cap; arguments as [`obstacle_tangent`]'s): the force `limit·ê`
+/// grows by `μ·kc` per metre of depth, and the depth by a metre per metre moved against `n`, so
+/// `A` (`−h²·∂F/∂p`) gains `h²·μ·kc·ê·nᵀ`, returned as `h²·μ·kc·ê` (the column `nᵀ` left to the
+/// caller). None where the friction holds, is capped or is zero: its size does not depend on the
+/// depth then. This part is not symmetric (see the implicit solver's GMRES).
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn limit_growth(
+    p: Vec3,
+    v: Vec3,
+    depth: f64,
+    n: Vec3,
+    anchor: Vec3,
+    [kc, dc, mu]: [f64; 3],
+    c_max: f64,
+    h: f64,
+) -> Option<Vec3> {
+    let limit = mu * kc * depth;
+    if mu <= 0.0 || limit <= 0.0 {
+        return None;
+    }
+    let direction = if anchor.x.is_nan() {
+        // [`sliding`]: against the tangential velocity, at the cap while that is smaller.
+        let vt = across(v, n);
+        let speed = vt.length();
+        if speed == 0.0 || c_max * speed <= limit {
+            return None;
+        }
+        vt * (-1.0 / speed)
+    } else {
+        let f = across(p - anchor, n) * -kc - across(v, n) * dc;
+        let size = f.length();
+        if size <= limit {
+            return None;
+        }
+        f * (1.0 / size)
+    };
+    Some(direction * (h * h * mu * kc))
 }
 
 /// What [`sliding`] friction (at normal `n`, relative velocity `v`, normal force `normal`, cap

@@ -10,14 +10,19 @@ use super::stencil::{Precision, SpringMatrix};
 use super::sym::{sym_mul, Sym};
 use super::{chunk_size, precision_for, ImplicitScratch, MAX_CG, MIN_CHUNK};
 
-/// `y = A·x` over the free points (others give 0).
+/// `A`'s parts that are not symmetric, each a 3×3 matrix (row by row) of one point's: a
+/// field's at every point (where its swirl is taken), and friction's growth with depth at the
+/// points listed with theirs.
+pub(super) type Unsymmetric<'a> = (Option<&'a [[f64; 9]]>, &'a [(u32, [f64; 9])]);
+
+/// `y = A·x` over the free points (others give 0), with `A`'s unsymmetric parts where given.
 #[allow(clippy::too_many_arguments)]
 pub(super) fn apply_to(
     springs: &mut SpringMatrix,
     free: &[f64],
     pair_rows: &[[u32; 2]],
     pair_blocks: &[Sym],
-    field_correction: Option<&[[f64; 9]]>,
+    (field_correction, growth): Unsymmetric,
     x: &[Vec3],
     y: &mut [Vec3],
     precision: Precision,
@@ -35,9 +40,18 @@ pub(super) fn apply_to(
         .zip(field_correction.unwrap_or(&[]))
         .zip(free)
     {
-        let row = |i: usize| c[3 * i] * x.x + c[3 * i + 1] * x.y + c[3 * i + 2] * x.z;
-        *y += Vec3::new(row(0), row(1), row(2)) * free;
+        *y += times(c, x) * free;
     }
+    for (p, c) in growth {
+        let p = *p as usize;
+        y[p] += times(c, x[p]) * free[p];
+    }
+}
+
+/// `c·x`, `c` a 3×3 matrix row by row.
+fn times(c: &[f64; 9], x: Vec3) -> Vec3 {
+    let row = |i: usize| c[3 * i] * x.x + c[3 * i + 1] * x.y + c[3 * i + 2] * x.z;
+    Vec3::new(row(0), row(1), row(2))
 }
 
 /// `s.ap = A·s.p` (`A` symmetric), the springs' part in `precision`.
@@ -48,7 +62,7 @@ fn apply(s: &mut ImplicitScratch, precision: Precision) {
         &s.free,
         pairs.0,
         pairs.1,
-        None,
+        (None, &[]),
         &s.p,
         &mut s.ap,
         precision,
@@ -156,8 +170,8 @@ pub(super) fn solve(
     preconditioner: Preconditioner,
 ) -> bool {
     s.multigrid_failed = false;
-    if s.swirl {
-        return solve_swirl(s, reduction, preconditioner);
+    if s.unsymmetric() {
+        return solve_unsymmetric(s, reduction, preconditioner);
     }
     let precision = precision_for(reduction);
     // `z = P⁻¹·r`, returning `r·z`.
@@ -217,22 +231,40 @@ pub(super) fn solve(
     true
 }
 
-/// Solves `A·Δv = −M·g` into `s.dv` by GMRES when `A` holds a field's swirl (so is not
-/// symmetric), preconditioned as [`solve`] is, from `A`'s symmetric part. True when the residual
-/// fell by `reduction`; with the diagonal preconditioner, also when it fell by half at least,
-/// which is enough for a direction along which `|g|²_M` falls.
-fn solve_swirl(s: &mut ImplicitScratch, reduction: f64, preconditioner: Preconditioner) -> bool {
+/// Solves `A·Δv = −M·g` into `s.dv` by GMRES when `A` holds a field's swirl or the growth of
+/// sliding friction with depth (so is not symmetric), preconditioned as [`solve`] is, from `A`'s
+/// symmetric part. True when the residual fell by `reduction`; with the diagonal
+/// preconditioner, also when it fell by half at least, which is enough for a direction along
+/// which `|g|²_M` falls.
+fn solve_unsymmetric(
+    s: &mut ImplicitScratch,
+    reduction: f64,
+    preconditioner: Preconditioner,
+) -> bool {
     set_right_hand_side(s);
     let mut gmres = std::mem::take(&mut s.gmres);
     let reached = {
         let fine = fine_operator!(s);
         let (springs, multigrid) = (&mut s.springs, &mut s.multigrid);
         let pairs = (&s.pair_rows[..], &s.pair_blocks[..]);
-        let correction = Some(&s.field_correction[..]);
+        let field = s.swirl.then_some(&s.field_correction[..]);
+        let growth = if s.exact_friction {
+            &s.friction_growth[..]
+        } else {
+            &[]
+        };
         let precision = precision_for(reduction);
         let apply = |x: &[Vec3], y: &mut [Vec3]| {
+            let corrections = (field, growth);
             apply_to(
-                springs, &s.free, pairs.0, pairs.1, correction, x, y, precision,
+                springs,
+                &s.free,
+                pairs.0,
+                pairs.1,
+                corrections,
+                x,
+                y,
+                precision,
             );
         };
         let mut sums = std::mem::take(&mut s.dots);

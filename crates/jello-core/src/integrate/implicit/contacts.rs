@@ -224,8 +224,9 @@ mod tests {
         Aabb::new(Vec3::new(-50.0, -50.0, -50.0), Vec3::new(50.0, 50.0, 50.0)).unwrap()
     }
 
-    /// `A·d` (with `A` assembled at the iterate `v`) and the central difference of `M·g` along
-    /// `d` there, for the free points, and the largest entry of `A·d`.
+    /// `A·d` (with `A` assembled at the iterate `v`, and friction's growth with depth in it)
+    /// and the central difference of `M·g` along `d` there, for the free points, and the
+    /// largest entry of `A·d`.
     fn derivative(
         model: &Model,
         force: &mut ForceScratch,
@@ -233,6 +234,18 @@ mod tests {
         v: &[Vec3],
         d: &[Vec3],
     ) -> (Vec<Vec3>, Vec<Vec3>, f64) {
+        let (ad, difference, scale, _) = derivatives(model, force, x0, v, d);
+        (ad, difference, scale)
+    }
+
+    /// [`derivative`]'s, and `A·d` without friction's growth with depth.
+    fn derivatives(
+        model: &Model,
+        force: &mut ForceScratch,
+        x0: &[Vec3],
+        v: &[Vec3],
+        d: &[Vec3],
+    ) -> (Vec<Vec3>, Vec<Vec3>, f64, Vec<Vec3>) {
         let control = Control::none();
         let mut s = ImplicitScratch::new(model);
         s.load(model);
@@ -263,18 +276,32 @@ mod tests {
         let mut ad = vec![Vec3::ZERO; d.len()];
         let (rows, blocks) = (&s.pair_rows[..], &s.pair_blocks[..]);
         let free = &s.free[..];
+        let growth = &s.friction_growth[..];
         apply_to(
             &mut s.springs,
             free,
             rows,
             blocks,
-            None,
+            (None, growth),
             d,
             &mut ad,
             Precision::Double,
         );
+        let mut symmetric = vec![Vec3::ZERO; d.len()];
+        let no_growth = (None, &[][..]);
+        let (springs, out) = (&mut s.springs, &mut symmetric);
+        apply_to(
+            springs,
+            free,
+            rows,
+            blocks,
+            no_growth,
+            d,
+            out,
+            Precision::Double,
+        );
         let scale = ad.iter().map(|a| a.max_abs()).fold(0.0, f64::max);
-        (ad, difference, scale)
+        (ad, difference, scale, symmetric)
     }
 
     fn assert_close(ad: &[Vec3], difference: &[Vec3], scale: f64) {
@@ -289,9 +316,10 @@ mod tests {
     /// `A` is the derivative of `M·g` (the residual times the masses) with the friction of an
     /// obstacle, of the box's bottom wall and of the inclined plane, each the floor in turn:
     /// ties that hold and ties that slide, points with no anchor yet whose friction is at its
-    /// cap or at its full size, each with its damper across the floor's normal (the directions
-    /// of change lie in the floor where a point touches it: `A` leaves out the friction
-    /// limit's growth with depth).
+    /// cap or at its full size, each with its damper across the floor's normal; along
+    /// directions in the floor where a point touches it, and along any direction with the
+    /// friction limit's growth with depth (`friction_growth`), which the symmetric part alone
+    /// misses.
     #[test]
     fn a_with_obstacle_friction_is_the_derivative_of_the_residual() {
         let floor = Plane::facing([0.0, 0.0, 1.0, 0.0], Vec3::new(0.0, 0.0, 1.0)).unwrap();
@@ -383,6 +411,18 @@ mod tests {
         );
         let (ad, difference, scale) = derivative(&model, &mut force, &x0, &v, &d);
         assert_close(&ad, &difference, scale);
+        // Into the floor and out of it too: the friction that slides at its full size grows
+        // with the depth.
+        let d: Vec<Vec3> = x0.iter().map(|_| random()).collect();
+        let (ad, difference, scale, symmetric) = derivatives(&model, &mut force, &x0, &v, &d);
+        assert_close(&ad, &difference, scale);
+        let missed = (symmetric.iter().zip(&difference))
+            .map(|(&a, &f)| (a - f).max_abs())
+            .fold(0.0, f64::max);
+        assert!(
+            missed > 1e-3 * scale,
+            "{surface:?}: the symmetric part alone misses the growth by {missed:e} only"
+        );
     }
 
     /// `A` is the derivative of `M·g` with contacts between bodies, held to the touches found at

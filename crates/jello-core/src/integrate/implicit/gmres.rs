@@ -4,8 +4,12 @@
 //!
 //! Right preconditioning (`A·P⁻¹·u = b`, `x = P⁻¹·u`) makes the residual GMRES minimises the
 //! true one, so the stopping test and the Newton step's descent both see `b − A·x` itself.
-//! Every loop runs in a fixed order, so results do not depend on the thread count.
+//! The loops over points run on the step's team, the dot products summed over fixed chunks (as
+//! the conjugate gradients' are), so results do not depend on the thread count.
 
+use super::cg::{dot, sum_chunks};
+use super::chunk_size;
+use crate::compute::team;
 use crate::vec3::Vec3;
 
 /// Krylov vectors kept before a restart, at most.
@@ -28,6 +32,8 @@ pub(super) struct Gmres {
     y: Vec<f64>,
     work: Vec<Vec3>,
     correction: Vec<Vec3>,
+    /// The dot products' sums by chunk of points.
+    sums: Vec<f64>,
 }
 
 /// What a solve reached.
@@ -52,6 +58,7 @@ impl Gmres {
             y: vec![0.0; m],
             work: vec![Vec3::ZERO; n],
             correction: vec![Vec3::ZERO; n],
+            sums: vec![0.0; sum_chunks(n)],
         }
     }
 
@@ -72,17 +79,16 @@ impl Gmres {
         mut precondition: impl FnMut(&[Vec3], &mut [Vec3]),
     ) -> Reached {
         let m = self.basis.len() - 1;
+        let sums = &mut self.sums[..];
         x.fill(Vec3::ZERO);
-        let b_norm = norm(b);
+        let b_norm = norm(b, sums);
         let target = reduction * b_norm;
         let mut beta = b_norm;
         let mut iterations = 0;
         self.basis[0].copy_from_slice(b);
         let relative = |r: f64| if b_norm > 0.0 { r / b_norm } else { 0.0 };
         while beta > target && beta.is_finite() && iterations < max_iterations {
-            for v in &mut self.basis[0] {
-                *v = *v / beta;
-            }
+            scale(&mut self.basis[0], 1.0 / beta);
             self.rhs.fill(0.0);
             self.rhs[0] = beta;
             let mut columns = 0;
@@ -97,18 +103,14 @@ impl Gmres {
                     let column = &mut self.hessenberg[j * (m + 1)..(j + 1) * (m + 1)];
                     // Modified Gram–Schmidt against the basis so far.
                     for (i, v) in done.iter().enumerate() {
-                        let c = dot(w, v);
+                        let c = dot(w, v, sums);
                         column[i] = c;
-                        for (w, &v) in w.iter_mut().zip(v) {
-                            *w -= v * c;
-                        }
+                        add_scaled(w, v, -c);
                     }
-                    let length = norm(w);
+                    let length = norm(w, sums);
                     column[j + 1] = length;
                     if length > 0.0 {
-                        for w in w.iter_mut() {
-                            *w = *w / length;
-                        }
+                        scale(w, 1.0 / length);
                     }
                     // The earlier rotations, then one that zeroes the new subdiagonal entry.
                     for (i, &(c, s)) in self.rotations[..j].iter().enumerate() {
@@ -147,20 +149,21 @@ impl Gmres {
             }
             self.work.fill(Vec3::ZERO);
             for (v, &y) in self.basis[..columns].iter().zip(&self.y) {
-                for (w, &v) in self.work.iter_mut().zip(v) {
-                    *w += v * y;
-                }
+                add_scaled(&mut self.work, v, y);
             }
             precondition(&self.work, &mut self.correction);
-            for (x, &c) in x.iter_mut().zip(&self.correction) {
-                *x += c;
-            }
+            add_scaled(x, &self.correction, 1.0);
             // The true residual, as the next cycle's start.
             apply(x, &mut self.work);
-            for ((r, &b), &ax) in self.basis[0].iter_mut().zip(b).zip(&self.work) {
-                *r = b - ax;
-            }
-            let true_residual = norm(&self.basis[0]);
+            let (r, ax) = (&mut self.basis[0], &self.work);
+            let size = chunk_size(b.len());
+            team::for_each_chunk([&mut r[..]], size, &|c, [r]| {
+                let at = c * size;
+                for ((r, &b), &ax) in r.iter_mut().zip(&b[at..]).zip(&ax[at..]) {
+                    *r = b - ax;
+                }
+            });
+            let true_residual = norm(&self.basis[0], sums);
             // (A NaN residual counts as none.)
             if true_residual.partial_cmp(&beta) != Some(std::cmp::Ordering::Less) {
                 // No progress in a whole cycle (or a breakdown): more cycles would repeat it.
@@ -176,12 +179,29 @@ impl Gmres {
     }
 }
 
-fn dot(a: &[Vec3], b: &[Vec3]) -> f64 {
-    a.iter().zip(b).map(|(a, b)| a.dot(*b)).sum()
+/// `|a|`, summed as [`dot`] sums (into `sums`).
+fn norm(a: &[Vec3], sums: &mut [f64]) -> f64 {
+    dot(a, a, sums).sqrt()
 }
 
-fn norm(a: &[Vec3]) -> f64 {
-    dot(a, a).sqrt()
+/// `y += x·c`, on the team.
+fn add_scaled(y: &mut [Vec3], x: &[Vec3], c: f64) {
+    let size = chunk_size(y.len());
+    team::for_each_chunk([y], size, &|chunk, [y]| {
+        for (y, &x) in y.iter_mut().zip(&x[chunk * size..]) {
+            *y += x * c;
+        }
+    });
+}
+
+/// `y = y·c`, on the team.
+fn scale(y: &mut [Vec3], c: f64) {
+    let size = chunk_size(y.len());
+    team::for_each_chunk([y], size, &|_, [y]| {
+        for y in y.iter_mut() {
+            *y = *y * c;
+        }
+    });
 }
 
 #[cfg(test)]

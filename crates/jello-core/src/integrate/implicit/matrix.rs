@@ -98,10 +98,11 @@ pub(super) fn assemble(
     // the iterate: each point's own, so the points in chunks over the team.
     let (mass, free, v, start_damping) = (&s.mass[..], &s.free[..], &s.v[..], &s.start_damping[..]);
     let size = super::chunk_size(s.extra.len());
-    team::for_each_chunk([&mut s.extra[..]], size, &|chunk, [extra]| {
-        for (j, e) in extra.iter_mut().enumerate() {
+    let parts = ([&mut s.extra[..]], [&mut s.slides[..]]);
+    team::for_each_chunk_pair(parts, size, &|chunk, ([extra], [slides])| {
+        for (j, (e, slides)) in extra.iter_mut().zip(slides).enumerate() {
             let i = chunk * size + j;
-            *e = [0.0; 6];
+            (*e, *slides) = ([0.0; 6], false);
             e[..3].fill(mass[i] * (1.0 + shift));
             if free[i] == 0.0 {
                 continue;
@@ -109,9 +110,36 @@ pub(super) fn assemble(
             for (e, d) in e.iter_mut().zip(&start_damping[i]) {
                 *e += h * d;
             }
-            add_surfaces(model, anchors, i, x0[i] + v[i] * h, v[i], mass[i], h, e);
+            let mut growth = |_, _| *slides = true;
+            add_surfaces(
+                model,
+                anchors,
+                i,
+                at(i, v),
+                v[i],
+                mass[i],
+                h,
+                e,
+                &mut growth,
+            );
         }
     });
+    // The unsymmetric part of the friction that slides, point by point (few points: those on a
+    // surface whose friction slides).
+    s.friction_growth.clear();
+    for i in (0..s.slides.len()).filter(|&i| s.slides[i]) {
+        let mut part = [0.0; 9];
+        let mut growth = |g: Vec3, n: Vec3| {
+            for (r, g) in g.to_array().into_iter().enumerate() {
+                for (c, n) in n.to_array().into_iter().enumerate() {
+                    part[3 * r + c] += g * n;
+                }
+            }
+        };
+        let (p, v, mut e) = (at(i, &s.v), s.v[i], [0.0; 6]);
+        add_surfaces(model, anchors, i, p, v, s.mass[i], h, &mut e, &mut growth);
+        s.friction_growth.push((i as u32, part));
+    }
     // A field that is not uniform: its gradient's stiffness, and its swirl.
     let mut swirl: f64 = 0.0;
     if let Some(field) = model.field.as_ref().filter(|f| f.uniform().is_none()) {
@@ -180,7 +208,9 @@ pub(super) fn assemble(
 
 /// Point `i`'s part of `A` from the walls, the plane and the obstacles at `p` (its end position
 /// at the iterate, `v` its velocity there) into `e`: each penalty spring's `h²·kCollision·nnᵀ`
-/// and its friction's, the walls' and plane's before the obstacles'.
+/// and its friction's, the walls' and plane's before the obstacles'; and, for each friction that
+/// slides at its full size, the unsymmetric part `g·nᵀ` its limit's growth with depth adds
+/// ([`friction::limit_growth`]), through `growth(g, n)`.
 #[allow(clippy::too_many_arguments)]
 fn add_surfaces(
     model: &Model,
@@ -191,6 +221,7 @@ fn add_surfaces(
     mass: f64,
     h: f64,
     e: &mut Sym,
+    growth: &mut impl FnMut(Vec3, Vec3),
 ) {
     let (kc, dc, h2) = (model.k_collision, model.d_collision, h * h);
     let clearance = model.clearance_of(i);
@@ -212,6 +243,9 @@ fn add_surfaces(
                 let (depth, n) = (c.depth, c.normal);
                 let tangent = friction::obstacle_tangent(p, v, depth, n, anchor, law, c_max, h);
                 add_tangent(e, n, tangent);
+                if let Some(g) = friction::limit_growth(p, v, depth, n, anchor, law, c_max, h) {
+                    growth(g, n);
+                }
             }
         }
     }
@@ -232,6 +266,9 @@ fn add_surfaces(
             let (depth, n) = (c.depth, c.normal);
             let tangent = friction::obstacle_tangent(p, v, depth, n, anchor, law, c_max, h);
             add_tangent(e, n, tangent);
+            if let Some(g) = friction::limit_growth(p, v, depth, n, anchor, law, c_max, h) {
+                growth(g, n);
+            }
         }
     }
 }
@@ -322,6 +359,13 @@ fn field_correction(gradient: &[Vec3; 3], k: &Sym) -> [f64; 9] {
         let (i, j) = (e / 3, e % 3);
         -jacobian(i, j) - sym(i, j)
     })
+}
+
+/// True when friction in the model may slide at its full size on a wall, the inclined plane or
+/// an obstacle (then `A` may take its growth with depth, and the solver holds GMRES's basis and
+/// room for that part at every point: see [`friction::limit_growth`]).
+pub(super) fn can_slide(model: &Model) -> bool {
+    model.wall_friction > 0.0 || (model.friction > 0.0 && !model.obstacles.is_empty())
 }
 
 /// True when the model's field may swirl past [`SWIRL_LIMIT`] at a step of size `h`: the

@@ -64,8 +64,13 @@
 //! then gains at best its size over the masses (`h²·|swirl|/m`) per iteration. Where that
 //! passes 1, `A` takes the field's exact gradient instead and GMRES (`gmres.rs`) solves with
 //! it, judged by `|g|²_M`; `newton` says how the two take turns when one stalls. Only a field
-//! that can swirl past that limit at the model's step has GMRES's basis allocated (its swirl is
-//! bounded once, from its nodes: [`crate::ForceField::max_swirl`]).
+//! that can swirl past that limit at the model's step has GMRES's basis allocated from the start
+//! (its swirl is bounded once, from its nodes: [`crate::ForceField::max_swirl`]).
+//! Friction that slides at its full size `μ·kc·depth` grows with the depth, which is not
+//! symmetric either: after a Newton iteration outside the fast regime, `A` takes that growth at
+//! the points where friction slides ([`friction::limit_growth`](crate::contact::friction)) and
+//! GMRES solves with it (its basis held wherever friction may slide), which turns the linear
+//! convergence of a lattice landing on a floor with friction back into Newton's.
 //!
 //! A step has converged when every point's residual `|g|` is at most [`TOLERANCE`](crate::model::solver::TOLERANCE) times
 //! `max(1, max |v₁|)` (m/s; both settable, [`Model::newton`](crate::Model::newton)), or at most

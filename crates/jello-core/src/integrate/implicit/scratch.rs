@@ -4,7 +4,7 @@
 
 use super::cg::sum_chunks;
 use super::gmres::Gmres;
-use super::matrix::can_swirl;
+use super::matrix::{can_slide, can_swirl};
 use super::multigrid::Multigrid;
 use super::residual::{fall_chunks, has_potential};
 use super::stencil::SpringMatrix;
@@ -74,6 +74,9 @@ pub struct ImplicitScratch {
     pub(super) kept: u32,
     #[cfg(test)]
     pub(super) may_keep: bool,
+    /// Whether `A` may take friction's growth with depth (tests only; see `exact_friction`).
+    #[cfg(test)]
+    pub(super) may_grow: bool,
     /// Steps whose first Newton iteration kept the last step's `A` (tests only).
     #[cfg(test)]
     pub(super) kept_across: u32,
@@ -135,6 +138,16 @@ pub struct ImplicitScratch {
     /// solves in place of conjugate gradients.
     pub(super) swirl: bool,
     pub(super) swirl_allowed: bool,
+    /// Per point, whether some friction on it slides at its full size at the iterate; and the
+    /// unsymmetric part `h²·μ·kc·ê·nᵀ` of `A` that its limit's growth with depth adds there
+    /// (row-major; see [`crate::contact::friction::limit_growth`]) for each such point, with room
+    /// for every point where friction may slide ([`can_slide`]), so that no step allocates.
+    pub(super) slides: Vec<bool>,
+    pub(super) friction_growth: Vec<(u32, [f64; 9])>,
+    /// True when `A` takes `friction_growth`, and GMRES solves with it (see
+    /// [`newton`](fn@newton)).
+    pub(super) exact_friction: bool,
+    /// GMRES's basis, where a field may swirl or friction slide ([`can_slide`]).
     pub(super) gmres: Gmres,
     /// [`potential_fall`](fn@residual::potential_fall)'s sums over each chunk of
     /// `residual::FALL_CHUNK` points and springs.
@@ -147,6 +160,12 @@ pub struct ImplicitScratch {
 }
 
 impl ImplicitScratch {
+    /// Whether `A` as assembled is not symmetric: a field's swirl, or friction's growth with
+    /// depth where it is taken (GMRES solves then).
+    pub(super) fn unsymmetric(&self) -> bool {
+        self.swirl || (self.exact_friction && !self.friction_growth.is_empty())
+    }
+
     /// The trial point `v + α·Δv`.
     pub(super) fn set_trial(&mut self, alpha: f64) {
         for ((t, &v), &dv) in self.trial.iter_mut().zip(&self.v).zip(&self.dv) {
@@ -183,12 +202,14 @@ impl ImplicitScratch {
             && self.springs.fits(model)
             && (!can_swirl(model, model.dt)
                 || (self.gmres.fits(n) && self.field_correction.len() == n))
+            && (!can_slide(model) || (self.gmres.fits(n) && self.friction_growth.capacity() >= n))
     }
 
     pub(super) fn new(model: &Model) -> Self {
         let n = model.point_count();
         // A step cut back is shorter than `dt`, so swirls less.
         let swirls = can_swirl(model, model.dt);
+        let slides = can_slide(model);
         let several = model.surfaces_touch();
         let zeros = vec![Vec3::ZERO; n];
         ImplicitScratch {
@@ -216,6 +237,8 @@ impl ImplicitScratch {
             kept: 0,
             #[cfg(test)]
             may_keep: true,
+            #[cfg(test)]
+            may_grow: true,
             #[cfg(test)]
             kept_across: 0,
             keep_across: None,
@@ -256,7 +279,10 @@ impl ImplicitScratch {
             field_correction: vec![[0.0; 9]; if swirls { n } else { 0 }],
             swirl: false,
             swirl_allowed: false,
-            gmres: if swirls {
+            slides: vec![false; n],
+            friction_growth: Vec::with_capacity(if slides { n } else { 0 }),
+            exact_friction: false,
+            gmres: if swirls || slides {
                 Gmres::new(n)
             } else {
                 Gmres::default()
