@@ -84,6 +84,21 @@ pub(super) fn newton(
         }
         iterations += 1;
         s.stats.newton_iterations += 1;
+        // Friction that slides at its full size grows with the depth, which the symmetric `A`
+        // leaves out, and Newton's method then converges only linearly (the 32³ cube dropped
+        // on a floor at 1/60 s: two steps of 21 and 19 iterations at its impact). After an
+        // iteration outside the fast regime, `A` takes that growth where friction slides, and
+        // GMRES solves with it (`friction_growth`): those two steps took 9 and 15 iterations,
+        // the job 1.60 Newton and 20.6 conjugate-gradient or GMRES iterations a step instead
+        // of 1.87 and 22.3. Not in a step's first iteration: where that one is fast (the resting
+        // cube's steps) GMRES would cost more for nothing (taken from the first, the resting
+        // 32³ cube took 1.48 Newton and 14.5 conjugate-gradient iterations a step, not 1.40 and
+        // 13.7).
+        s.exact_friction = iterations > 1 && !fast;
+        #[cfg(test)]
+        {
+            s.exact_friction &= s.may_grow;
+        }
         // A solve goes no further than the tolerance needs. Conjugate gradients stop once
         // their linear model puts every point within half the target, however little their
         // residual fell: near the solution that is much less than `CG_REDUCTION` asks (the 16³
@@ -104,21 +119,6 @@ pub(super) fn newton(
         // iterations a step, as many conjugate-gradient iterations, 57.5 → 60.5 steps/s on 2
         // threads; dropped, 2.18 → 1.87, 33.7 → 35.1). The corpus at 1/60 s took 20 % fewer
         // Newton iterations and 7 % more conjugate-gradient ones, 3 % longer in all.
-        // Friction that slides at its full size grows with the depth, which the symmetric `A`
-        // leaves out, and Newton's method then converges only linearly (the 32³ cube dropped
-        // on a floor at 1/60 s: two steps of 21 and 19 iterations at its impact). After an
-        // iteration outside the fast regime, `A` takes that growth where friction slides, and
-        // GMRES solves with it (`friction_growth`): those two steps took 9 and 15 iterations,
-        // the job 1.60 Newton and 20.6 conjugate-gradient or GMRES iterations a step instead
-        // of 1.87 and 22.3. Not in a step's first iteration: where that one is fast (the resting
-        // cube's steps) GMRES would cost more for nothing (taken from the first, the resting
-        // 32³ cube took 1.48 Newton and 14.5 conjugate-gradient iterations a step, not 1.40 and
-        // 13.7).
-        s.exact_friction = iterations > 1 && !fast;
-        #[cfg(test)]
-        {
-            s.exact_friction &= s.may_grow;
-        }
         let solve_to = if reduction < CG_REDUCTION {
             reduction.max(enough_reduction(s, target).min(CG_REDUCTION))
         } else if fast {
