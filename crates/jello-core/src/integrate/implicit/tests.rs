@@ -313,7 +313,7 @@ fn newton_in_its_fast_regime_keeps_a_and_reaches_the_same_solution() {
 
 /// With friction's growth with depth in `A` once Newton's method leaves its fast regime, a
 /// cube dropped onto a floor with friction (the `drop` job at 12³, 1/60 s) lands in fewer Newton
-/// iterations, its hardest step in far fewer, and its steps end where they end without it, to
+/// iterations, its hardest step in fewer, and its steps end where they end without it, to
 /// within the tolerance.
 #[test]
 fn friction_growth_in_a_cuts_the_newton_iterations_of_a_landing() {
