@@ -194,7 +194,10 @@ pub(super) fn solve(
     s.dv.fill(Vec3::ZERO);
     set_right_hand_side(s);
     let mut rz = precondition(s);
-    s.p.copy_from_slice(&s.z);
+    let (z, size) = (&s.z[..], chunk_size(s.z.len()));
+    team::for_each_chunk([&mut s.p[..]], size, &|c, [p]| {
+        p.copy_from_slice(&z[c * size..c * size + p.len()]);
+    });
     let mut rr = dot(&s.r, &s.r, &mut s.dots);
     let target = rr * reduction * reduction;
     if !rz.is_finite() {
@@ -314,7 +317,13 @@ fn precondition_with(
 
 /// The Newton system's right-hand side `−M·g` into `s.r` (zero at held points).
 fn set_right_hand_side(s: &mut ImplicitScratch) {
-    for ((r, &g), (&m, &free)) in s.r.iter_mut().zip(&s.g).zip(s.mass.iter().zip(&s.free)) {
-        *r = g * (-m * free);
-    }
+    let (g, mass, free) = (&s.g[..], &s.mass[..], &s.free[..]);
+    let size = chunk_size(g.len());
+    team::for_each_chunk([&mut s.r[..]], size, &|c, [r]| {
+        let at = c * size;
+        let (g, mass, free) = (&g[at..], &mass[at..], &free[at..]);
+        for (i, r) in r.iter_mut().enumerate() {
+            *r = g[i] * (-mass[i] * free[i]);
+        }
+    });
 }

@@ -370,16 +370,14 @@ fn backward_euler(
     // residual the tolerance allows out of their velocities, so that internal forces conserve
     // momentum to rounding rather than to the tolerance.
     let shift = mean_residual(s, 0..s.g.len());
-    for ((((np, nv), &x), &v), &free) in next_pos
-        .iter_mut()
-        .zip(next_vel.iter_mut())
-        .zip(x0)
-        .zip(&s.v)
-        .zip(&s.free)
-    {
-        let v = v - shift * free;
-        *np = x + v * h;
-        *nv = v;
-    }
+    let (v, free, size) = (&s.v[..], &s.free[..], chunk_size(s.v.len()));
+    team::for_each_chunk([next_pos, next_vel], size, &|c, [next_pos, next_vel]| {
+        let at = c * size;
+        for (i, (np, nv)) in next_pos.iter_mut().zip(next_vel).enumerate() {
+            let v = v[at + i] - shift * free[at + i];
+            *np = x0[at + i] + v * h;
+            *nv = v;
+        }
+    });
     Ok(())
 }

@@ -166,11 +166,16 @@ impl ImplicitScratch {
         self.swirl || (self.exact_friction && !self.friction_growth.is_empty())
     }
 
-    /// The trial point `v + α·Δv`.
+    /// The trial point `v + α·Δv`, on the team.
     pub(super) fn set_trial(&mut self, alpha: f64) {
-        for ((t, &v), &dv) in self.trial.iter_mut().zip(&self.v).zip(&self.dv) {
-            *t = v + dv * alpha;
-        }
+        let (v, dv) = (&self.v[..], &self.dv[..]);
+        let size = super::chunk_size(v.len());
+        team::for_each_chunk([&mut self.trial[..]], size, &|c, [trial]| {
+            let at = c * size;
+            for ((t, &v), &dv) in trial.iter_mut().zip(&v[at..]).zip(&dv[at..]) {
+                *t = v + dv * alpha;
+            }
+        });
     }
 
     /// The trial point (with its residual and field) becomes the iterate.
