@@ -101,8 +101,8 @@ pub(crate) fn implicit_cap(mass: f64, dt: f64, kc: f64) -> f64 {
 
 /// What [`obstacle`]'s friction adds to the implicit integrators' Newton matrix
 /// `A = M − h·∂F/∂v` (velocities `v` at the step's end, positions `p = x₀ + h·v`) at a point
-/// moving at `v`: `c·(I − nnᵀ − eeᵀ)`, returned as `c` and the unit vector `e` (none: `eeᵀ` is
-/// zero). A tie that holds (`|f| ≤ μ·kc·depth`) is a spring and damper across the normal:
+/// moving at `v`: `c·(I − nnᵀ − eeᵀ)`, returned as `c` and the unit vector `e`, the sliding
+/// force's direction (none: `eeᵀ` is zero). A tie that holds (`|f| ≤ μ·kc·depth`) is a spring and damper across the normal:
 /// `c = h·(h·kc + dc)`; once it slides, its force keeps the limit's size and turns with the
 /// offset and the velocity: `c = h·(h·kc + dc)·limit/|f|`, and nothing along the force `e`. No
 /// anchor: [`sliding_tangent`]. No friction: nothing. The limit's growth with depth, which is
@@ -135,50 +135,22 @@ pub(crate) fn obstacle_tangent(
 }
 
 /// What the growth of the friction limit `μ·kc·depth` with depth adds to the Newton matrix
-/// where [`obstacle`]'s friction slides at that full size (a tie beyond the cone, or a point
-/// without an anchor beyond its cap; arguments as [`obstacle_tangent`]'s): the force `limit·ê`
-/// grows by `μ·kc` per metre of depth, and the depth by a metre per metre moved against `n`, so
-/// `A` (`−h²·∂F/∂p`) gains `h²·μ·kc·ê·nᵀ`, returned as `h²·μ·kc·ê` (the column `nᵀ` left to the
-/// caller). None where the friction holds, is capped or is zero: its size does not depend on the
-/// depth then. This part is not symmetric (see the implicit solver's GMRES).
-#[allow(clippy::too_many_arguments)]
-pub(crate) fn limit_growth(
-    p: Vec3,
-    v: Vec3,
-    depth: f64,
-    n: Vec3,
-    anchor: Vec3,
-    [kc, dc, mu]: [f64; 3],
-    c_max: f64,
-    h: f64,
-) -> Option<Vec3> {
-    let limit = mu * kc * depth;
-    if mu <= 0.0 || limit <= 0.0 {
-        return None;
-    }
-    let direction = if anchor.x.is_nan() {
-        // [`sliding`]: against the tangential velocity, at the cap while that is smaller.
-        let vt = across(v, n);
-        let speed = vt.length();
-        if speed == 0.0 || c_max * speed <= limit {
-            return None;
-        }
-        vt * (-1.0 / speed)
-    } else {
-        let f = across(p - anchor, n) * -kc - across(v, n) * dc;
-        let size = f.length();
-        if size <= limit {
-            return None;
-        }
-        f * (1.0 / size)
-    };
-    Some(direction * (h * h * mu * kc))
+/// where [`obstacle`]'s friction slides at that full size, given the force's direction `e` that
+/// [`obstacle_tangent`] returns there (a tie beyond the cone, or a point without an anchor beyond
+/// its cap; none where the friction holds, is capped or is zero, and its size does not depend on
+/// the depth): the force `limit·e` grows by `μ·kc` per metre of depth, and the depth by a metre
+/// per metre moved against `n`, so `A` (`−h²·∂F/∂p`) gains `h²·μ·kc·e·nᵀ`, returned as
+/// `h²·μ·kc·e` (the row `nᵀ` left to the caller; `law` is `[kc, dc, μ]`). This part is not
+/// symmetric (see the implicit solver's GMRES).
+pub(crate) fn limit_growth(e: Option<Vec3>, [kc, _, mu]: [f64; 3], h: f64) -> Option<Vec3> {
+    e.map(|e| e * (h * h * mu * kc))
 }
 
 /// What [`sliding`] friction (at normal `n`, relative velocity `v`, normal force `normal`, cap
 /// `c_max`) adds to the Newton matrix of a step of size `h`, as [`obstacle_tangent`] returns it:
 /// while the cap binds (`c_max·|vt| ≤ normal`) it is a damper across the normal, `c = h·c_max`;
-/// beyond, the force keeps its size and turns with `vt`: `c = h·normal/|vt|`, nothing along `vt`.
+/// beyond, the force keeps its size and turns with `vt`: `c = h·normal/|vt|`, nothing along `vt`
+/// (`e` the force's direction, `−vt/|vt|`).
 pub(crate) fn sliding_tangent(
     n: Vec3,
     v: Vec3,
@@ -194,7 +166,7 @@ pub(crate) fn sliding_tangent(
     if c_max * speed <= normal {
         (h * c_max, None)
     } else {
-        (h * normal / speed, Some(vt * (1.0 / speed)))
+        (h * normal / speed, Some(vt * (-1.0 / speed)))
     }
 }
 

@@ -243,7 +243,7 @@ fn add_surfaces(
                 let (depth, n) = (c.depth, c.normal);
                 let tangent = friction::obstacle_tangent(p, v, depth, n, anchor, law, c_max, h);
                 add_tangent(e, n, tangent);
-                if let Some(g) = friction::limit_growth(p, v, depth, n, anchor, law, c_max, h) {
+                if let Some(g) = friction::limit_growth(tangent.1, law, h) {
                     growth(g, n);
                 }
             }
@@ -266,7 +266,7 @@ fn add_surfaces(
             let (depth, n) = (c.depth, c.normal);
             let tangent = friction::obstacle_tangent(p, v, depth, n, anchor, law, c_max, h);
             add_tangent(e, n, tangent);
-            if let Some(g) = friction::limit_growth(p, v, depth, n, anchor, law, c_max, h) {
+            if let Some(g) = friction::limit_growth(tangent.1, law, h) {
                 growth(g, n);
             }
         }

@@ -494,9 +494,7 @@ pub(super) fn max_norms(g: &[Vec3], v: &[Vec3]) -> (f64, f64) {
         let largest = |x: &[Vec3]| x.iter().map(|x| x.length()).fold(0.0, f64::max);
         *maxima = (largest(&g[at.clone()]), largest(&v[at]));
     });
-    let largest = |a: f64, b: f64| a.max(b);
-    let (gmax, vmax) = maxima
-        .iter()
-        .fold((0.0, 0.0), |(g, v), &(a, b)| (largest(g, a), largest(v, b)));
-    (gmax, vmax)
+    (maxima[..chunks].iter()).fold((0.0, 0.0), |(g, v), &(a, b)| {
+        (f64::max(g, a), f64::max(v, b))
+    })
 }
