@@ -38,7 +38,7 @@ mod stencil;
 pub use points::{block_accelerations, PointInputs};
 
 use pass::{Pass, RangeBuffers};
-use stencil::{Grid, Masks};
+use stencil::{Dampers, Grid, Masks};
 
 use crate::compute::soa::Soa;
 use crate::compute::split::Split;
@@ -354,17 +354,18 @@ where
 
 /// Whether a [`force_pass`] reads the obstacles' friction anchors and computes the contacts
 /// between bodies.
-#[derive(Clone, Copy, PartialEq, Eq)]
-pub(crate) enum Ties {
+#[derive(Clone, Copy)]
+pub(crate) enum Ties<'a> {
     /// Points tied to an anchor feel its spring and damper, and bodies touch (every force
     /// evaluation of an explicit step).
     Held,
     /// As if no point had an anchor, and without contacts between bodies, at zero velocities
-    /// (the pass's `v` must be zero): the pass then has no friction at all, and the springs'
-    /// dampers are not evaluated (the implicit integrators add friction themselves, at the
-    /// iterate's velocities, the dampers along the springs' directions at the step's start,
-    /// and the contacts between bodies, at the touches found at the step's start).
-    Ignored,
+    /// (the pass's `v` must be zero): the pass then has no friction at all, and no damper of a
+    /// wall, plane or obstacle (the implicit integrators add friction themselves, at the
+    /// iterate's velocities, those dampers from the step's start, and the contacts between
+    /// bodies, at the touches found at the step's start). The springs' dampers act along their
+    /// directions where their ends were at `start`, at the velocities `velocity`.
+    Ignored { start: &'a Soa, velocity: &'a Soa },
 }
 
 /// [`force_pass`], with the obstacles' friction anchors read or not.
@@ -377,7 +378,7 @@ pub(crate) fn force_pass_with<T, U>(
     scratch: &mut ForceScratch,
     outs: T,
     update: &U,
-    ties: Ties,
+    ties: Ties<'_>,
 ) -> bool
 where
     T: Split,
@@ -408,25 +409,28 @@ where
         contacts,
         anchors,
     } = scratch;
-    let anchors = (!anchors.is_empty() && ties == Ties::Held).then_some(&*anchors);
+    let held = matches!(ties, Ties::Held);
+    let anchors = (!anchors.is_empty() && held).then_some(&*anchors);
     // Contacts between bodies first: every chunk's update reads them.
-    let touching = model.surfaces_touch() && ties == Ties::Held;
+    let touching = model.surfaces_touch() && held;
     if touching {
         contacts.compute(model, p, v);
     }
     let contact = touching.then(|| contacts.forces());
     debug_assert!(
-        ties == Ties::Held
-            || [v.x(), v.y(), v.z()]
-                .iter()
-                .all(|c| c.iter().all(|&v| v == 0.0)),
+        held || [v.x(), v.y(), v.z()]
+            .iter()
+            .all(|c| c.iter().all(|&v| v == 0.0)),
         "a pass without ties is at zero velocities"
     );
     let shared = Shared {
         model,
         p,
         v,
-        damped: ties == Ties::Held,
+        dampers: match ties {
+            Ties::Held => Dampers::Current,
+            Ties::Ignored { start, velocity } => Dampers::AtStart { start, velocity },
+        },
         control,
         contact,
         anchors,
@@ -468,8 +472,8 @@ struct Shared<'a, U> {
     model: &'a Model,
     p: &'a Soa,
     v: &'a Soa,
-    /// Whether the springs' dampers are evaluated (not at zero velocities: see [`Ties`]).
-    damped: bool,
+    /// The springs' dampers (see [`Ties`]).
+    dampers: Dampers<'a>,
     control: &'a Control,
     contact: Option<&'a Soa>,
     anchors: Option<&'a Anchors>,
@@ -504,7 +508,7 @@ where
         spans,
         p: shared.p,
         v: shared.v,
-        damped: shared.damped,
+        dampers: shared.dampers,
         control: shared.control,
         contact: shared.contact,
         anchors: shared.anchors,

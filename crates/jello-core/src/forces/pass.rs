@@ -7,7 +7,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Mutex;
 
 use super::points::{block_accelerations, PointInputs};
-use super::stencil::{chunk_springs, Grid, Masks, Placement};
+use super::stencil::{chunk_springs, Dampers, Grid, Masks, Placement};
 use super::{CHUNK_PLANES, HALO_PLANES, MIN_RANGE_PLANES};
 use crate::compute::soa::Soa;
 use crate::compute::split::Split;
@@ -25,8 +25,8 @@ pub(super) struct Pass<'a, U> {
     pub(super) spans: &'a [[u32; 2]],
     pub(super) p: &'a Soa,
     pub(super) v: &'a Soa,
-    /// Whether the springs' dampers are evaluated (`v` is zero where not).
-    pub(super) damped: bool,
+    /// The springs' dampers.
+    pub(super) dampers: Dampers<'a>,
     pub(super) control: &'a Control,
     pub(super) contact: Option<&'a Soa>,
     pub(super) anchors: Option<&'a Anchors>,
@@ -159,7 +159,7 @@ impl<U> Pass<'_, U> {
             links: self.body.links(),
             spans: &self.spans[c * per_chunk..(c + 1) * per_chunk],
             table: self.body.spring_table(),
-            damped: self.damped,
+            dampers: self.dampers,
         }
     }
 

@@ -101,11 +101,22 @@ pub(super) struct Placement<'a> {
     pub(super) spans: &'a [[u32; 2]],
     /// The body's per-spring factors, if it has any.
     pub(super) table: Option<&'a SpringTable>,
-    /// Whether the springs' dampers are evaluated: not at zero velocities (the implicit
-    /// integrators' residuals, whose dampers act along the directions at the step's start),
-    /// where they would read six streams of zeros for nothing (about 5 % of a resting 32³ cube's
-    /// step).
-    pub(super) damped: bool,
+    /// Which dampers the springs have (see [`Dampers`]).
+    pub(super) dampers: Dampers<'a>,
+}
+
+/// The springs' dampers in a force pass.
+#[derive(Clone, Copy)]
+pub(crate) enum Dampers<'a> {
+    /// Along each spring's direction at the pass's positions, at the pass's velocities (every
+    /// force evaluation of an explicit step).
+    Current,
+    /// Along each spring's direction where its ends were at `start`, at the velocities
+    /// `velocity` (the implicit integrators' residuals: their dampers act along the directions
+    /// at the step's start, at the iterate's velocities, while the pass's own velocities are
+    /// zero). Computed in the springs' own loop, where a product of its own over the springs
+    /// (its factors `d/|L₀|²` read by slot) cost more than the springs' forces themselves.
+    AtStart { start: &'a Soa, velocity: &'a Soa },
 }
 
 crate::compute::simd::multiversion! {
@@ -229,9 +240,13 @@ fn chunk_springs_impl(
             // link bits, material values or per-spring factors on them.
             macro_rules! run {
                 ($spring:expr, $mask:expr) => {
-                    match at.damped {
-                        true => spring_run::<true>(p, v, a, b, len, $spring, $mask, row),
-                        false => spring_run::<false>(p, v, a, b, len, $spring, $mask, row),
+                    match at.dampers {
+                        Dampers::Current => spring_run(p, v, a, b, len, $spring, $mask, row),
+                        Dampers::AtStart { start, velocity } => {
+                            let ends = [(p, a), (p, b), (start, a), (start, b)];
+                            let speeds = [(velocity, a), (velocity, b)];
+                            spring_run_at_start(ends, speeds, len, $spring, $mask, row)
+                        }
                     }
                 };
             }
@@ -292,12 +307,10 @@ impl SpringConst {
 /// `f = −k (|L| − R) L̂ − d ((vA − vB)·L̂) L̂` with `L = pA − pB` and `(k, d, R) = spring(t)`,
 /// computed with one square root and one division per spring, times `mask(t)` (1 for a spring, 0
 /// for a pair that is none; multiplying by 1 changes nothing). A zero-length spring has no
-/// direction and exerts no force. Without `DAMPED`, the velocities are taken as zero and not
-/// read: the damper's part `d·0` is `+0`, which changes no force (the damped loop's `closing`
-/// at zero velocities is `±0`, which changes none either but the sign of a force of exactly 0).
+/// direction and exerts no force.
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
-fn spring_run<const DAMPED: bool>(
+fn spring_run(
     p: &Soa,
     v: &Soa,
     a: usize,
@@ -318,15 +331,50 @@ fn spring_run<const DAMPED: bool>(
         let l2 = dx * dx + dy * dy + dz * dz;
         let inv = if l2 > 0.0 { 1.0 / l2.sqrt() } else { 0.0 };
         let l = l2 * inv;
-        let closing = if DAMPED {
-            ((ua[t] - ub[t]) * dx + (va[t] - vb[t]) * dy + (wa[t] - wb[t]) * dz) * inv
-        } else {
-            0.0
-        };
+        let closing = ((ua[t] - ub[t]) * dx + (va[t] - vb[t]) * dy + (wa[t] - wb[t]) * dz) * inv;
         let (k, d, rest) = spring(t);
         // Magnitude along L̂, times L̂ = L·inv, times the mask.
         let s = (-k * (l - rest) - d * closing) * inv * mask(t);
         (fx[t], fy[t], fz[t]) = (dx * s, dy * s, dz * s);
+    }
+}
+
+/// [`spring_run`] with each damper along its spring at the step's start (see
+/// [`Dampers::AtStart`]): `f = −k (|L| − R) L̂ − c (L₀·(vA − vB)) L₀`, `L` the spring at the
+/// positions `ends[0..2]`, `L₀` at the start positions `ends[2..4]`, `c = d/|L₀|²` (zero for a
+/// spring of zero length there), the velocities `speeds`; each array with its first index.
+#[inline(always)]
+fn spring_run_at_start<'a>(
+    ends: [(&'a Soa, usize); 4],
+    speeds: [(&'a Soa, usize); 2],
+    len: usize,
+    spring: impl Fn(usize) -> (f64, f64, f64),
+    mask: impl Fn(usize) -> f64,
+    row: &mut Soa,
+) {
+    let at = |(s, i): (&'a Soa, usize)| -> [&'a [f64]; 3] {
+        [&s.x()[i..i + len], &s.y()[i..i + len], &s.z()[i..i + len]]
+    };
+    let [[xa, ya, za], [xb, yb, zb], [sa, ta, ua], [sb, tb, ub]] = ends.map(at);
+    let [[va, wa, qa], [vb, wb, qb]] = speeds.map(at);
+    let [fx, fy, fz] = row.parts_mut();
+    let (fx, fy, fz) = (&mut fx[..len], &mut fy[..len], &mut fz[..len]);
+    for t in 0..len {
+        let (dx, dy, dz) = (xa[t] - xb[t], ya[t] - yb[t], za[t] - zb[t]);
+        let l2 = dx * dx + dy * dy + dz * dz;
+        let inv = if l2 > 0.0 { 1.0 / l2.sqrt() } else { 0.0 };
+        let l = l2 * inv;
+        let (k, d, rest) = spring(t);
+        let s = -k * (l - rest) * inv * mask(t);
+        let (ex, ey, ez) = (sa[t] - sb[t], ta[t] - tb[t], ua[t] - ub[t]);
+        let e2 = ex * ex + ey * ey + ez * ez;
+        let closing = (va[t] - vb[t]) * ex + (wa[t] - wb[t]) * ey + (qa[t] - qb[t]) * ez;
+        let c = if e2 > 0.0 {
+            -d * closing / e2 * mask(t)
+        } else {
+            0.0
+        };
+        (fx[t], fy[t], fz[t]) = (dx * s + ex * c, dy * s + ey * c, dz * s + ez * c);
     }
 }
 

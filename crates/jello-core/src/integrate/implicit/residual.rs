@@ -38,11 +38,13 @@ pub(super) fn residual(
     {
         let v = if trial { &s.trial } else { &s.v };
         let size = chunk_size(x0.len());
-        team::for_each_chunk(s.x_soa.parts_mut(), size, &|chunk, [xx, xy, xz]| {
+        let parts = (s.x_soa.parts_mut(), s.velocity_soa.parts_mut());
+        team::for_each_chunk_pair(parts, size, &|chunk, ([xx, xy, xz], [vx, vy, vz])| {
             let at = chunk * size;
             for (i, (&x, &v)) in x0[at..].iter().zip(&v[at..]).take(xx.len()).enumerate() {
                 let p = x + v * h;
                 (xx[i], xy[i], xz[i]) = (p.x, p.y, p.z);
+                (vx[i], vy[i], vz[i]) = (v.x, v.y, v.z);
             }
         });
         // The field at the end positions, for the line search's work of the field.
@@ -57,7 +59,9 @@ pub(super) fn residual(
             }
         }
     }
-    // Every force but the dampers and friction: at zero velocity, without the friction ties.
+    // Every force but friction and the dampers of walls, planes, obstacles and pulls: at zero
+    // velocity, without the friction ties, the springs' dampers along their directions at the
+    // step's start, at the iterate's velocities.
     force_pass_with(
         model,
         &s.x_soa,
@@ -71,12 +75,22 @@ pub(super) fn residual(
             }
             true
         },
-        Ties::Ignored,
+        Ties::Ignored {
+            start: &s.start_soa,
+            velocity: &s.velocity_soa,
+        },
     );
-    // The dampers' force −D₀·v and friction, into the residual buffer first.
+    // The other dampers' force (from the step's start) and friction, into the residual buffer
+    // first.
     let mut g = std::mem::take(if trial { &mut s.g_trial } else { &mut s.g });
     let v = if trial { &s.trial } else { &s.v };
-    s.springs.damper_force(&s.start_damping, v, &mut g);
+    let (damping, size) = (&s.start_damping[..], chunk_size(g.len()));
+    team::for_each_chunk([&mut g[..]], size, &|chunk, [g]| {
+        let at = chunk * size;
+        for (i, g) in g.iter_mut().enumerate() {
+            *g = -sym_mul(&damping[at + i], v[at + i]);
+        }
+    });
     for pull in &control.pulls {
         let p = pull.point as usize;
         g[p] -= v[p] * pull.damping;

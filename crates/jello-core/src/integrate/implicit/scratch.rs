@@ -114,6 +114,11 @@ pub struct ImplicitScratch {
     /// The force routine's inputs and output.
     pub(super) x_soa: Soa,
     pub(super) v_soa: Soa,
+    /// The positions the springs' dampers act from (the step's start; see
+    /// [`ImplicitScratch::start_dampers`]) and the iterate's (or trial's) velocities, for the
+    /// springs' dampers in the residual's force pass.
+    pub(super) start_soa: Soa,
+    pub(super) velocity_soa: Soa,
     pub(super) acc: Soa,
     /// Contacts between bodies at the iterate, for `A`: the pairs of points in contact and
     /// their blocks (a penalty spring's, as a spring's block is), found through a contact pass of
@@ -272,6 +277,8 @@ impl ImplicitScratch {
             base_v: zeros,
             x_soa: Soa::zeros(n),
             v_soa: Soa::zeros(n),
+            start_soa: Soa::zeros(n),
+            velocity_soa: Soa::zeros(n),
             acc: Soa::zeros(n),
             contacts: Contacts::new(model),
             // Room for 8 contacts a point (two lattices of the same spacing touch at most 8
@@ -398,13 +405,15 @@ impl ImplicitScratch {
     /// matrix, whose product gives the dampers' force in each residual), the contacts each
     /// point is in, and the pairs of points of different bodies that overlap.
     pub(super) fn start_dampers(&mut self, model: &Model, x0: &[Vec3]) {
-        if model.surfaces_touch() {
-            let [xx, xy, xz] = self.x_soa.parts_mut();
-            for (i, p) in x0.iter().enumerate() {
+        let size = super::chunk_size(x0.len());
+        team::for_each_chunk(self.start_soa.parts_mut(), size, &|chunk, [xx, xy, xz]| {
+            for (i, p) in x0[chunk * size..].iter().take(xx.len()).enumerate() {
                 (xx[i], xy[i], xz[i]) = (p.x, p.y, p.z);
             }
+        });
+        if model.surfaces_touch() {
             let (contacts, touches) = (&mut self.contacts, &mut self.start_touches);
-            super::contacts::start_touches(model, contacts, &self.x_soa, touches);
+            super::contacts::start_touches(model, contacts, &self.start_soa, touches);
             self.touched_at.copy_from_slice(x0);
         } else {
             self.start_touches.clear();
@@ -419,7 +428,6 @@ impl ImplicitScratch {
         };
         self.springs.start_dampers(x0, directions);
         let free = &self.free[..];
-        let size = super::chunk_size(x0.len());
         let parts = ([&mut self.start_damping[..]], [&mut self.touching[..]]);
         team::for_each_chunk_pair(parts, size, &|chunk, ([damping], [touching])| {
             for (j, (d, touches)) in damping.iter_mut().zip(touching).enumerate() {

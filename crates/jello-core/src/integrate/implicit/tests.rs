@@ -253,6 +253,76 @@ fn a_body_in_free_flight_is_solved_by_its_change_of_momentum() {
     }
 }
 
+/// The residual is the backward-Euler equation spring by spring: `g = v − v₀ − h·f/m`, each
+/// spring's force at the end positions `x₀ + h·v`, and its damper's along its direction at the
+/// step's start `x₀` at the velocities `v` (`−d·(u₀·(vₐ − v_b))·u₀`), on a lattice with holes
+/// and a second body, with per-spring factors on one (the force pass computes the dampers with
+/// the springs).
+#[test]
+fn the_residual_is_the_backward_euler_equation_spring_by_spring() {
+    let big = Aabb::new(Vec3::new(-50.0, -50.0, -50.0), Vec3::new(50.0, 50.0, 50.0)).unwrap();
+    let holes = test_models::with_holes([6, 5, 7], 7, -0.6);
+    let mut scaled = test_models::box_at([3, 4, 3], Vec3::new(9.0, 0.0, 0.0));
+    let mut next = values(23);
+    scaled
+        .scale_springs(|_| crate::model::springs::SpringScale {
+            rest: 1.0 + 0.1 * next(),
+            stiffness: 1.5 + next(),
+            damping: 1.5 + next(),
+        })
+        .unwrap();
+    let model = ModelBuilder::new()
+        .bodies(vec![holes, scaled])
+        .bounds(big)
+        .build()
+        .unwrap();
+    let n = model.point_count();
+    let h = 0.01;
+    let x0: Vec<Vec3> = crate::State::at_rest(&model)
+        .pos
+        .iter()
+        .map(|&p| p + Vec3::new(next(), next(), next()) * 0.05)
+        .collect();
+    let v0: Vec<Vec3> = (0..n).map(|_| Vec3::new(next(), next(), next())).collect();
+    let v: Vec<Vec3> = (0..n).map(|_| Vec3::new(next(), next(), next())).collect();
+    let (control, mut force) = (Control::none(), ForceScratch::new(&model));
+    let mut s = ImplicitScratch::new(&model);
+    s.load(&model);
+    s.start_dampers(&model, &x0);
+    s.v_soa.fill_zero();
+    s.v.copy_from_slice(&v);
+    residual(&model, &control, &mut force, &mut s, &x0, &v0, h, false);
+
+    let end: Vec<Vec3> = x0.iter().zip(&v).map(|(&x, &v)| x + v * h).collect();
+    let mut f = vec![Vec3::ZERO; n];
+    let mut springs = 0;
+    for body in model.bodies() {
+        let first = body.points().start;
+        body.for_each_spring(|spring| {
+            let (a, b) = (first + spring.a, first + spring.b);
+            let l = end[a] - end[b];
+            let stretch = l * (-spring.stiffness * (l.length() - spring.rest) / l.length());
+            let u0 = (x0[a] - x0[b]) / (x0[a] - x0[b]).length();
+            let damper = u0 * (-spring.damping * u0.dot(v[a] - v[b]));
+            f[a] += stretch + damper;
+            f[b] -= stretch + damper;
+            springs += 1;
+        });
+    }
+    assert!(springs > 300, "{springs} springs");
+    let mut largest: f64 = 0.0;
+    for p in 0..n {
+        let want = v[p] - v0[p] - f[p] * (h / s.mass[p]);
+        largest = largest.max(want.max_abs());
+        assert!(
+            (s.g[p] - want).max_abs() <= 1e-12 * (1.0 + want.max_abs()),
+            "point {p}: {:?} ≠ {want:?}",
+            s.g[p]
+        );
+    }
+    assert!(largest > 1.0, "the forces matter: {largest}");
+}
+
 /// Each step's end velocities of two runs agree to within 1e-10 m/s at every point.
 fn assert_same_steps(a: &[Vec<Vec3>], b: &[Vec<Vec3>]) {
     assert_eq!(a.len(), b.len());

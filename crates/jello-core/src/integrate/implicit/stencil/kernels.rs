@@ -1,6 +1,6 @@
 //! The loops of the stencil-ordered products, compiled for each instruction-set tier: a range's
 //! rows summed entry by entry ([`rows`]), in `f64` or `f32` ([`Lane`]), and the per-slot
-//! kernels (spring and damper forces, directions, blocks).
+//! kernels (spring forces, blocks).
 
 #[cfg(doc)]
 use super::TILE;
@@ -333,61 +333,13 @@ crate::compute::simd::multiversion! {
     }
 }
 
-crate::compute::simd::multiversion! {
-    /// Each damper's factor `c = d/|L|²` (zero for a spring of zero length), `d` its damping
-    /// and `L = x − xn` its spring at the step's start: its block `d·uuᵀ` along the direction
-    /// `u = L/|L|` is `c·LLᵀ`, which costs no square root and no division where it is applied,
-    /// in every residual (a resting 32³ cube's dampers on 2 threads, AMD EPYC with AVX-512: with
-    /// the directions read by slot 0.82 ms a residual, computed there 0.74 ms, as `c·LLᵀ` with
-    /// `c` read by slot 0.56 ms).
-    pub(super) fn damper_factors(c: &mut [f64], x: [&[f64]; 3], xn: [&[f64]; 3], d: &[f64]) {
-        let n = c.len();
-        let (x0, x1, x2) = (&x[0][..n], &x[1][..n], &x[2][..n]);
-        let (n0, n1, n2) = (&xn[0][..n], &xn[1][..n], &xn[2][..n]);
-        let d = &d[..n];
-        for i in 0..n {
-            let (lx, ly, lz) = (x0[i] - n0[i], x1[i] - n1[i], x2[i] - n2[i]);
-            let l2 = lx * lx + ly * ly + lz * lz;
-            c[i] = if l2 > 0.0 { d[i] / l2 } else { 0.0 };
-        }
-    }
-}
-
-crate::compute::simd::multiversion! {
-    /// `f = u·(d·(u·(v − vn)))` element by element: a damper's force, `d` its damping and `u`
-    /// its direction at the step's start, where its ends were at `x` and `xn`, computed as
-    /// `L·(c·(L·(v − vn)))` with `L = x − xn` and `c` its [`damper_factors`].
-    pub(super) fn damper_forces(
-        f: [&mut [f64]; 3],
-        v: [&[f64]; 3],
-        vn: [&[f64]; 3],
-        x: [&[f64]; 3],
-        xn: [&[f64]; 3],
-        c: &[f64],
-    ) {
-        let [f0, f1, f2] = f;
-        let n = f0.len();
-        let (f1, f2) = (&mut f1[..n], &mut f2[..n]);
-        let (v0, v1, v2) = (&v[0][..n], &v[1][..n], &v[2][..n]);
-        let (n0, n1, n2) = (&vn[0][..n], &vn[1][..n], &vn[2][..n]);
-        let (x0, x1, x2) = (&x[0][..n], &x[1][..n], &x[2][..n]);
-        let (m0, m1, m2) = (&xn[0][..n], &xn[1][..n], &xn[2][..n]);
-        let c = &c[..n];
-        for i in 0..n {
-            let (lx, ly, lz) = (x0[i] - m0[i], x1[i] - m1[i], x2[i] - m2[i]);
-            let (dx, dy, dz) = (v0[i] - n0[i], v1[i] - n1[i], v2[i] - n2[i]);
-            let w = c[i] * (lx * dx + ly * dy + lz * dz);
-            (f0[i], f1[i], f2[i]) = (lx * w, ly * w, lz * w);
-        }
-    }
-}
-
 /// Each spring's block of `A` (`[xx, yy, zz, xy, xz, yz]`), its ends at `x` and `xn`:
 /// `axial·ûûᵀ + transverse·(I − ûûᵀ)`, `axial = h²·k`,
 /// `transverse = axial·max(1 − rest/l, floor)` (zero for a spring of zero length), plus its
-/// damper `h·d·u₀u₀ᵀ` as `h·c·L₀L₀ᵀ` ([`damper_factors`]), its ends at the step's start at
-/// `start` (`springs = [rest, k, c]`, `hf = [h, floor]`). Zero where there is no spring
-/// (`k` and `c` zero). Computed in double precision, stored in `T`'s.
+/// damper `h·d·u₀u₀ᵀ` as `h·c·L₀L₀ᵀ`, `c = d/|L₀|²` (zero for a spring of zero length there:
+/// no square root and no division by a length), its ends at the step's start at `start`
+/// (`springs = [rest, k, d]`, `hf = [h, floor]`). Zero where there is no spring (`k` and `d`
+/// zero). Computed in double precision, stored in `T`'s.
 #[inline(always)]
 fn blocks_into<T: Lane>(
     b: [&mut [T]; 6],
@@ -405,7 +357,7 @@ fn blocks_into<T: Lane>(
     let (n0, n1, n2) = (&xn[0][..n], &xn[1][..n], &xn[2][..n]);
     let (s0, s1, s2) = (&start.0[0][..n], &start.0[1][..n], &start.0[2][..n]);
     let (t0, t1, t2) = (&start.1[0][..n], &start.1[1][..n], &start.1[2][..n]);
-    let (rest, k, factor) = (&springs[0][..n], &springs[1][..n], &springs[2][..n]);
+    let (rest, k, damping) = (&springs[0][..n], &springs[1][..n], &springs[2][..n]);
     let [h, floor] = hf;
     let h2 = h * h;
     for i in 0..n {
@@ -429,7 +381,12 @@ fn blocks_into<T: Lane>(
         };
         // The damper along the spring at the start, `L₀`.
         let (l0, l1, l2) = (s0[i] - t0[i], s1[i] - t1[i], s2[i] - t2[i]);
-        let cd = h * factor[i];
+        let length2 = l0 * l0 + l1 * l1 + l2 * l2;
+        let cd = h * if length2 > 0.0 {
+            damping[i] / length2
+        } else {
+            0.0
+        };
         m[0] += cd * l0 * l0;
         m[1] += cd * l1 * l1;
         m[2] += cd * l2 * l2;

@@ -22,12 +22,12 @@
 //! went through L2 three times: the kernel and the additions were 35 % of a resting 32³ cube's
 //! step on one thread, 27 % after).
 //!
-//! The same slots hold each spring's rest length, stiffness, damping and damper factor at the
-//! step's start (`d/|L₀|²`, so that its damper `d·u₀u₀ᵀ` is `c·L₀L₀ᵀ`, `L₀` computed from the
-//! start positions where needed), from which the blocks are assembled at every Newton iteration,
-//! and the dampers' force of every residual is the same product over a second layer
-//! (`L₀·(c·(L₀·Δv))` a spring): loops over contiguous runs of slots that vectorise, where the
-//! loops over springs they replace gathered and scattered by index.
+//! The same slots hold each spring's rest length, stiffness and damping, from which the blocks
+//! are assembled at every Newton iteration (its damper `d·u₀u₀ᵀ` along its direction at the
+//! step's start as `c·L₀L₀ᵀ`, `c = d/|L₀|²`, `L₀` computed from the start positions): loops
+//! over contiguous runs of slots that vectorise, where the loops over springs they replace
+//! gathered and scattered by index. (The dampers' force in a residual is not a product here:
+//! the force pass computes it with the springs' own, `crate::forces::Ties::Ignored`.)
 //!
 //! The blocks are assembled rounded to single precision, and the products of the solves to the
 //! usual reductions (1e-2) are computed in it (`f32`, without fused multiply-adds, so the same
@@ -51,8 +51,8 @@ mod tests;
 pub(super) use level::LevelStencil;
 
 use kernels::{
-    damper_factors, damper_forces, own_rows_soa, rows, spring_blocks, spring_blocks_single,
-    spring_forces, spring_forces_single, Lane,
+    own_rows_soa, rows, spring_blocks, spring_blocks_single, spring_forces, spring_forces_single,
+    Lane,
 };
 
 use super::sym::{sym_mul, Sym};
@@ -133,12 +133,11 @@ pub(super) struct SpringMatrix {
     rest: Vec<f64>,
     stiffness: Vec<f64>,
     damping: Vec<f64>,
-    /// The points at the step's start, as structure of arrays, and the dampers' factors by slot
-    /// ([`damper_factors`]): a damper acts along its spring's direction there, `d·uuᵀ = c·LLᵀ`
-    /// with `L` the spring at the start, computed from the points where needed rather than
-    /// stored by slot.
+    /// The points at the step's start, as structure of arrays: a damper acts along its
+    /// spring's direction there, `d·uuᵀ = c·LLᵀ` with `L` the spring at the start and
+    /// `c = d/|L|²`, computed from the points where a block is assembled rather than stored by
+    /// slot.
     start: [Vec<f64>; 3],
-    factor: Vec<f64>,
     /// Each point's own block of `A` (its mass, walls, contacts: see [`SpringMatrix::set_own`]),
     /// and the same rounded to single precision as structure of arrays (`[xx, yy, zz, xy, xz,
     /// yz]`), from which a single-precision product's rows start vectorised: from the blocks of
@@ -197,7 +196,6 @@ impl SpringMatrix {
             stiffness: vec![0.0; 16 * n],
             damping: vec![0.0; 16 * n],
             start: std::array::from_fn(|_| vec![0.0; n]),
-            factor: vec![0.0; 16 * n],
             own: vec![[0.0; 6]; n],
             own_single: std::array::from_fn(|_| vec![0.0; n]),
             x: std::array::from_fn(|_| vec![0.0; n]),
@@ -257,7 +255,6 @@ impl SpringMatrix {
             self.rest.fill(0.0);
             self.stiffness.fill(0.0);
             self.damping.fill(0.0);
-            self.factor.fill(0.0);
         }
         // The slots are distinct: mark each with its spring, then read them in order.
         let mut spring_at = vec![u32::MAX; 16 * self.n];
@@ -299,22 +296,10 @@ impl SpringMatrix {
         self.damping[slot] = damping;
     }
 
-    /// The step's start `x0`, along whose springs the dampers act, and their factors there;
-    /// their directions there into `directions` by spring (in slot order) when asked for.
+    /// The step's start `x0`, along whose springs the dampers act; their directions there into
+    /// `directions` by spring (in slot order) when asked for.
     pub fn start_dampers(&mut self, x0: &[Vec3], directions: Option<&mut [Vec3]>) {
         load(&mut self.start, x0);
-        let (start, damping, n) = (&self.start, &self.damping, self.n);
-        let factor = &mut self.factor;
-        for_each_run(&self.spans, |e, q, len, o| {
-            let at = e * n + q;
-            // The run in chunks over the team, as in `assemble`.
-            let size = team::chunk_size(len, MIN_POINTS_PER_RANGE);
-            team::for_each_chunk([&mut factor[at..at + len]], size, &|chunk, [c]| {
-                let (at, q, len) = (at + chunk * size, q + chunk * size, c.len());
-                let (x, xn) = (part(start, q, len), part(start, q + o, len));
-                damper_factors(c, x, xn, &damping[at..at + len]);
-            });
-        });
         let Some(directions) = directions else {
             return;
         };
@@ -351,7 +336,7 @@ impl SpringMatrix {
     }
 
     /// The double-precision blocks of the last assembly, where they are behind it: from its end
-    /// positions and the dampers' factors as they are now (a step whose first Newton iteration
+    /// positions and the dampers' start as it is now (a step whose first Newton iteration
     /// keeps the last step's `A` has new ones, and its exact solves take them).
     fn double_blocks(&mut self) {
         if std::mem::take(&mut self.double_behind) {
@@ -362,8 +347,8 @@ impl SpringMatrix {
     /// The blocks at the assembly's end positions into the slot arrays of `precision`.
     fn compute_blocks(&mut self, precision: Precision) {
         let (xs, n, [h, floor]) = (&self.ends, self.n, self.assembled_with);
-        let (start, rest, stiffness, factor) =
-            (&self.start, &self.rest, &self.stiffness, &self.factor);
+        let (start, rest, stiffness, damping) =
+            (&self.start, &self.rest, &self.stiffness, &self.damping);
         let (double, single) = (&mut self.blocks, &mut self.blocks_single);
         for_each_run(&self.spans, |e, q, len, o| {
             let at = e * n + q;
@@ -374,7 +359,7 @@ impl SpringMatrix {
                 let springs = [
                     &rest[at..at + len],
                     &stiffness[at..at + len],
-                    &factor[at..at + len],
+                    &damping[at..at + len],
                 ];
                 let ends = (part(xs, q, len), part(xs, q + o, len));
                 let start_ends = (part(start, q, len), part(start, q + o, len));
@@ -397,11 +382,6 @@ impl SpringMatrix {
                 }
             }
         });
-    }
-
-    /// `x` into the product's input.
-    fn load_x(&mut self, x: &[Vec3]) {
-        load(&mut self.x, x);
     }
 
     /// `x0 + h·v` into `ends`.
@@ -453,32 +433,6 @@ impl SpringMatrix {
             y,
             &out,
         );
-    }
-
-    /// `y = −(own·v + dampers·v)`: the force of the dampers (and of `own`) at velocities `v`,
-    /// in double precision.
-    pub fn damper_force(&mut self, own: &[Sym], v: &[Vec3], y: &mut [Vec3]) {
-        self.ranges.fit(self.n);
-        self.load_x(v);
-        let (spans, n) = (&self.spans[..], self.n);
-        let (start, factor) = (&self.start, &self.factor);
-        let own = |start: usize, out: [&mut [f64]; 3]| {
-            f64::own_rows(start, &|p: usize| sym_mul(&own[p], v[p]), out);
-        };
-        let forces =
-            |at: usize, q: usize, o: usize, f: [&mut [f64]; 3], v: [&[f64]; 3], vn: [&[f64]; 3]| {
-                let len = f[0].len();
-                let (x, xn) = (part(start, q, len), part(start, q + o, len));
-                damper_forces(f, v, vn, x, xn, &factor[at..at + len]);
-            };
-        ranges_rows(&mut self.ranges.0, spans, n, &own, &self.x, &forces);
-        let ranges = &self.ranges;
-        team::for_each_chunk([y], ranges.size(), &|r, [y]| {
-            let [y0, y1, y2] = &ranges.0[r].y;
-            for (i, y) in y.iter_mut().enumerate() {
-                *y = Vec3::new(-y0[i], -y1[i], -y2[i]);
-            }
-        });
     }
 
     /// The diagonal blocks of `A`'s springs' part plus the points' own ([`SpringMatrix::set_own`])
