@@ -162,6 +162,33 @@ impl Model {
         self.contacts(p).filter_map(move |c| c.less(clearance))
     }
 
+    /// Calls `f` with each of [`Model::contacts_of`]'s contacts, in its order, leaving out the
+    /// walls' where `walls` is false (the caller knows that `p` is inside the box): a plain loop,
+    /// where the iterators' chain cost a resting 16³ cube's steps at 1/60 s 3 % (asked for
+    /// every point at each step's start).
+    #[inline]
+    pub(crate) fn for_each_contact_of(
+        &self,
+        i: usize,
+        p: Vec3,
+        walls: bool,
+        mut f: impl FnMut(crate::model::obstacle::ObstacleContact),
+    ) {
+        let clearance = self.clearance_of(i);
+        let mut add = |c: Option<crate::model::obstacle::ObstacleContact>| {
+            if let Some(c) = c.and_then(|c| c.less(clearance)) {
+                f(c);
+            }
+        };
+        if walls {
+            self.bounds.wall_contacts(p).for_each(|c| add(Some(c)));
+        }
+        add(self.plane.and_then(|pl| pl.contact(p)));
+        for o in &self.obstacles {
+            add(o.contact(p));
+        }
+    }
+
     /// True when surfaces may touch: the model has several bodies, or self-contact on (see
     /// [`crate::contact::bodies`]).
     pub fn surfaces_touch(&self) -> bool {

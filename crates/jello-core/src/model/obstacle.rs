@@ -240,6 +240,11 @@ impl Plane {
     /// normal into the allowed side; `None` on the allowed side or on the plane.
     #[inline]
     pub fn contact(&self, p: Vec3) -> Option<ObstacleContact> {
+        // The sign first: most points asked are on the allowed side, and the normal costs a
+        // square root and a division.
+        if !self.on_forbidden_side(p) {
+            return None;
+        }
         let (depth, normal) = self.depth(p);
         (depth > 0.0).then_some(ObstacleContact { depth, normal })
     }
@@ -329,6 +334,7 @@ pub enum Obstacle {
 
 impl Obstacle {
     /// Where a point touches the obstacle, if it does.
+    #[inline]
     pub fn contact(&self, p: Vec3) -> Option<ObstacleContact> {
         match self {
             Obstacle::Plane(plane) => plane.contact(p),

@@ -430,16 +430,19 @@ impl ImplicitScratch {
         let free = &self.free[..];
         let parts = ([&mut self.start_damping[..]], [&mut self.touching[..]]);
         team::for_each_chunk_pair(parts, size, &|chunk, ([damping], [touching])| {
+            // A wall touches no point of a chunk inside the box.
+            let points = &x0[chunk * size..chunk * size + damping.len()];
+            let walls = points.iter().any(|&p| model.bounds.excursion(p) > 0.0);
             for (j, (d, touches)) in damping.iter_mut().zip(touching).enumerate() {
                 let i = chunk * size + j;
                 (*d, *touches) = ([0.0; 6], false);
                 if free[i] == 0.0 {
                     continue;
                 }
-                for c in model.contacts_of(i, x0[i]) {
+                model.for_each_contact_of(i, x0[i], walls, |c| {
                     add_outer(d, c.normal, model.d_collision);
                     *touches = true;
-                }
+                });
             }
         });
         for t in &self.start_touches {
