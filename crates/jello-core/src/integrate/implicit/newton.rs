@@ -8,6 +8,7 @@ use crate::model::Model;
 use crate::state::Control;
 use crate::vec3::Vec3;
 
+use super::cg::sum_chunk;
 use super::cg::{solve, Preconditioner};
 use super::matrix::newton_direction;
 use super::residual::{has_potential, potential_fall, residual};
@@ -152,7 +153,18 @@ pub(super) fn newton(
         // a field that is not uniform: its part of `A` is its gradient, which jumps at the faces
         // of its cells however little a point moves (`leapfrog.w` at 1/60 s took 1.7× as long
         // with `A` kept).
-        let moved = |dv: &[Vec3]| h * dv.iter().map(|d| d.length()).fold(0.0, f64::max);
+        let moved = |dv: &[Vec3]| {
+            let (longest, chunks) = over_chunks(dv.len(), &|at| {
+                dv[at]
+                    .iter()
+                    .map(|d| d.length_squared())
+                    .fold(0.0, f64::max)
+            });
+            h * longest[..chunks]
+                .iter()
+                .fold(0.0, |a: f64, &b| a.max(b))
+                .sqrt()
+        };
         keep = own
             && model.field.as_ref().is_none_or(|f| f.uniform().is_some())
             && matches!(reached, Some((_, true)))
@@ -348,13 +360,34 @@ pub(super) fn mean_residual(s: &ImplicitScratch, points: std::ops::Range<usize>)
 /// m/s, where this floor is 7e-8), and converges at that floor instead. Negligible otherwise
 /// (the classic cube at 1/60 s: 1.5e-11 m/s).
 fn rounding_floor(s: &ImplicitScratch, x0: &[Vec3], h: f64) -> f64 {
-    let reach = x0
-        .iter()
-        .zip(&s.free)
-        .filter(|&(_, &free)| free != 0.0)
-        .map(|(x, _)| x.x.abs().max(x.y.abs()).max(x.z.abs()))
-        .fold(0.0, f64::max);
+    let free = &s.free[..];
+    let (reach, chunks) = over_chunks(x0.len(), &|at| {
+        x0[at.clone()]
+            .iter()
+            .zip(&free[at])
+            .filter(|&(_, &free)| free != 0.0)
+            .map(|(x, _)| x.x.abs().max(x.y.abs()).max(x.z.abs()))
+            .fold(0.0, f64::max)
+    });
+    let reach = reach[..chunks].iter().fold(0.0, |a: f64, &b| a.max(b));
     f64::EPSILON * h * s.stiffness_over_mass * reach
+}
+
+/// `f` of each chunk of `n` points (at most [`team::OWNED_ITEMS`], fixed by `n` alone, as
+/// [`sum_chunk`] fixes them), on the team, and how many there are: the serial loops over the
+/// points that Newton's method folds (maxima, minima, a sum) are then split over the threads,
+/// and each chunk's result is the same whoever computes it.
+fn over_chunks<R: Copy + Default + Send>(
+    n: usize,
+    f: &(dyn Fn(std::ops::Range<usize>) -> R + Sync),
+) -> ([R; team::OWNED_ITEMS], usize) {
+    let size = sum_chunk(n);
+    let chunks = n.div_ceil(size);
+    let mut parts = [R::default(); team::OWNED_ITEMS];
+    team::for_each_mut(&mut parts[..chunks], &|c, part| {
+        *part = f(c * size..((c + 1) * size).min(n));
+    });
+    (parts, chunks)
 }
 
 /// The report of a step that stopped with residual `g` after `iterations`.
@@ -461,13 +494,22 @@ fn line_search(
 /// linear model puts every point's `|g|` at or below `target`, with a factor 2 to spare for the
 /// model's error: `|g′| ≤ |M·g′| / m_min`.
 pub(super) fn enough_reduction(s: &ImplicitScratch, target: f64) -> f64 {
-    let (mut norm2, mut lightest) = (0.0, f64::INFINITY);
-    for ((g, &m), &free) in s.g.iter().zip(&s.mass).zip(&s.free) {
-        if free != 0.0 && m > 0.0 {
-            norm2 += (m * m) * g.dot(*g);
-            lightest = lightest.min(m);
+    let (g, mass, free) = (&s.g[..], &s.mass[..], &s.free[..]);
+    let (parts, chunks) = over_chunks(g.len(), &|at| {
+        let (mut norm2, mut lightest) = (0.0, f64::INFINITY);
+        for ((g, &m), &free) in g[at.clone()].iter().zip(&mass[at.clone()]).zip(&free[at]) {
+            if free != 0.0 && m > 0.0 {
+                norm2 += (m * m) * g.dot(*g);
+                lightest = lightest.min(m);
+            }
         }
-    }
+        (norm2, lightest)
+    });
+    let norm2: f64 = parts[..chunks].iter().map(|p| p.0).sum();
+    let lightest = parts[..chunks]
+        .iter()
+        .map(|p| p.1)
+        .fold(f64::INFINITY, f64::min);
     if norm2 > 0.0 && lightest.is_finite() {
         0.5 * lightest * target / norm2.sqrt()
     } else {
