@@ -54,8 +54,14 @@ fn times(c: &[f64; 9], x: Vec3) -> Vec3 {
     Vec3::new(row(0), row(1), row(2))
 }
 
-/// `s.ap = A·s.p` (`A` symmetric), the springs' part in `precision`.
-fn apply(s: &mut ImplicitScratch, precision: Precision) {
+/// `s.ap = A·s.p` (`A` symmetric), the springs' part in `precision`; returns `p·A·p`, summed
+/// as [`dot`] sums it: in the product's last pass where the springs make all of `A` (no
+/// contacts between bodies at the iterate).
+fn apply_dot(s: &mut ImplicitScratch, precision: Precision) -> f64 {
+    if s.pair_rows.is_empty() {
+        let (free, sums) = (&s.free[..], &mut s.dots[..]);
+        return s.springs.apply_dot(free, &s.p, &mut s.ap, precision, sums);
+    }
     let pairs = (&s.pair_rows[..], &s.pair_blocks[..]);
     apply_to(
         &mut s.springs,
@@ -67,6 +73,7 @@ fn apply(s: &mut ImplicitScratch, precision: Precision) {
         &mut s.ap,
         precision,
     );
+    dot(&s.p, &s.ap, &mut s.dots)
 }
 
 /// Points per chunk of the conjugate gradients' sums over `n` points: fixed by `n` alone (the
@@ -96,7 +103,7 @@ pub(super) fn dot(a: &[Vec3], b: &[Vec3], sums: &mut [f64]) -> f64 {
 
 crate::compute::simd::multiversion! {
     /// `a·b` over one chunk, in order, compiled per tier (the same bits on each).
-    fn dot_chunk(a: &[Vec3], b: &[Vec3]) -> f64 {
+    pub(super) fn dot_chunk(a: &[Vec3], b: &[Vec3]) -> f64 {
         a.iter().zip(b).map(|(a, b)| a.dot(*b)).sum()
     }
 }
@@ -143,12 +150,41 @@ crate::compute::simd::multiversion! {
 }
 
 crate::compute::simd::multiversion! {
-    /// `p = z + β·p`, compiled per tier (the same bits on each).
-    fn next_direction(z: &[Vec3], beta: f64, p: &mut [Vec3]) {
-        for (p, &z) in p.iter_mut().zip(z) {
-            *p = z + *p * beta;
+    /// `p = z + β·p` (`p = z` without `β`), and `p` rounded to single precision into `single`
+    /// (structure of arrays;
+    /// the next product's input, see [`SpringMatrix::single_input`]); compiled per tier (the
+    /// same bits on each).
+    fn next_direction(z: &[Vec3], beta: Option<f64>, p: &mut [Vec3], single: [&mut [f32]; 3]) {
+        let [s0, s1, s2] = single;
+        let n = p.len();
+        let (z, s0, s1, s2) = (&z[..n], &mut s0[..n], &mut s1[..n], &mut s2[..n]);
+        for i in 0..n {
+            p[i] = match beta {
+                Some(beta) => z[i] + p[i] * beta,
+                None => z[i],
+            };
+            (s0[i], s1[i], s2[i]) = (p[i].x as f32, p[i].y as f32, p[i].z as f32);
         }
     }
+}
+
+/// `p = z + β·p` (`p = z` without `β`) over the team, with `p` in single precision into the
+/// springs' product input where the solve's products are in single precision: the product then
+/// does not load it in a pass of its own.
+fn set_direction(s: &mut ImplicitScratch, beta: Option<f64>, precision: Precision) {
+    let (z, size) = (&s.z[..], chunk_size(s.z.len()));
+    if precision == Precision::Double {
+        team::for_each_chunk([&mut s.p[..]], size, &|c, [p]| {
+            for (p, &z) in p.iter_mut().zip(&z[c * size..]) {
+                *p = beta.map_or(z, |beta| z + *p * beta);
+            }
+        });
+        return;
+    }
+    let parts = ([&mut s.p[..]], s.springs.single_input());
+    team::for_each_chunk_pair(parts, size, &|c, ([p], single)| {
+        next_direction(&z[c * size..], beta, p, single);
+    });
 }
 
 /// The preconditioner of [`solve`].
@@ -194,10 +230,7 @@ pub(super) fn solve(
     s.dv.fill(Vec3::ZERO);
     set_right_hand_side(s);
     let mut rz = precondition(s);
-    let (z, size) = (&s.z[..], chunk_size(s.z.len()));
-    team::for_each_chunk([&mut s.p[..]], size, &|c, [p]| {
-        p.copy_from_slice(&z[c * size..c * size + p.len()]);
-    });
+    set_direction(s, None, precision);
     let mut rr = dot(&s.r, &s.r, &mut s.dots);
     let target = rr * reduction * reduction;
     if !rz.is_finite() {
@@ -212,9 +245,8 @@ pub(super) fn solve(
         if rr <= target || rz == 0.0 || within {
             break;
         }
-        apply(s, precision);
+        let pap = apply_dot(s, precision);
         s.stats.linear_iterations += 1;
-        let pap = dot(&s.p, &s.ap, &mut s.dots);
         if pap <= 0.0 || !pap.is_finite() {
             return false;
         }
@@ -225,11 +257,7 @@ pub(super) fn solve(
         }
         let beta = rz_next / rz;
         rz = rz_next;
-        let z = &s.z;
-        let size = chunk_size(z.len());
-        team::for_each_chunk([&mut s.p], size, &|c, [p]| {
-            next_direction(&z[c * size..], beta, p);
-        });
+        set_direction(s, Some(beta), precision);
     }
     true
 }

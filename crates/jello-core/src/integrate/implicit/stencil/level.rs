@@ -146,6 +146,7 @@ impl LevelStencil {
             precision,
             t,
             &out,
+            None,
         );
     }
 }

@@ -55,6 +55,7 @@ use kernels::{
     Lane,
 };
 
+use super::cg::{dot_chunk, sum_chunk};
 use super::sym::{sym_mul, Sym};
 use crate::compute::team;
 use crate::model::body::Body;
@@ -432,7 +433,47 @@ impl SpringMatrix {
             precision,
             y,
             &out,
+            None,
         );
+    }
+
+    /// The input of the next single-precision [`SpringMatrix::apply_dot`]: `x` rounded to
+    /// single precision, as structure of arrays, written by the caller (the conjugate
+    /// gradients, as they update their direction).
+    pub fn single_input(&mut self) -> [&mut [f32]; 3] {
+        self.x_single.each_mut().map(|x| &mut x[..])
+    }
+
+    /// [`SpringMatrix::apply`], returning `x·y` summed as [`super::cg::dot`] sums it (into
+    /// `sums`, one per chunk of [`sum_chunk`] points): the same bits, without a pass of its own.
+    /// In single precision, `x` must be in [`SpringMatrix::single_input`] already.
+    pub fn apply_dot(
+        &mut self,
+        free: &[f64],
+        x: &[Vec3],
+        y: &mut [Vec3],
+        precision: Precision,
+        sums: &mut [f64],
+    ) -> f64 {
+        if precision == Precision::Double {
+            self.double_blocks();
+        }
+        let blocks = (&self.blocks, &self.blocks_single);
+        let buffers = (&mut self.x, &mut self.x_single);
+        let (spans, n) = (&self.spans[..], self.n);
+        let out = |p: usize, row: Vec3| row * free[p];
+        product(
+            &mut self.ranges,
+            (spans, n),
+            blocks,
+            buffers,
+            (&self.own, Some(&self.own_single)),
+            x,
+            precision,
+            y,
+            &out,
+            Some(sums),
+        )
     }
 
     /// The diagonal blocks of `A`'s springs' part plus the points' own ([`SpringMatrix::set_own`])
@@ -530,7 +571,9 @@ impl Ranges {
 /// The product of the blocks (in both precisions; by slot `e·n + p` of the `spans`' stencil
 /// entries) and `own` (and, where given, its copy in single precision, which a single-precision
 /// product then takes) with `x` in `precision`, into `y` through `out(p, row)`; `buffers` hold
-/// `x` in each precision.
+/// `x` in each precision (loaded here, but for a single-precision product with `dot`: its
+/// caller's). With `dot`, returns `x·y` summed as `cg::dot` sums it (its chunks' sums into
+/// `dot`), else 0.
 #[allow(clippy::too_many_arguments)]
 fn product(
     ranges: &mut Ranges,
@@ -542,11 +585,15 @@ fn product(
     precision: Precision,
     y: &mut [Vec3],
     out: &(impl Fn(usize, Vec3) -> Vec3 + Sync),
-) {
+    dot: Option<&mut [f64]>,
+) -> f64 {
     ranges.fit(n);
     let own_x = |p: usize| sym_mul(&own[p], x[p]);
     if precision == Precision::Single {
-        load(x_single, x);
+        // A product with its dot takes `x` as its caller loaded it (see `apply_dot`).
+        if dot.is_none() {
+            load(x_single, x);
+        }
         let forces = entry_forces(spring_forces_single, blocks_single);
         let xs = &*x_single;
         let init = |start: usize, out: [&mut [f32]; 3]| match own_single {
@@ -564,19 +611,41 @@ fn product(
         ranges_rows(&mut ranges.0, spans, n, &init, x_double, &forces);
     }
     let ranges = &*ranges;
-    team::for_each_chunk([y], ranges.size(), &|r, [y]| {
-        let range = &ranges.0[r];
-        match precision {
-            Precision::Single => {
-                let [y0, y1, y2] = &range.y_single;
-                f32::out_rows(range.start, [y0, y1, y2], out, y);
+    // Rows `lo .. lo + y.len()` of the product out of the ranges that hold them.
+    let rows_out = |lo: usize, y: &mut [Vec3]| {
+        let (hi, size) = (lo + y.len(), ranges.size());
+        for range in &ranges.0[lo / size..hi.div_ceil(size).min(ranges.0.len())] {
+            let len = range.y[0].len().max(range.y_single[0].len());
+            let (a, b) = (lo.max(range.start), hi.min(range.start + len));
+            if a >= b {
+                continue;
             }
-            Precision::Double => {
-                let [y0, y1, y2] = &range.y;
-                f64::out_rows(range.start, [y0, y1, y2], out, y);
+            let (at, y) = (a - range.start, &mut y[a - lo..b - lo]);
+            match precision {
+                Precision::Single => {
+                    let rows = range.y_single.each_ref().map(|r| &r[at..at + y.len()]);
+                    f32::out_rows(a, rows, out, y);
+                }
+                Precision::Double => {
+                    let rows = range.y.each_ref().map(|r| &r[at..at + y.len()]);
+                    f64::out_rows(a, rows, out, y);
+                }
             }
         }
+    };
+    let Some(sums) = dot else {
+        team::for_each_chunk([y], ranges.size(), &|r, [y]| rows_out(r * ranges.size(), y));
+        return 0.0;
+    };
+    // With `x·y` summed as `cg::dot` sums it (the same chunks, each in order; the same bits),
+    // each chunk's rows while they are in the cache, where a pass of its own read `x` and `y`
+    // again.
+    let size = sum_chunk(n);
+    team::for_each_chunk_into([y], size, sums, &|c, [y]| {
+        rows_out(c * size, y);
+        dot_chunk(&x[c * size..c * size + y.len()], y)
     });
+    sums.iter().sum()
 }
 
 /// Each range's [`rows`] over the team, into its buffers of `T`'s precision.
