@@ -689,6 +689,50 @@ fn restrict_operator(fine: &Operator, down: &Restriction, coarse: &mut Level) {
     }
 }
 
+/// A map keyed by a few small integers, hashed by [`IntHasher`]. (Only looked up, never iterated:
+/// the hasher decides no order.)
+type IntMap<K, V> = HashMap<K, V, std::hash::BuildHasherDefault<IntHasher>>;
+
+/// A multiply-and-rotate hash of integer keys (the scheme of rustc's `FxHasher`): `coarsen` looks
+/// up every pair of a level, half a million at 32³, and the standard library's SipHash took
+/// about a fifth of a 32³ cube's setup (its first step).
+#[derive(Clone, Copy, Default)]
+struct IntHasher(u64);
+
+impl IntHasher {
+    fn add(&mut self, word: u64) {
+        self.0 = (self.0.rotate_left(5) ^ word).wrapping_mul(0x51_7c_c1_b7_27_22_0a_95);
+    }
+}
+
+impl std::hash::Hasher for IntHasher {
+    fn write(&mut self, bytes: &[u8]) {
+        let mut words = bytes.chunks_exact(8);
+        for w in &mut words {
+            self.add(u64::from_le_bytes(w.try_into().expect("eight bytes")));
+        }
+        for &b in words.remainder() {
+            self.add(u64::from(b));
+        }
+    }
+
+    fn write_u32(&mut self, i: u32) {
+        self.add(u64::from(i));
+    }
+
+    fn write_u64(&mut self, i: u64) {
+        self.add(i);
+    }
+
+    fn write_usize(&mut self, i: usize) {
+        self.add(i as u64);
+    }
+
+    fn finish(&self) -> u64 {
+        self.0
+    }
+}
+
 /// The indices `i` of `of` grouped by `of[i]` (`groups` of them; entries of `INSIDE` left
 /// out), ascending within each: group `g` is `members[start[g] .. start[g + 1]]`.
 fn group(groups: usize, of: &[u32]) -> (Vec<u32>, Vec<u32>) {
@@ -712,7 +756,7 @@ fn group(groups: usize, of: &[u32]) -> (Vec<u32>, Vec<u32>) {
 /// of their first node) and the pairs among them; returns the restriction, the aggregates'
 /// nodes and their pairs.
 fn coarsen(nodes: &[Node], pairs: &[[u32; 2]]) -> (Restriction, Vec<Node>, Vec<[u32; 2]>) {
-    let mut index: HashMap<Node, u32> = HashMap::new();
+    let mut index: IntMap<Node, u32> = IntMap::default();
     let mut coarse_nodes = Vec::new();
     let parent = nodes
         .iter()
@@ -724,7 +768,7 @@ fn coarsen(nodes: &[Node], pairs: &[[u32; 2]]) -> (Restriction, Vec<Node>, Vec<[
             })
         })
         .collect::<Vec<u32>>();
-    let mut pair_index: HashMap<[u32; 2], u32> = HashMap::new();
+    let mut pair_index: IntMap<[u32; 2], u32> = IntMap::default();
     let mut coarse_pairs = Vec::new();
     let slot = pairs
         .iter()
