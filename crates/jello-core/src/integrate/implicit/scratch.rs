@@ -349,7 +349,7 @@ impl ImplicitScratch {
         }
         // Penalty springs: three walls, the plane and each obstacle at once, at most. Found
         // again only when the points, their springs or the penalty changed (a pass with a
-        // division a point, on the leader alone: 1–2 % of a settled 32³ step on 2 threads).
+        // division a point, on the leader alone, at every step until then).
         let contacts = (4 + model.obstacles.len()) as f64 * model.k_collision;
         if changed || !same || self.stiffness_over_mass_of != Some(contacts) {
             self.stiffness_over_mass = self
