@@ -151,9 +151,8 @@ crate::compute::simd::multiversion! {
 
 crate::compute::simd::multiversion! {
     /// `p = z + β·p` (`p = z` without `β`), and `p` rounded to single precision into `single`
-    /// (structure of arrays;
-    /// the next product's input, see [`SpringMatrix::single_input`]); compiled per tier (the
-    /// same bits on each).
+    /// (structure of arrays: the next product's input, see [`SpringMatrix::single_input`]);
+    /// compiled per tier (the same bits on each).
     fn next_direction(z: &[Vec3], beta: Option<f64>, p: &mut [Vec3], single: [&mut [f32]; 3]) {
         let [s0, s1, s2] = single;
         let n = p.len();
