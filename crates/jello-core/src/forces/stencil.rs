@@ -320,10 +320,8 @@ fn spring_run(
     mask: impl Fn(usize) -> f64,
     row: &mut Soa,
 ) {
-    let (xa, ya, za) = (&p.x()[a..a + len], &p.y()[a..a + len], &p.z()[a..a + len]);
-    let (xb, yb, zb) = (&p.x()[b..b + len], &p.y()[b..b + len], &p.z()[b..b + len]);
-    let (ua, va, wa) = (&v.x()[a..a + len], &v.y()[a..a + len], &v.z()[a..a + len]);
-    let (ub, vb, wb) = (&v.x()[b..b + len], &v.y()[b..b + len], &v.z()[b..b + len]);
+    let ([xa, ya, za], [xb, yb, zb]) = (p.range(a..a + len), p.range(b..b + len));
+    let ([ua, va, wa], [ub, vb, wb]) = (v.range(a..a + len), v.range(b..b + len));
     let [fx, fy, fz] = row.parts_mut();
     let (fx, fy, fz) = (&mut fx[..len], &mut fy[..len], &mut fz[..len]);
     for t in 0..len {
@@ -352,9 +350,7 @@ fn spring_run_at_start<'a>(
     mask: impl Fn(usize) -> f64,
     row: &mut Soa,
 ) {
-    let at = |(s, i): (&'a Soa, usize)| -> [&'a [f64]; 3] {
-        [&s.x()[i..i + len], &s.y()[i..i + len], &s.z()[i..i + len]]
-    };
+    let at = |(s, i): (&'a Soa, usize)| s.range(i..i + len);
     let [[xa, ya, za], [xb, yb, zb], [sa, ta, ua], [sb, tb, ub]] = ends.map(at);
     let [[va, wa, qa], [vb, wb, qb]] = speeds.map(at);
     let [fx, fy, fz] = row.parts_mut();

@@ -530,16 +530,12 @@ fn converged(model: &Model, floor: f64, g: &[Vec3], v: &[Vec3]) -> bool {
     norm <= target(model, floor, vmax)
 }
 
-/// `max |g|` and `max |v|`, over at most [`team::OWNED_ITEMS`] chunks of points on the team
-/// (a maximum does not depend on the order it is taken in).
+/// `max |g|` and `max |v|`, over the chunks of [`over_chunks`] on the team (a maximum does not
+/// depend on the order it is taken in).
 pub(super) fn max_norms(g: &[Vec3], v: &[Vec3]) -> (f64, f64) {
-    let size = g.len().div_ceil(team::OWNED_ITEMS).max(super::MIN_CHUNK);
-    let mut maxima = [(0.0, 0.0); team::OWNED_ITEMS];
-    let chunks = g.len().div_ceil(size);
-    team::for_each_mut(&mut maxima[..chunks], &|c, maxima| {
-        let at = c * size..((c + 1) * size).min(g.len());
+    let (maxima, chunks) = over_chunks(g.len(), &|at| {
         let largest = |x: &[Vec3]| x.iter().map(|x| x.length()).fold(0.0, f64::max);
-        *maxima = (largest(&g[at.clone()]), largest(&v[at]));
+        (largest(&g[at.clone()]), largest(&v[at]))
     });
     (maxima[..chunks].iter()).fold((0.0, 0.0), |(g, v), &(a, b)| {
         (f64::max(g, a), f64::max(v, b))

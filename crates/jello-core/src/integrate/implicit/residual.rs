@@ -76,7 +76,7 @@ pub(super) fn residual(
             true
         },
         Ties::Ignored {
-            start: &s.start_soa,
+            start: s.springs.start(),
             velocity: &s.velocity_soa,
         },
     );

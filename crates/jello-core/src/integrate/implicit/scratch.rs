@@ -116,10 +116,8 @@ pub struct ImplicitScratch {
     /// The force routine's inputs and output.
     pub(super) x_soa: Soa,
     pub(super) v_soa: Soa,
-    /// The positions the springs' dampers act from (the step's start; see
-    /// [`ImplicitScratch::start_dampers`]) and the iterate's (or trial's) velocities, for the
-    /// springs' dampers in the residual's force pass.
-    pub(super) start_soa: Soa,
+    /// The iterate's (or trial's) velocities, for the springs' dampers in the residual's force
+    /// pass (which act from the start positions the stencil matrix holds).
     pub(super) velocity_soa: Soa,
     pub(super) acc: Soa,
     /// Contacts between bodies at the iterate, for `A`: the pairs of points in contact and
@@ -280,7 +278,6 @@ impl ImplicitScratch {
             base_v: zeros,
             x_soa: Soa::zeros(n),
             v_soa: Soa::zeros(n),
-            start_soa: Soa::zeros(n),
             velocity_soa: Soa::zeros(n),
             acc: Soa::zeros(n),
             contacts: Contacts::new(model),
@@ -416,23 +413,11 @@ impl ImplicitScratch {
             .build(model, &self.spring_pairs, self.pair_rows.capacity());
     }
 
-    /// The dampers at `x0` (the step's start): the springs' directions (also into the stencil
-    /// matrix, whose product gives the dampers' force in each residual), the contacts each
-    /// point is in, and the pairs of points of different bodies that overlap.
+    /// The dampers at `x0` (the step's start): the springs' start positions and directions
+    /// (into the stencil matrix, from whose start the residual's force pass takes the springs'
+    /// dampers), the contacts each point is in, and the pairs of points of different bodies
+    /// that overlap.
     pub(super) fn start_dampers(&mut self, model: &Model, x0: &[Vec3]) {
-        let size = super::chunk_size(x0.len());
-        team::for_each_chunk(self.start_soa.parts_mut(), size, &|chunk, [xx, xy, xz]| {
-            for (i, p) in x0[chunk * size..].iter().take(xx.len()).enumerate() {
-                (xx[i], xy[i], xz[i]) = (p.x, p.y, p.z);
-            }
-        });
-        if model.surfaces_touch() {
-            let (contacts, touches) = (&mut self.contacts, &mut self.start_touches);
-            super::contacts::start_touches(model, contacts, &self.start_soa, touches);
-            self.touched_at.copy_from_slice(x0);
-        } else {
-            self.start_touches.clear();
-        }
         // The directions by spring serve the line search's potential alone (sized here, only
         // for a model that has one: 12 MB at 32³).
         let directions = if has_potential(model) {
@@ -442,6 +427,14 @@ impl ImplicitScratch {
             None
         };
         self.springs.start_dampers(x0, directions);
+        if model.surfaces_touch() {
+            let (contacts, touches) = (&mut self.contacts, &mut self.start_touches);
+            super::contacts::start_touches(model, contacts, self.springs.start(), touches);
+            self.touched_at.copy_from_slice(x0);
+        } else {
+            self.start_touches.clear();
+        }
+        let size = super::chunk_size(x0.len());
         let free = &self.free[..];
         let parts = ([&mut self.start_damping[..]], [&mut self.touching[..]]);
         team::for_each_chunk_pair(parts, size, &|chunk, ([damping], [touching])| {

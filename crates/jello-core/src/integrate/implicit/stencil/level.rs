@@ -10,7 +10,7 @@
 //! of pairs, which gathers and scatters by index, cost as much as the fine product itself with a
 //! ninth of its pairs (32³ cube resting on a floor, 2 threads).
 
-use super::{product, Precision, Ranges, Span};
+use super::{product, Input, Precision, Ranges, Span};
 use crate::integrate::implicit::sym::Sym;
 use crate::vec3::Vec3;
 
@@ -142,7 +142,7 @@ impl LevelStencil {
             blocks,
             buffers,
             (own, None),
-            e,
+            (e, Input::Load),
             precision,
             t,
             &out,

@@ -57,6 +57,7 @@ use kernels::{
 
 use super::cg::{dot_chunk, sum_chunk};
 use super::sym::{sym_mul, Sym};
+use crate::compute::soa::Soa;
 use crate::compute::team;
 use crate::model::body::Body;
 use crate::model::lattice::STENCIL;
@@ -138,7 +139,7 @@ pub(super) struct SpringMatrix {
     /// spring's direction there, `d·uuᵀ = c·LLᵀ` with `L` the spring at the start and
     /// `c = d/|L|²`, computed from the points where a block is assembled rather than stored by
     /// slot.
-    start: [Vec<f64>; 3],
+    start: Soa,
     /// Each point's own block of `A` (its mass, walls, contacts: see [`SpringMatrix::set_own`]),
     /// and the same rounded to single precision as structure of arrays (`[xx, yy, zz, xy, xz,
     /// yz]`), from which a single-precision product's rows start vectorised: from the blocks of
@@ -153,6 +154,15 @@ pub(super) struct SpringMatrix {
     ranges: Ranges,
     /// Whether every slot array is still as `new` made it (zero).
     fresh: bool,
+}
+
+/// Whether a product loads its input `x` into its buffers ([`Input::Load`]), or finds it in
+/// the single-precision one, where its caller put it ([`Input::Loaded`];
+/// [`SpringMatrix::single_input`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Input {
+    Load,
+    Loaded,
 }
 
 /// The precision of a product with the springs' blocks (see the module documentation).
@@ -196,7 +206,7 @@ impl SpringMatrix {
             rest: vec![0.0; 16 * n],
             stiffness: vec![0.0; 16 * n],
             damping: vec![0.0; 16 * n],
-            start: std::array::from_fn(|_| vec![0.0; n]),
+            start: Soa::zeros(n),
             own: vec![[0.0; 6]; n],
             own_single: std::array::from_fn(|_| vec![0.0; n]),
             x: std::array::from_fn(|_| vec![0.0; n]),
@@ -300,7 +310,12 @@ impl SpringMatrix {
     /// The step's start `x0`, along whose springs the dampers act; their directions there into
     /// `directions` by spring (in slot order) when asked for.
     pub fn start_dampers(&mut self, x0: &[Vec3], directions: Option<&mut [Vec3]>) {
-        load(&mut self.start, x0);
+        let size = team::chunk_size(x0.len(), MIN_POINTS_PER_RANGE);
+        team::for_each_chunk(self.start.parts_mut(), size, &|chunk, [x, y, z]| {
+            for (i, p) in x0[chunk * size..].iter().take(x.len()).enumerate() {
+                (x[i], y[i], z[i]) = (p.x, p.y, p.z);
+            }
+        });
         let Some(directions) = directions else {
             return;
         };
@@ -312,7 +327,7 @@ impl SpringMatrix {
                 // The body of `q` (the spans in the order of their points).
                 let span = spans[spans.partition_point(|s| s.first + s.len <= q)];
                 let b = q + span.offset[e];
-                let [x, y, z] = start;
+                let (x, y, z) = (start.x(), start.y(), start.z());
                 let l = Vec3::new(x[q] - x[b], y[q] - y[b], z[q] - z[b]);
                 let length = l.length();
                 *u = if length > 0.0 { l / length } else { Vec3::ZERO };
@@ -363,7 +378,7 @@ impl SpringMatrix {
                     &damping[at..at + len],
                 ];
                 let ends = (part(xs, q, len), part(xs, q + o, len));
-                let start_ends = (part(start, q, len), part(start, q + o, len));
+                let start_ends = (start.range(q..q + len), start.range(q + o..q + o + len));
                 (ends, start_ends, springs)
             };
             match precision {
@@ -416,6 +431,20 @@ impl SpringMatrix {
     /// ([`SpringMatrix::set_own`]); the springs' part, and in single precision `own·x` too, in
     /// `precision` (see the module documentation).
     pub fn apply(&mut self, free: &[f64], x: &[Vec3], y: &mut [Vec3], precision: Precision) {
+        self.apply_with(free, x, y, precision, Input::Load, None);
+    }
+
+    /// [`SpringMatrix::apply`] and [`SpringMatrix::apply_dot`]: `x` loaded into the product's
+    /// buffers or already there, `x·y` summed into `dot` where given (else 0 returned).
+    fn apply_with(
+        &mut self,
+        free: &[f64],
+        x: &[Vec3],
+        y: &mut [Vec3],
+        precision: Precision,
+        input: Input,
+        dot: Option<&mut [f64]>,
+    ) -> f64 {
         if precision == Precision::Double {
             self.double_blocks();
         }
@@ -429,12 +458,17 @@ impl SpringMatrix {
             blocks,
             buffers,
             (&self.own, Some(&self.own_single)),
-            x,
+            (x, input),
             precision,
             y,
             &out,
-            None,
-        );
+            dot,
+        )
+    }
+
+    /// The dampers' start positions ([`SpringMatrix::start_dampers`]).
+    pub fn start(&self) -> &Soa {
+        &self.start
     }
 
     /// The input of the next single-precision [`SpringMatrix::apply_dot`]: `x` rounded to
@@ -455,25 +489,7 @@ impl SpringMatrix {
         precision: Precision,
         sums: &mut [f64],
     ) -> f64 {
-        if precision == Precision::Double {
-            self.double_blocks();
-        }
-        let blocks = (&self.blocks, &self.blocks_single);
-        let buffers = (&mut self.x, &mut self.x_single);
-        let (spans, n) = (&self.spans[..], self.n);
-        let out = |p: usize, row: Vec3| row * free[p];
-        product(
-            &mut self.ranges,
-            (spans, n),
-            blocks,
-            buffers,
-            (&self.own, Some(&self.own_single)),
-            x,
-            precision,
-            y,
-            &out,
-            Some(sums),
-        )
+        self.apply_with(free, x, y, precision, Input::Loaded, Some(sums))
     }
 
     /// The diagonal blocks of `A`'s springs' part plus the points' own ([`SpringMatrix::set_own`])
@@ -571,8 +587,8 @@ impl Ranges {
 /// The product of the blocks (in both precisions; by slot `e·n + p` of the `spans`' stencil
 /// entries) and `own` (and, where given, its copy in single precision, which a single-precision
 /// product then takes) with `x` in `precision`, into `y` through `out(p, row)`; `buffers` hold
-/// `x` in each precision (loaded here, but for a single-precision product with `dot`: its
-/// caller's). With `dot`, returns `x·y` summed as `cg::dot` sums it (its chunks' sums into
+/// `x` in each precision (loaded here unless `input` says the single-precision one holds it
+/// already, for a single-precision product). With `dot`, returns `x·y` summed as `cg::dot` sums it (its chunks' sums into
 /// `dot`), else 0.
 #[allow(clippy::too_many_arguments)]
 fn product(
@@ -581,7 +597,7 @@ fn product(
     (blocks, blocks_single): (&[Vec<f64>; 6], &[Vec<f32>; 6]),
     (x_double, x_single): (&mut [Vec<f64>; 3], &mut [Vec<f32>; 3]),
     (own, own_single): (&[Sym], Option<&[Vec<f32>; 6]>),
-    x: &[Vec3],
+    (x, input): (&[Vec3], Input),
     precision: Precision,
     y: &mut [Vec3],
     out: &(impl Fn(usize, Vec3) -> Vec3 + Sync),
@@ -590,8 +606,7 @@ fn product(
     ranges.fit(n);
     let own_x = |p: usize| sym_mul(&own[p], x[p]);
     if precision == Precision::Single {
-        // A product with its dot takes `x` as its caller loaded it (see `apply_dot`).
-        if dot.is_none() {
+        if input == Input::Load {
             load(x_single, x);
         }
         let forces = entry_forces(spring_forces_single, blocks_single);
