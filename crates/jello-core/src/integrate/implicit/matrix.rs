@@ -4,6 +4,7 @@
 use crate::compute::team;
 use crate::contact::friction::{self, Anchors, Surface};
 use crate::model::field;
+use crate::model::obstacle::ObstacleContact;
 use crate::model::Model;
 use crate::state::Control;
 use crate::vec3::Vec3;
@@ -97,6 +98,7 @@ pub(super) fn assemble(
     // where the iterate is, their dampers as at the start, and friction along the surfaces at
     // the iterate: each point's own, so the points in chunks over the team.
     let (mass, free, v, start_damping) = (&s.mass[..], &s.free[..], &s.v[..], &s.start_damping[..]);
+    let full_step = s.full_step_taken.then_some(&s.full_step[..]);
     let size = super::chunk_size(s.extra.len());
     let parts = ([&mut s.extra[..]], [&mut s.slides[..]]);
     team::for_each_chunk_pair(parts, size, &|chunk, ([extra], [slides])| {
@@ -122,6 +124,9 @@ pub(super) fn assemble(
                 e,
                 &mut growth,
             );
+            if let Some(full) = full_step {
+                add_anticipated(model, i, at(i, v), at(i, full), h, e);
+            }
         }
     });
     // The unsymmetric part of the friction that slides, point by point (few points: those on a
@@ -269,6 +274,44 @@ fn add_surfaces(
             if let Some(g) = friction::limit_growth(tangent.1, law, h) {
                 growth(g, n);
             }
+        }
+    }
+}
+
+/// The penalty springs that point `i` is clear of at the iterate's end position `p` but that
+/// the last whole Newton step took it into (at `q`): their `h²·kCollision·nnᵀ` too (the normal
+/// at `q`), into `e`. Without them a point landing on a surface is clear of it at each iterate
+/// and driven into it by each Newton step, which the line search then cuts short: the point
+/// creeps down to the surface over several iterations (the dropped 32³ cube's hardest step at
+/// 1/60 s took 15 Newton iterations with the creep, 9 without; the job 1.48 → 1.38 Newton and
+/// 20.7 → 19.4 conjugate-gradient iterations a step). Where the point then stays clear, the next
+/// Newton step, with the spring in `A`, stops it short of the surface, and the one after leaves
+/// the spring out again. Friction, which needs a contact at the iterate, is not anticipated.
+fn add_anticipated(model: &Model, i: usize, p: Vec3, q: Vec3, h: f64, e: &mut Sym) {
+    let clearance = model.clearance_of(i);
+    let touch = |c: Option<ObstacleContact>| c.and_then(|c| c.less(clearance));
+    let k = h * h * model.k_collision;
+    // Each wall's contact has its own normal (one per wall crossed).
+    for c in model
+        .bounds
+        .wall_contacts(q)
+        .filter_map(|c| c.less(clearance))
+    {
+        let wall = |d: &ObstacleContact| d.normal == c.normal;
+        if !model
+            .bounds
+            .wall_contacts(p)
+            .filter_map(|c| c.less(clearance))
+            .any(|d| wall(&d))
+        {
+            add_outer(e, c.normal, k);
+        }
+    }
+    let surfaces = model.plane.iter().map(|pl| (pl.contact(p), pl.contact(q)));
+    let obstacles = model.obstacles.iter().map(|o| (o.contact(p), o.contact(q)));
+    for (at_p, at_q) in surfaces.chain(obstacles) {
+        if let (None, Some(c)) = (touch(at_p), touch(at_q)) {
+            add_outer(e, c.normal, k);
         }
     }
 }

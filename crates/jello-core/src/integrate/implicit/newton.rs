@@ -43,6 +43,7 @@ pub(super) fn newton(
     // The forces but the dampers are evaluated at zero velocity.
     s.v_soa.fill_zero();
     s.v.copy_from_slice(v0);
+    s.full_step_taken = false;
     s.swirl_allowed = swirls;
     s.stats.solves += 1;
     let floor = rounding_floor(s, x0, h);
@@ -475,7 +476,11 @@ fn line_search(
     };
     let mut alpha = 1.0;
     for _ in 0..=MAX_HALVINGS {
-        s.set_trial(alpha);
+        if alpha == 1.0 {
+            s.set_full_trial();
+        } else {
+            s.set_trial(alpha);
+        }
         let n2 = residual(model, control, force, s, x0, v0, h, true);
         // A full step that cuts `|g|_M` tenfold is taken without the merit's fall (a third of
         // the line search's cost): Newton's method is then in its fast regime, where the merit

@@ -100,6 +100,11 @@ pub struct ImplicitScratch {
     /// The iterate and its trial along the Newton direction.
     pub(super) v: Vec<Vec3>,
     pub(super) trial: Vec<Vec3>,
+    /// Where the solve's last Newton direction led at its full length, `v + Δv` before the line
+    /// search cut it, and whether it did yet: the next `A` anticipates the contacts it reached
+    /// (see [`assemble`](super::matrix::assemble)).
+    pub(super) full_step: Vec<Vec3>,
+    pub(super) full_step_taken: bool,
     /// Residuals of the iterate and the trial.
     pub(super) g: Vec<Vec3>,
     pub(super) g_trial: Vec<Vec3>,
@@ -181,6 +186,22 @@ impl ImplicitScratch {
                 *t = v + dv * alpha;
             }
         });
+    }
+
+    /// [`set_trial`](Self::set_trial) at the whole Newton step, which it also keeps as the
+    /// step's [`full_step`](Self::full_step).
+    pub(super) fn set_full_trial(&mut self) {
+        let (v, dv) = (&self.v[..], &self.dv[..]);
+        let size = super::chunk_size(v.len());
+        let parts = [&mut self.trial[..], &mut self.full_step[..]];
+        team::for_each_chunk(parts, size, &|c, [trial, full]| {
+            let at = c * size;
+            for (((t, f), &v), &dv) in trial.iter_mut().zip(full).zip(&v[at..]).zip(&dv[at..]) {
+                *t = v + dv;
+                *f = *t;
+            }
+        });
+        self.full_step_taken = true;
     }
 
     /// The trial point (with its residual and field) becomes the iterate.
@@ -267,6 +288,8 @@ impl ImplicitScratch {
             diag_inv: vec![[0.0; 6]; n],
             v: zeros.clone(),
             trial: zeros.clone(),
+            full_step: zeros.clone(),
+            full_step_taken: false,
             g: zeros.clone(),
             g_trial: zeros.clone(),
             dv: zeros.clone(),

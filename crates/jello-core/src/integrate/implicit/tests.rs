@@ -294,6 +294,56 @@ fn a_body_about_to_land_is_not_shifted_by_its_change_of_momentum() {
     }
 }
 
+/// `A` anticipates the contacts the last whole Newton step reached: a point clear of the floor
+/// at the iterate that the step took into it gets the floor's penalty stiffness `h²·kc·nnᵀ` in
+/// its block, and no other point's block changes (those the step left clear of the floor);
+/// before a solve's first direction, nothing is anticipated.
+#[test]
+fn a_anticipates_the_contacts_the_last_newton_step_reached() {
+    let (model, start) = crate::benchmark::Job::Drop
+        .scene(6, Integrator::BackwardEuler, None)
+        .unwrap();
+    let h = model.dt;
+    let bottom = start.pos.iter().map(|p| p.z).fold(f64::INFINITY, f64::min);
+    // At rest 1 cm above the floor (or already 1 cm into it); the whole step takes the bottom
+    // layer 3 cm down, the others 1 cm.
+    for above in [0.01, -0.01] {
+        let lift = Vec3::new(0.0, 0.0, above - bottom);
+        let x0: Vec<Vec3> = start.pos.iter().map(|&p| p + lift).collect();
+        let on_bottom = |p: Vec3| p.z < above + 1e-9;
+        let full: Vec<Vec3> = (x0.iter())
+            .map(|&p| Vec3::new(0.0, 0.0, if on_bottom(p) { -0.03 } else { -0.01 } / h))
+            .collect();
+        let (control, force) = (Control::none(), ForceScratch::new(&model));
+        let mut s = ImplicitScratch::new(&model);
+        s.load(&model);
+        s.start_dampers(&model, &x0);
+        s.v.fill(Vec3::ZERO);
+        let mut blocks = |taken: bool| {
+            s.full_step.copy_from_slice(&full);
+            s.full_step_taken = taken;
+            let (anchors, curvature) = (force.anchors(), Curvature::True { shift: 0.0 });
+            assemble(&model, &control, anchors, &mut s, &x0, h, curvature);
+            s.extra.clone()
+        };
+        let (plain, anticipated) = (blocks(false), blocks(true));
+        let k = h * h * model.k_collision;
+        let mut landing = 0;
+        for ((&p, plain), anticipated) in x0.iter().zip(&plain).zip(&anticipated) {
+            if on_bottom(p) && above > 0.0 {
+                let mut expected = *plain;
+                expected[2] += k;
+                assert_eq!(*anticipated, expected, "at {p:?}");
+                landing += 1;
+            } else {
+                // Clear of the floor all along, or on it already (its spring is in `A`).
+                assert_eq!(anticipated, plain, "at {p:?}");
+            }
+        }
+        assert_eq!(landing, if above > 0.0 { 36 } else { 0 });
+    }
+}
+
 /// The residual is the backward-Euler equation spring by spring: `g = v − v₀ − h·f/m`, each
 /// spring's force at the end positions `x₀ + h·v`, and its damper's along its direction at the
 /// step's start `x₀` at the velocities `v` (`−d·(u₀·(vₐ − v_b))·u₀`), on a lattice with holes
