@@ -79,6 +79,10 @@ pub struct ImplicitScratch {
     /// Whether `A` may take friction's growth with depth (tests only; see `exact_friction`).
     #[cfg(test)]
     pub(super) may_grow: bool,
+    /// Whether friction's growth, once in `A`, stays there for the rest of the step (tests
+    /// only; see `exact_friction`).
+    #[cfg(test)]
+    pub(super) growth_sticks: bool,
     /// Steps whose first Newton iteration kept the last step's `A` (tests only).
     #[cfg(test)]
     pub(super) kept_across: u32,
@@ -271,6 +275,8 @@ impl ImplicitScratch {
             may_keep: true,
             #[cfg(test)]
             may_grow: true,
+            #[cfg(test)]
+            growth_sticks: true,
             #[cfg(test)]
             kept_across: 0,
             keep_across: None,
