@@ -697,6 +697,64 @@ fn bench_job_steps_the_scene_jello_create_makes() {
     assert!(out.contains("\"end_centre_z\": null"), "{out}");
 }
 
+/// `jello bench --per-step` reports each measured step: as many as it measured, its solver's
+/// work summing to the run's (the dropped cube's free fall solved by its change of momentum
+/// alone, its landing by Newton's method), in `--json` as an array and in text as a table; an
+/// explicit integrator's steps with their times alone; refused on the GPU.
+#[test]
+fn bench_per_step_reports_each_measured_step() {
+    let t = TempDir::new("bench-per-step");
+    let out = t.succeeds(&[
+        "bench",
+        "--job",
+        "drop",
+        "--size",
+        "5",
+        "--integrator",
+        "BackwardEuler",
+        "--steps",
+        "30",
+        "--per-step",
+        "--json",
+    ]);
+    let json: serde_json::Value = serde_json::from_str(out.trim()).unwrap();
+    let steps = json["per_step"].as_array().unwrap();
+    assert_eq!(steps.len(), 30, "{out}");
+    let total = |key: &str| steps.iter().map(|s| s[key].as_u64().unwrap()).sum::<u64>() as f64;
+    for (key, per_step) in [
+        ("newton_iterations", "newton_iterations_per_step"),
+        ("linear_iterations", "linear_iterations_per_step"),
+        ("assemblies", "assemblies_per_step"),
+    ] {
+        let reported = json[per_step].as_f64().unwrap();
+        assert!((total(key) / 30.0 - reported).abs() < 1e-3, "{key}: {out}");
+    }
+    assert!(
+        steps.iter().all(|s| s["seconds"].as_f64().unwrap() > 0.0),
+        "{out}"
+    );
+    // Falling from 0.5 m for 0.32 s (19 steps), then landing.
+    assert_eq!(steps[0]["newton_iterations"], 0, "{out}");
+    assert!(total("newton_iterations") > 0.0, "{out}");
+    // Text: a header and a line per step before the summary.
+    let text = t.succeeds(&["bench", "--size", "4", "--steps", "3", "--per-step"]);
+    let lines: Vec<&str> = text.lines().collect();
+    assert_eq!(lines.len(), 5, "{text}");
+    assert_eq!(
+        lines[0].split_whitespace().collect::<Vec<_>>(),
+        ["step", "wall", "(ms)"]
+    );
+    assert!(lines[3].trim_start().starts_with("2 "), "{text}");
+    let explicit = t.succeeds(&["bench", "--size", "4", "--steps", "2", "--json"]);
+    assert!(explicit.contains("\"per_step\": null"), "{explicit}");
+    let out = t.run(&["bench", "--device", "gpu", "--per-step", "--steps", "2"]);
+    assert_eq!(out.status.code(), Some(2), "{out:?}");
+    assert!(
+        String::from_utf8_lossy(&out.stderr).contains("--per-step"),
+        "{out:?}"
+    );
+}
+
 /// `jello bench` and `jello run` report the implicit solver's work per step: Newton
 /// iterations (fewer than one a step once the benchmark's small cube comes to rest, where a
 /// step starts within the tolerance), at least one conjugate-gradient iteration each, more

@@ -54,6 +54,11 @@ pub struct BenchArgs {
     #[arg(long, value_name = "N", conflicts_with = "seconds",
           value_parser = clap::value_parser!(u64).range(1..))]
     pub steps: Option<u64>,
+    /// Also report each measured step: its wall-clock time and, for an implicit integrator,
+    /// its Newton and linear iterations and assemblies of `A` (the steps are taken one at a
+    /// time; CPU only).
+    #[arg(long)]
+    pub per_step: bool,
     /// Print one JSON object instead of text.
     #[arg(long)]
     pub json: bool,
@@ -145,6 +150,17 @@ struct Measurement {
     solver: Option<SolverStats>,
     /// Where a frame-rate job ended; `None` for the benchmark scene.
     end: Option<End>,
+    /// Each measured step, with `--per-step` (else empty).
+    steps_each: Vec<StepRecord>,
+}
+
+/// One measured step of `--per-step`.
+#[derive(Clone, Copy, Debug)]
+struct StepRecord {
+    /// Wall-clock time (s).
+    wall: f64,
+    /// The implicit solver's work in the step; `None` for an explicit integrator.
+    solver: Option<SolverStats>,
 }
 
 /// Where a frame-rate job's cube is after the measured run: so that a table of speeds can say
@@ -177,6 +193,11 @@ pub fn bench(args: BenchArgs) -> Result<(), CliError> {
         .num_threads(threads)
         .build()
         .map_err(|e| CliError::input(format!("cannot start {threads} threads: {e}")))?;
+    if args.per_step && args.device == Device::Gpu {
+        return Err(CliError::usage(
+            "--per-step: the CPU's steps only (the GPU's are queued, not timed one by one)",
+        ));
+    }
     let job = args.job.job();
     let n = args.size as usize;
     let span = match (args.steps, args.seconds, job) {
@@ -189,7 +210,14 @@ pub fn bench(args: BenchArgs) -> Result<(), CliError> {
     let (m, adapter, kernel) = match args.device {
         Device::Cpu => {
             let m = pool.install(|| {
-                measure(job, n, args.integrator, args.dt, args.tolerance, warm, span)
+                let setup = Setup {
+                    job,
+                    n,
+                    integrator: args.integrator,
+                    dt: args.dt,
+                    tolerance: args.tolerance,
+                };
+                measure(setup, warm, span, args.per_step)
             })?;
             (m, None, None)
         }
@@ -235,12 +263,26 @@ pub fn bench(args: BenchArgs) -> Result<(), CliError> {
             format!("\"{}\"", a.replace('\\', "\\\\").replace('"', "\\\""))
         });
         let kernel_json = kernel.map_or("null".to_string(), |k| format!("\"{k}\""));
+        let per_step_json = if args.per_step {
+            let each = m.steps_each.iter().map(|r| {
+                let work = r.solver.map_or(String::new(), |w| {
+                    format!(
+                        ", \"newton_iterations\": {}, \"linear_iterations\": {}, \"assemblies\": {}",
+                        w.newton_iterations, w.linear_iterations, w.assemblies
+                    )
+                });
+                format!("{{\"seconds\": {:.6}{work}}}", r.wall)
+            });
+            format!("[{}]", each.collect::<Vec<_>>().join(", "))
+        } else {
+            "null".to_string()
+        };
         println!(
             "{{\"impl\": \"jello\", \"job\": \"{}\", \"size\": {}, \"points\": {}, \"springs\": {}, \"integrator\": \"{}\", \"tolerance\": {}, \
              \"device\": \"{device}\", \"adapter\": {adapter_json}, \"gpu_kernel\": {kernel_json}, \"precision\": \"{precision}\", \
              \"threads\": {threads}, \"simd\": \"{tier}\", \"dt\": {}, \"steps\": {}, \"seconds\": {:.3}, \"steps_per_s\": {:.1}, \
              \"real_time\": {:.4}, \"split_steps\": {}, {solver_json}, \"spring_evals_per_s\": {}, \"end_centre_z\": {}, \"end_depth\": {}, \
-             \"peak_rss_mib\": {}, \"version\": \"{}\"}}",
+             \"peak_rss_mib\": {}, \"per_step\": {per_step_json}, \"version\": \"{}\"}}",
             job.map_or("throw", Job::name),
             args.size,
             m.points,
@@ -260,6 +302,9 @@ pub fn bench(args: BenchArgs) -> Result<(), CliError> {
             env!("CARGO_PKG_VERSION")
         );
     } else {
+        if args.per_step {
+            print_steps(&m.steps_each);
+        }
         let on = match &adapter {
             None => format!("{threads} thread(s), {tier}"),
             Some(a) => format!("GPU {a}, f32, {} kernel", kernel.unwrap_or_default()),
@@ -338,14 +383,18 @@ fn scene(
 /// starts again from the initial state. A blow-up (the scene never blows up at its dt) is an
 /// error.
 fn measure(
-    job: Option<Job>,
-    n: usize,
-    integrator: Integrator,
-    dt: Option<f64>,
-    tolerance: Option<f64>,
+    setup: Setup,
     warm: Duration,
     span: Span,
+    per_step: bool,
 ) -> Result<Measurement, CliError> {
+    let Setup {
+        job,
+        n,
+        integrator,
+        dt,
+        tolerance,
+    } = setup;
     let (model, state) = scene(job, n, integrator, dt, tolerance)?;
     let tolerance = integrator.is_implicit().then_some(model.newton.tolerance);
     let dt = model.dt;
@@ -364,8 +413,12 @@ fn measure(
         advance(&mut sim, 1)?;
         warm_steps += 1;
     }
-    let per_step = start.elapsed().as_secs_f64() / warm_steps as f64;
-    let batch = ((0.05 / per_step) as u64).max(1);
+    let step_time = start.elapsed().as_secs_f64() / warm_steps as f64;
+    let batch = if per_step {
+        1
+    } else {
+        ((0.05 / step_time) as u64).max(1)
+    };
 
     // Back to the start, a simulation made anew rather than kept as a copy (at 128³ a copy
     // would be 96 MiB of the peak memory this reports; the old one goes first), and anew so
@@ -376,10 +429,19 @@ fn measure(
     let mut sim = Simulation::new(model, state);
     let split_before = sim.cutback_stats().split_steps;
     let solver_before = sim.solver_stats();
+    let implicit = integrator.is_implicit();
+    let mut steps_each = Vec::new();
     let start = Instant::now();
     let mut steps = 0u64;
     while let Some(batch) = span.next_batch(batch, steps, start.elapsed()) {
+        let (began, before) = (Instant::now(), sim.solver_stats());
         advance(&mut sim, batch)?;
+        if per_step {
+            steps_each.push(StepRecord {
+                wall: began.elapsed().as_secs_f64(),
+                solver: implicit.then(|| sim.solver_stats() - before),
+            });
+        }
         steps += batch;
     }
     Ok(Measurement {
@@ -389,12 +451,22 @@ fn measure(
         steps,
         wall: start.elapsed().as_secs_f64(),
         split_steps: sim.cutback_stats().split_steps - split_before,
-        solver: integrator
-            .is_implicit()
-            .then(|| sim.solver_stats() - solver_before),
+        solver: implicit.then(|| sim.solver_stats() - solver_before),
         tolerance,
         end: End::of(job, &sim.model, &sim.state.pos),
+        steps_each,
     })
+}
+
+/// What [`measure`] steps: the frame-rate `job` or the benchmark scene (`None`) of `n³` points,
+/// by `integrator` at `dt` and to `tolerance` where given.
+#[derive(Clone, Copy, Debug)]
+struct Setup {
+    job: Option<Job>,
+    n: usize,
+    integrator: Integrator,
+    dt: Option<f64>,
+    tolerance: Option<f64>,
 }
 
 /// [`measure`] on the GPU: after the warm-up (which also compiles the shaders' pipelines), the
@@ -448,10 +520,32 @@ fn measure_gpu(
             tolerance: None,
             solver: None,
             end,
+            steps_each: Vec::new(),
         },
         gpu.adapter(),
         gpu.kernel(),
     ))
+}
+
+/// `--per-step`'s table: each measured step's wall-clock time and, for an implicit integrator,
+/// its solver's work.
+fn print_steps(steps: &[StepRecord]) {
+    let implicit = steps.first().is_some_and(|r| r.solver.is_some());
+    if implicit {
+        println!("step  wall (ms)  Newton  linear  assemblies");
+    } else {
+        println!("step  wall (ms)");
+    }
+    for (k, r) in steps.iter().enumerate() {
+        let ms = r.wall * 1e3;
+        match r.solver {
+            Some(w) => println!(
+                "{k:>4}  {ms:>9.3}  {:>6}  {:>6}  {:>10}",
+                w.newton_iterations, w.linear_iterations, w.assemblies
+            ),
+            None => println!("{k:>4}  {ms:>9.3}"),
+        }
+    }
 }
 
 /// Peak resident memory of this process (MiB), from /proc on Linux.
