@@ -98,7 +98,7 @@ pub(super) fn assemble(
     // where the iterate is, their dampers as at the start, and friction along the surfaces at
     // the iterate: each point's own, so the points in chunks over the team.
     let (mass, free, v, start_damping) = (&s.mass[..], &s.free[..], &s.v[..], &s.start_damping[..]);
-    let full_step = s.full_step_taken.then_some(&s.full_step[..]);
+    let full_step = (s.anticipating && s.full_step_taken).then_some(&s.full_step[..]);
     let size = super::chunk_size(s.extra.len());
     let parts = ([&mut s.extra[..]], [&mut s.slides[..]]);
     team::for_each_chunk_pair(parts, size, &|chunk, ([extra], [slides])| {

@@ -43,7 +43,7 @@ pub(super) fn newton(
     // The forces but the dampers are evaluated at zero velocity.
     s.v_soa.fill_zero();
     s.v.copy_from_slice(v0);
-    s.full_step_taken = false;
+    (s.full_step_taken, s.anticipating) = (false, true);
     s.swirl_allowed = swirls;
     s.stats.solves += 1;
     let floor = rounding_floor(s, x0, h);
@@ -190,6 +190,9 @@ pub(super) fn newton(
             Some(reached) => norm2 = reached,
             // An inexact direction may not lead down at all: solve exactly before giving up.
             None if reduction > CG_REDUCTION_EXACT => reduction = CG_REDUCTION_EXACT,
+            // Nor may one whose `A` anticipated contacts (no longer Newton's own matrix): the
+            // step goes on without anticipating.
+            None if s.anticipating && s.full_step_taken => s.anticipating = false,
             None if swirls && (swirled || !s.swirl_allowed) && switches < SWIRL_SWITCHES => {
                 stalled = SWIRL_STALLS
             }

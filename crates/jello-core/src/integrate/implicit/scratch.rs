@@ -106,9 +106,11 @@ pub struct ImplicitScratch {
     pub(super) trial: Vec<Vec3>,
     /// Where the solve's last Newton direction led at its full length, `v + Δv` before the line
     /// search cut it, and whether it did yet: the next `A` anticipates the contacts it reached
-    /// (see [`assemble`](super::matrix::assemble)).
+    /// (see [`assemble`](super::matrix::assemble)) while `anticipating` (until a line search
+    /// finds no way down along a direction so found).
     pub(super) full_step: Vec<Vec3>,
     pub(super) full_step_taken: bool,
+    pub(super) anticipating: bool,
     /// Residuals of the iterate and the trial.
     pub(super) g: Vec<Vec3>,
     pub(super) g_trial: Vec<Vec3>,
@@ -296,6 +298,7 @@ impl ImplicitScratch {
             trial: zeros.clone(),
             full_step: zeros.clone(),
             full_step_taken: false,
+            anticipating: true,
             g: zeros.clone(),
             g_trial: zeros.clone(),
             dv: zeros.clone(),
