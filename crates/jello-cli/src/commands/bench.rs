@@ -379,9 +379,9 @@ fn scene(
     Ok((model, state))
 }
 
-/// Warms up for `warm` (at least a few steps), then steps for the `span`. The measured run
-/// starts again from the initial state. A blow-up (the scene never blows up at its dt) is an
-/// error.
+/// Warms up on `setup`'s scene for `warm` (at least a few steps), then steps for the `span`,
+/// one step at a time and each recorded with `per_step`. The measured run starts again from the
+/// initial state. A blow-up (the scene never blows up at its dt) is an error.
 fn measure(
     setup: Setup,
     warm: Duration,

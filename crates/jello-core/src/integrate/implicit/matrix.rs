@@ -284,7 +284,7 @@ fn add_surfaces(
 /// and driven into it by each Newton step, which the line search then cuts short: the point
 /// creeps down to the surface over several iterations (the dropped 32³ cube's hardest step at
 /// 1/60 s took 15 Newton iterations with the creep, 9 without; the job 1.48 → 1.38 Newton and
-/// 20.7 → 19.4 conjugate-gradient iterations a step). Where the point then stays clear, the next
+/// 20.7 → 19.6 conjugate-gradient iterations a step). Where the point then stays clear, the next
 /// Newton step, with the spring in `A`, stops it short of the surface, and the one after leaves
 /// the spring out again. Friction, which needs a contact at the iterate, is not anticipated.
 fn add_anticipated(model: &Model, i: usize, p: Vec3, q: Vec3, h: f64, e: &mut Sym) {
