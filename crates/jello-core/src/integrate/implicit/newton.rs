@@ -106,14 +106,15 @@ pub(super) fn newton(
         // kept, left the residual of the friction that slides, and the next iteration took the
         // growth again (the landing's steps alternated so; the dropped 8³ cube 1.04 → 0.98
         // Newton iterations a step with it kept, the 16³ one 1.18 → 1.12).
+        #[cfg(test)]
+        {
+            exact_friction &= s.growth_sticks;
+        }
         exact_friction |= iterations > 1 && !fast;
         s.exact_friction = exact_friction;
         #[cfg(test)]
         {
             s.exact_friction &= s.may_grow;
-            if !s.growth_sticks {
-                s.exact_friction = s.may_grow && iterations > 1 && !fast;
-            }
         }
         // A solve goes no further than the tolerance needs. Conjugate gradients stop once
         // their linear model puts every point within half the target, however little their

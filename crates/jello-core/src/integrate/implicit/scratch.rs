@@ -197,16 +197,8 @@ impl ImplicitScratch {
     /// [`set_trial`](Self::set_trial) at the whole Newton step, which it also keeps as the
     /// step's [`full_step`](Self::full_step).
     pub(super) fn set_full_trial(&mut self) {
-        let (v, dv) = (&self.v[..], &self.dv[..]);
-        let size = super::chunk_size(v.len());
-        let parts = [&mut self.trial[..], &mut self.full_step[..]];
-        team::for_each_chunk(parts, size, &|c, [trial, full]| {
-            let at = c * size;
-            for (((t, f), &v), &dv) in trial.iter_mut().zip(full).zip(&v[at..]).zip(&dv[at..]) {
-                *t = v + dv;
-                *f = *t;
-            }
-        });
+        self.set_trial(1.0);
+        self.full_step.copy_from_slice(&self.trial);
         self.full_step_taken = true;
     }
 

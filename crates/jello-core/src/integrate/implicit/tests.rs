@@ -259,16 +259,11 @@ fn a_body_in_free_flight_is_solved_by_its_change_of_momentum() {
 /// iterations instead of 4). The same body falling clear of the floor is shifted.
 #[test]
 fn a_body_about_to_land_is_not_shifted_by_its_change_of_momentum() {
-    let (model, start) = crate::benchmark::Job::Drop
-        .scene(8, Integrator::BackwardEuler, None)
-        .unwrap();
-    let h = model.dt;
     let control = Control::none();
-    let bottom = start.pos.iter().map(|p| p.z).fold(f64::INFINITY, f64::min);
     // Falling at 3 m/s, 5 cm a step: from 1 cm above the floor into it, from 1 m clear of it.
     for (above, lands) in [(0.01, true), (1.0, false)] {
-        let lift = Vec3::new(0.0, 0.0, above - bottom);
-        let x0: Vec<Vec3> = start.pos.iter().map(|&p| p + lift).collect();
+        let (model, x0) = dropped_cube_with_its_bottom_at(8, above);
+        let h = model.dt;
         let v0 = vec![Vec3::new(0.0, 0.0, -3.0); x0.len()];
         let mut force = ForceScratch::new(&model);
         let mut s = ImplicitScratch::new(&model);
@@ -294,22 +289,29 @@ fn a_body_about_to_land_is_not_shifted_by_its_change_of_momentum() {
     }
 }
 
+/// The model of the `drop` job's cube of `n³` points at 1/60 s, and its points moved up or down
+/// so that its bottom is `above` the floor (m; below it where negative).
+fn dropped_cube_with_its_bottom_at(n: usize, above: f64) -> (crate::Model, Vec<Vec3>) {
+    let (model, start) = crate::benchmark::Job::Drop
+        .scene(n, Integrator::BackwardEuler, None)
+        .unwrap();
+    let bottom = start.pos.iter().map(|p| p.z).fold(f64::INFINITY, f64::min);
+    let lift = Vec3::new(0.0, 0.0, above - bottom);
+    let x0 = start.pos.iter().map(|&p| p + lift).collect();
+    (model, x0)
+}
+
 /// `A` anticipates the contacts the last whole Newton step reached: a point clear of the floor
 /// at the iterate that the step took into it gets the floor's penalty stiffness `h²·kc·nnᵀ` in
 /// its block, and no other point's block changes (those the step left clear of the floor);
 /// before a solve's first direction, nothing is anticipated.
 #[test]
 fn a_anticipates_the_contacts_the_last_newton_step_reached() {
-    let (model, start) = crate::benchmark::Job::Drop
-        .scene(6, Integrator::BackwardEuler, None)
-        .unwrap();
-    let h = model.dt;
-    let bottom = start.pos.iter().map(|p| p.z).fold(f64::INFINITY, f64::min);
     // At rest 1 cm above the floor (or already 1 cm into it); the whole step takes the bottom
     // layer 3 cm down, the others 1 cm.
     for above in [0.01, -0.01] {
-        let lift = Vec3::new(0.0, 0.0, above - bottom);
-        let x0: Vec<Vec3> = start.pos.iter().map(|&p| p + lift).collect();
+        let (model, x0) = dropped_cube_with_its_bottom_at(6, above);
+        let h = model.dt;
         let on_bottom = |p: Vec3| p.z < above + 1e-9;
         let full: Vec<Vec3> = (x0.iter())
             .map(|&p| Vec3::new(0.0, 0.0, if on_bottom(p) { -0.03 } else { -0.01 } / h))
