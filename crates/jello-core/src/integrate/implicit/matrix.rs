@@ -208,6 +208,7 @@ pub(super) fn assemble(
     s.springs.set_own(&s.extra);
     s.springs.diagonal(&mut s.diag_inv);
     Operator::add_and_invert((&s.pair_rows, &s.pair_blocks), &mut s.diag_inv);
+    s.single.set_diagonal(&s.diag_inv);
     s.multigrid.assemble(&fine_operator!(s));
 }
 

@@ -97,9 +97,9 @@
 //! iterations, the momentum shift, the line search and when a step has converged;
 //! `residual.rs` the residual `g` and the potential's fall; `contacts.rs` the contacts'
 //! friction and the dampers between bodies in `g`; `matrix.rs` the assembly of `A`
-//! and the Newton direction (with its Levenberg–Marquardt shift); `cg.rs` the conjugate
-//! gradients and their sums on the team; `multigrid.rs` their preconditioner; `stencil.rs`
-//! `A·x` and the forces in stencil order; `gmres.rs` the solve where a field swirls; `sym.rs`
+//! and the Newton direction (with its Levenberg–Marquardt shift); `cg/` the conjugate
+//! gradients and their sums on the team (`single.rs` the usual solves', their vectors in
+//! single precision); `multigrid.rs` their preconditioner; `stencil/` `A·x` in stencil order; `gmres.rs` the solve where a field swirls; `sym.rs`
 //! symmetric 3×3 blocks; `tests.rs` and `test_models.rs` the parts' unit tests.
 
 use crate::compute::team;

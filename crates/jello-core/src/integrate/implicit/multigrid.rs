@@ -35,7 +35,7 @@
 use std::collections::HashMap;
 
 use super::cg::sum_chunk;
-use super::stencil::{LevelStencil, Precision};
+use super::stencil::{dot_single, LevelStencil, Precision};
 use super::sym::{add_sym, sym_inverse, sym_mul, Sym};
 use crate::compute::team;
 use crate::model::Model;
@@ -443,6 +443,110 @@ impl Multigrid {
         cycle(&mut self.levels, precision, over_from);
         let correction = (&self.down.parent[..], &self.levels[0].e[..]);
         fine.jacobi_dot(r, FINE_OMEGA, Some(correction), z, sums)
+    }
+}
+
+/// [`Multigrid::precondition`] for `r` and `z` in single precision as structure of arrays,
+/// the finest level's `D⁻¹` in `diag_inv` (single precision, `[xx, yy, zz, xy, xz, yz]`):
+/// the single-precision conjugate gradients' preconditioner; with `coarse` (the multigrid),
+/// its cycle, else `A`'s diagonal blocks alone. Returns `r·z` (in double precision), summed
+/// as [`super::cg::dot`] sums it (into `sums`).
+pub(super) fn precondition_single(
+    coarse: Option<&mut Multigrid>,
+    free: Option<&[f64]>,
+    diag_inv: &[Vec<f32>; 6],
+    r: [&[f32]; 3],
+    z: [&mut [f32]; 3],
+    precision: Precision,
+    sums: &mut [f64],
+) -> f64 {
+    let Some(multigrid) = coarse.filter(|m| !m.levels.is_empty()) else {
+        return jacobi_dot_single(free, diag_inv, r, 1.0, None, z, sums);
+    };
+    let first = &mut multigrid.levels[0];
+    let down = &multigrid.down;
+    let size = team::chunk_size(first.r.len(), MIN_NODES);
+    team::for_each_chunk([&mut first.r[..]], size, &|chunk, [coarse]| {
+        for (i, c) in coarse.iter_mut().enumerate() {
+            let j = chunk * size + i;
+            let nodes = &down.nodes[down.start[j] as usize..down.start[j + 1] as usize];
+            *c = nodes.iter().fold(Vec3::ZERO, |sum, &p| {
+                let p = p as usize;
+                sum + Vec3::new(r[0][p].into(), r[1][p].into(), r[2][p].into())
+            });
+        }
+    });
+    let over_from = multigrid
+        .over_corrected_from
+        .unwrap_or(OVER_CORRECTED_NODES);
+    cycle(&mut multigrid.levels, precision, over_from);
+    let correction = (&multigrid.down.parent[..], &multigrid.levels[0].e[..]);
+    jacobi_dot_single(free, diag_inv, r, FINE_OMEGA, Some(correction), z, sums)
+}
+
+/// `z = ω·D⁻¹·r + P·e` in single precision (see [`Operator::jacobi_dot`]); returns `r·z`.
+fn jacobi_dot_single(
+    free: Option<&[f64]>,
+    diag_inv: &[Vec<f32>; 6],
+    r: [&[f32]; 3],
+    omega: f64,
+    correction: Option<(&[u32], &[Vec3])>,
+    z: [&mut [f32]; 3],
+    sums: &mut [f64],
+) -> f64 {
+    let size = sum_chunk(z[0].len());
+    team::for_each_chunk_into(z, size, sums, &|chunk, z| {
+        let at = chunk * size..chunk * size + z[0].len();
+        let free = free.map(|f| &f[at.clone()]);
+        let correction = correction.map(|(parent, coarse)| (&parent[at.clone()], coarse));
+        let r = r.map(|r| &r[at.clone()]);
+        let diag_inv = std::array::from_fn(|c| &diag_inv[c][at.clone()]);
+        jacobi_dot_single_chunk(r, diag_inv, free, omega as f32, correction, z)
+    });
+    sums.iter().sum()
+}
+
+crate::compute::simd::multiversion! {
+    /// One chunk of [`jacobi_dot_single`], compiled per tier (the same bits on each); `r·z`
+    /// summed as [`dot_single`] sums.
+    fn jacobi_dot_single_chunk(
+        r: [&[f32]; 3],
+        diag_inv: [&[f32]; 6],
+        free: Option<&[f64]>,
+        omega: f32,
+        correction: Option<(&[u32], &[Vec3])>,
+        z: [&mut [f32]; 3],
+    ) -> f64 {
+        let [z0, z1, z2] = z;
+        let n = z0.len();
+        let (z1, z2) = (&mut z1[..n], &mut z2[..n]);
+        let [r0, r1, r2] = r.map(|r| &r[..n]);
+        let [xx, yy, zz, xy, xz, yz] = diag_inv.map(|d| &d[..n]);
+        let free = free.map(|f| &f[..n]);
+        for i in 0..n {
+            let f = match free {
+                Some(free) => free[i] as f32,
+                None => 1.0,
+            };
+            let w = omega * f;
+            z0[i] = (xx[i] * r0[i] + xy[i] * r1[i] + xz[i] * r2[i]) * w;
+            z1[i] = (xy[i] * r0[i] + yy[i] * r1[i] + yz[i] * r2[i]) * w;
+            z2[i] = (xz[i] * r0[i] + yz[i] * r1[i] + zz[i] * r2[i]) * w;
+        }
+        if let Some((parent, coarse)) = correction {
+            let parent = &parent[..n];
+            for i in 0..n {
+                let f = match free {
+                    Some(free) => free[i] as f32,
+                    None => 1.0,
+                };
+                let c = coarse[parent[i] as usize];
+                z0[i] += c.x as f32 * f;
+                z1[i] += c.y as f32 * f;
+                z2[i] += c.z as f32 * f;
+            }
+        }
+        dot_single([r0, r1, r2], [&*z0, &*z1, &*z2])
     }
 }
 

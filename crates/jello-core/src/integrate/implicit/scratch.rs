@@ -111,6 +111,8 @@ pub struct ImplicitScratch {
     pub(super) full_step: Vec<Vec3>,
     pub(super) full_step_taken: bool,
     pub(super) anticipating: bool,
+    /// The single-precision conjugate gradients' vectors ([`super::cg::single`]).
+    pub(super) single: super::cg::single::SingleVectors,
     /// Residuals of the iterate and the trial.
     pub(super) g: Vec<Vec3>,
     pub(super) g_trial: Vec<Vec3>,
@@ -291,6 +293,7 @@ impl ImplicitScratch {
             full_step: zeros.clone(),
             full_step_taken: false,
             anticipating: true,
+            single: super::cg::single::SingleVectors::zeros(n),
             g: zeros.clone(),
             g_trial: zeros.clone(),
             dv: zeros.clone(),

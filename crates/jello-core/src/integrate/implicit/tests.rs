@@ -718,3 +718,84 @@ fn a_with_the_swirl_is_the_derivative_of_the_residual() {
         .fold(0.0, f64::max);
     assert!(worst > 1e-3 * scale, "{worst} against {scale}");
 }
+
+/// The conjugate gradients of the usual solves, with their vectors in single precision, reach
+/// the reduction they are asked for in `A·Δv = −M·g` itself (its residual computed afresh in
+/// double precision, not the solve's own), and take the same iterations to the same bits on
+/// any number of threads: a 16³ lattice (two ranges of rows on two threads) with random positions and velocities, two held points.
+#[test]
+fn single_precision_solves_reach_their_reduction_with_the_same_bits_on_any_number_of_threads() {
+    let model = ModelBuilder::new()
+        .bodies(vec![test_models::box_at([16, 16, 16], Vec3::ZERO)])
+        .pins(vec![0, 5])
+        .build()
+        .unwrap();
+    let n = model.point_count();
+    let h = 0.01;
+    let mut next = values(31);
+    let x0: Vec<Vec3> = crate::State::at_rest(&model)
+        .pos
+        .iter()
+        .map(|&p| p + Vec3::new(next(), next(), next()) * 0.05)
+        .collect();
+    let v: Vec<Vec3> = (0..n).map(|_| Vec3::new(next(), next(), next())).collect();
+    let solve_on = |threads: usize| {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        pool.install(|| {
+            team::run(|| {
+                let (control, mut force) = (Control::none(), ForceScratch::new(&model));
+                let mut s = ImplicitScratch::new(&model);
+                s.load(&model);
+                s.start_dampers(&model, &x0);
+                s.v_soa.fill_zero();
+                s.v.copy_from_slice(&v);
+                residual(&model, &control, &mut force, &mut s, &x0, &v, h, false);
+                // Positive definite: the compressed springs' negative stiffness clamped.
+                let curvature = Curvature::Clamped;
+                assemble(&model, &control, force.anchors(), &mut s, &x0, h, curvature);
+                s.within = 0.0;
+                let reduction = 1e-3;
+                assert_eq!(precision_for(reduction), Precision::Single);
+                assert!(cg::solve(&mut s, reduction, cg::Preconditioner::Multigrid));
+                // `−M·g − A·Δv`, `A` in double precision.
+                let b: Vec<Vec3> = (0..n).map(|p| s.g[p] * (-s.mass[p] * s.free[p])).collect();
+                let mut a_dv = vec![Vec3::ZERO; n];
+                let (pairs, blocks) = (s.pair_rows.clone(), s.pair_blocks.clone());
+                let (free, dv) = (s.free.clone(), s.dv.clone());
+                apply_to(
+                    &mut s.springs,
+                    &free,
+                    &pairs,
+                    &blocks,
+                    (None, &[]),
+                    &dv,
+                    &mut a_dv,
+                    Precision::Double,
+                );
+                let norm = |r: &dyn Fn(usize) -> Vec3| {
+                    (0..n).map(|p| r(p).length_squared()).sum::<f64>().sqrt()
+                };
+                let fell = norm(&|p| b[p] - a_dv[p]) / norm(&|p| b[p]);
+                (s.dv, s.stats.linear_iterations, fell)
+            })
+        })
+    };
+    let (dv, iterations, fell) = solve_on(1);
+    assert!(
+        iterations >= 5,
+        "{iterations} iterations: not a test of the solve"
+    );
+    assert!(
+        fell <= 1.1e-3,
+        "the residual fell to {fell:e} of itself, not 1e-3"
+    );
+    assert!(dv.iter().all(|d| d.is_finite()) && dv[0] == Vec3::ZERO && dv[5] == Vec3::ZERO);
+    for threads in [2, 3, 8] {
+        let (other, other_iterations, _) = solve_on(threads);
+        assert_eq!(other_iterations, iterations, "{threads} threads");
+        assert!(other == dv, "{threads} threads: other bits");
+    }
+}

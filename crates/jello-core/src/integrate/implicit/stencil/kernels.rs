@@ -161,6 +161,54 @@ crate::compute::simd::multiversion! {
 }
 
 crate::compute::simd::multiversion! {
+    /// `out = rows·free` point by point, in single precision.
+    pub(super) fn out_rows_free(rows: [&[f32]; 3], free: &[f64], out: [&mut [f32]; 3]) {
+        let n = free.len();
+        for (out, rows) in out.into_iter().zip(rows) {
+            let (out, rows) = (&mut out[..n], &rows[..n]);
+            for i in 0..n {
+                out[i] = rows[i] * free[i] as f32;
+            }
+        }
+    }
+}
+
+crate::compute::simd::multiversion! {
+    /// `x·y` in double precision over single-precision vectors (structure of arrays): point
+    /// `i`'s term into partial sum `i mod 8`, then those in order.
+    pub(in crate::integrate::implicit) fn dot_single(x: [&[f32]; 3], y: [&[f32]; 3]) -> f64 {
+        let n = x[0].len();
+        let [x0, x1, x2] = x.map(|x| &x[..n]);
+        let [y0, y1, y2] = y.map(|y| &y[..n]);
+        let term = |i: usize, (a0, a1, a2): (&[f32], &[f32], &[f32]), (b0, b1, b2): (&[f32], &[f32], &[f32])| {
+            f64::from(a0[i]) * f64::from(b0[i])
+                + f64::from(a1[i]) * f64::from(b1[i])
+                + f64::from(a2[i]) * f64::from(b2[i])
+        };
+        // Eight points at a time, each into its own sum (slices of a known length: no bounds
+        // checks, and the eight sums one vector).
+        let mut sums = [0.0f64; 8];
+        let eights = (x0.chunks_exact(8).zip(x1.chunks_exact(8)).zip(x2.chunks_exact(8)))
+            .zip(y0.chunks_exact(8).zip(y1.chunks_exact(8)).zip(y2.chunks_exact(8)));
+        for (((a0, a1), a2), ((b0, b1), b2)) in eights {
+            let (a, b) = ((&a0[..8], &a1[..8], &a2[..8]), (&b0[..8], &b1[..8], &b2[..8]));
+            for (k, sum) in sums.iter_mut().enumerate() {
+                *sum += term(k, a, b);
+            }
+        }
+        let whole = n - n % 8;
+        let (a, b) = (
+            (&x0[whole..], &x1[whole..], &x2[whole..]),
+            (&y0[whole..], &y1[whole..], &y2[whole..]),
+        );
+        for (k, sum) in sums.iter_mut().enumerate().take(n - whole) {
+            *sum += term(k, a, b);
+        }
+        sums.iter().sum()
+    }
+}
+
+crate::compute::simd::multiversion! {
     /// `out = own·x` point by point, `own` the points' blocks (`[xx, yy, zz, xy, xz, yz]`) and
     /// `x` in single precision, as structure of arrays.
     pub(super) fn own_rows_soa(own: [&[f32]; 6], x: [&[f32]; 3], out: [&mut [f32]; 3]) {

@@ -50,9 +50,10 @@ mod tests;
 
 pub(super) use level::LevelStencil;
 
+pub(super) use kernels::dot_single;
 use kernels::{
-    own_rows_soa, rows, spring_blocks, spring_blocks_single, spring_forces, spring_forces_single,
-    Lane,
+    out_rows_free, own_rows_soa, rows, spring_blocks, spring_blocks_single, spring_forces,
+    spring_forces_single, Lane,
 };
 
 use super::cg::{dot_chunk, sum_chunk};
@@ -490,6 +491,52 @@ impl SpringMatrix {
         sums: &mut [f64],
     ) -> f64 {
         self.apply_with(free, x, y, precision, Input::Loaded, Some(sums))
+    }
+
+    /// `y = own·p + springs·p` in single precision, scaled by `free` per point, as structure of
+    /// arrays, `p` in [`SpringMatrix::single_input`] already (the single-precision conjugate
+    /// gradients' direction); returns `p·y` (in double precision), each chunk of [`sum_chunk`]
+    /// points summed in order into `sums`, then the chunks' sums in order: the same bits on any
+    /// number of threads.
+    pub fn apply_dot_single(&mut self, free: &[f64], y: [&mut [f32]; 3], sums: &mut [f64]) -> f64 {
+        let (spans, n) = (&self.spans[..], self.n);
+        self.ranges.fit(n);
+        let (blocks, own, x) = (&self.blocks_single, &self.own_single, &self.x_single);
+        let forces = entry_forces(spring_forces_single, blocks);
+        let init = |start: usize, out: [&mut [f32]; 3]| {
+            let len = out[0].len();
+            own_rows_soa(part(own, start, len), part(x, start, len), out);
+        };
+        ranges_rows(&mut self.ranges.0, spans, n, &init, x, &forces);
+        let ranges = &self.ranges;
+        let size = sum_chunk(n);
+        team::for_each_chunk_into(y, size, sums, &|c, [y0, y1, y2]| {
+            let (lo, hi) = (c * size, c * size + y0.len());
+            // The chunk's rows out of the ranges that hold them, then its sum in one pass (the
+            // ranges, one per thread, do not decide its order).
+            for range in
+                &ranges.0[lo / ranges.size()..hi.div_ceil(ranges.size()).min(ranges.0.len())]
+            {
+                let (a, b) = (
+                    lo.max(range.start),
+                    hi.min(range.start + range.y_single[0].len()),
+                );
+                if a < b {
+                    let rows = range
+                        .y_single
+                        .each_ref()
+                        .map(|r| &r[a - range.start..b - range.start]);
+                    let out = [
+                        &mut y0[a - lo..b - lo],
+                        &mut y1[a - lo..b - lo],
+                        &mut y2[a - lo..b - lo],
+                    ];
+                    out_rows_free(rows, &free[a..b], out);
+                }
+            }
+            dot_single(x.each_ref().map(|x| &x[lo..hi]), [&*y0, &*y1, &*y2])
+        });
+        sums.iter().sum()
     }
 
     /// The diagonal blocks of `A`'s springs' part plus the points' own ([`SpringMatrix::set_own`])

@@ -2,6 +2,8 @@
 //! preconditioned by the multigrid cycle, with `A·x` in stencil order and the dot products
 //! summed over fixed chunks on the step's team.
 
+pub(super) mod single;
+
 use crate::compute::team;
 use crate::vec3::Vec3;
 
@@ -209,6 +211,11 @@ pub(super) fn solve(
         return solve_unsymmetric(s, reduction, preconditioner);
     }
     let precision = precision_for(reduction);
+    // Vectors in single precision too, where the products are (see `single`) and `A` has no
+    // pairs found at the iterate (contacts between bodies, whose products take `Vec3`s).
+    if precision == Precision::Single && s.pair_rows.is_empty() {
+        return single::solve(s, reduction, preconditioner);
+    }
     // `z = P⁻¹·r`, returning `r·z`.
     let precondition = |s: &mut ImplicitScratch| {
         let fine = fine_operator!(s);
