@@ -1,7 +1,7 @@
 //! The conjugate gradients of the usual solves (those asking for a reduction no finer than
 //! [`SINGLE_PRECISION_REDUCTION`], whose products with `A` are in single precision, `A`
-//! symmetric and without pairs found at the iterate) with their vectors in single precision too, as
-//! structure of arrays: `Δv`, `r`, `z` and `A·p` here, `p` in the springs' product input
+//! symmetric and without pairs found at the iterate) with their vectors in single precision
+//! too, as structure of arrays: `Δv`, `r`, `z` and `A·p` here, `p` in the springs' product input
 //! ([`SpringMatrix::single_input`](super::SpringMatrix::single_input)), and the fine level's
 //! `D⁻¹` (the preconditioner's smoother) from each assembly.
 //!
