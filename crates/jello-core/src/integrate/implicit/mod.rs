@@ -99,8 +99,9 @@
 //! friction and the dampers between bodies in `g`; `matrix.rs` the assembly of `A`
 //! and the Newton direction (with its Levenberg–Marquardt shift); `cg/` the conjugate
 //! gradients and their sums on the team (`single.rs` the usual solves', their vectors in
-//! single precision); `multigrid.rs` their preconditioner; `stencil/` `A·x` in stencil order; `gmres.rs` the solve where a field swirls; `sym.rs`
-//! symmetric 3×3 blocks; `tests.rs` and `test_models.rs` the parts' unit tests.
+//! single precision); `multigrid.rs` their preconditioner; `stencil/` `A·x` in stencil order;
+//! `gmres.rs` the solve where a field swirls; `sym.rs` symmetric 3×3 blocks; `tests.rs` and
+//! `test_models.rs` the parts' unit tests.
 
 use crate::compute::team;
 use crate::forces::ForceScratch;

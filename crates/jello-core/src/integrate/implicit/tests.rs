@@ -722,7 +722,8 @@ fn a_with_the_swirl_is_the_derivative_of_the_residual() {
 /// The conjugate gradients of the usual solves, with their vectors in single precision, reach
 /// the reduction they are asked for in `A·Δv = −M·g` itself (its residual computed afresh in
 /// double precision, not the solve's own), and take the same iterations to the same bits on
-/// any number of threads: a 16³ lattice (two ranges of rows on two threads) with random positions and velocities, two held points.
+/// any number of threads: a 16³ lattice (two ranges of rows on two threads) with random
+/// positions and velocities, two held points.
 #[test]
 fn single_precision_solves_reach_their_reduction_with_the_same_bits_on_any_number_of_threads() {
     let model = ModelBuilder::new()

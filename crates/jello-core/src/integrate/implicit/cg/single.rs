@@ -258,7 +258,8 @@ crate::compute::simd::multiversion! {
         let [d0, d1, d2] = dv;
         let [r0, r1, r2] = r;
         let n = d0.len();
-        let (d1, d2, r0, r1, r2) = (&mut d1[..n], &mut d2[..n], &mut r0[..n], &mut r1[..n], &mut r2[..n]);
+        let (d1, d2) = (&mut d1[..n], &mut d2[..n]);
+        let (r0, r1, r2) = (&mut r0[..n], &mut r1[..n], &mut r2[..n]);
         let [p0, p1, p2] = p.map(|p| &p[..n]);
         let [a0, a1, a2] = ap.map(|a| &a[..n]);
         let mass = &mass[..n];

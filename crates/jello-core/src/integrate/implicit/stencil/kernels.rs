@@ -180,7 +180,8 @@ crate::compute::simd::multiversion! {
         let n = x[0].len();
         let [x0, x1, x2] = x.map(|x| &x[..n]);
         let [y0, y1, y2] = y.map(|y| &y[..n]);
-        let term = |i: usize, (a0, a1, a2): (&[f32], &[f32], &[f32]), (b0, b1, b2): (&[f32], &[f32], &[f32])| {
+        type Three<'a> = (&'a [f32], &'a [f32], &'a [f32]);
+        let term = |i: usize, (a0, a1, a2): Three, (b0, b1, b2): Three| {
             f64::from(a0[i]) * f64::from(b0[i])
                 + f64::from(a1[i]) * f64::from(b1[i])
                 + f64::from(a2[i]) * f64::from(b2[i])
