@@ -233,7 +233,10 @@ impl ImplicitScratch {
             && self.springs.fits(model)
             && (!can_swirl(model, model.dt)
                 || (self.gmres.fits(n) && self.field_correction.len() == n))
-            && (!can_slide(model) || (self.gmres.fits(n) && self.friction_growth.capacity() >= n))
+            && (!can_slide(model)
+                || (self.gmres.fits(n)
+                    && self.single.gmres_fits(n)
+                    && self.friction_growth.capacity() >= n))
     }
 
     pub(super) fn new(model: &Model) -> Self {
@@ -293,7 +296,7 @@ impl ImplicitScratch {
             full_step: zeros.clone(),
             full_step_taken: false,
             anticipating: true,
-            single: super::cg::single::SingleVectors::zeros(n),
+            single: super::cg::single::SingleVectors::zeros(n, slides),
             g: zeros.clone(),
             g_trial: zeros.clone(),
             dv: zeros.clone(),

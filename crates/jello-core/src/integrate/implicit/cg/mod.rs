@@ -278,6 +278,36 @@ fn solve_unsymmetric(
     reduction: f64,
     preconditioner: Preconditioner,
 ) -> bool {
+    let precision = precision_for(reduction);
+    let reached = if precision == Precision::Single
+        && !s.swirl
+        && s.pair_rows.is_empty()
+        && s.single.gmres_fits(s.g.len())
+    {
+        single::solve_unsymmetric(s, reduction, preconditioner)
+    } else {
+        solve_unsymmetric_double(s, reduction, preconditioner)
+    };
+    s.stats.linear_iterations += reached.iterations as u64;
+    if reached.relative_residual <= reduction {
+        return true;
+    }
+    match preconditioner {
+        Preconditioner::Multigrid => {
+            s.multigrid_failed = true;
+            false
+        }
+        Preconditioner::Diagonal => reached.relative_residual <= 0.5,
+    }
+}
+
+/// [`solve_unsymmetric`]'s GMRES with `Vec3`s in double precision (a swirling field, pairs
+/// found at the iterate, or an exact solve); what it reached.
+fn solve_unsymmetric_double(
+    s: &mut ImplicitScratch,
+    reduction: f64,
+    preconditioner: Preconditioner,
+) -> super::gmres::Reached {
     set_right_hand_side(s);
     let mut gmres = std::mem::take(&mut s.gmres);
     let reached = {
@@ -291,7 +321,7 @@ fn solve_unsymmetric(
             &[]
         };
         let precision = precision_for(reduction);
-        let apply = |x: &[Vec3], y: &mut [Vec3]| {
+        let apply = |x: &Vec<Vec3>, y: &mut Vec<Vec3>| {
             let corrections = (field, growth);
             apply_to(
                 springs,
@@ -305,7 +335,7 @@ fn solve_unsymmetric(
             );
         };
         let mut sums = std::mem::take(&mut s.dots);
-        let precondition = |r: &[Vec3], z: &mut [Vec3]| {
+        let precondition = |r: &Vec<Vec3>, z: &mut Vec<Vec3>| {
             precondition_with(
                 preconditioner,
                 multigrid,
@@ -320,17 +350,7 @@ fn solve_unsymmetric(
         reached
     };
     s.gmres = gmres;
-    s.stats.linear_iterations += reached.iterations as u64;
-    if reached.relative_residual <= reduction {
-        return true;
-    }
-    match preconditioner {
-        Preconditioner::Multigrid => {
-            s.multigrid_failed = true;
-            false
-        }
-        Preconditioner::Diagonal => reached.relative_residual <= 0.5,
-    }
+    reached
 }
 
 /// `z = P⁻¹·r` for the preconditioner `preconditioner` of `A` (`fine`), the multigrid's coarse

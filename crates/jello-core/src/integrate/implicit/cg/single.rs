@@ -14,17 +14,21 @@
 //! within a chunk in eight partial sums, point `i`'s into sum `i mod 8`): the same bits on any
 //! number of threads and every SIMD tier. Such a solve only steers Newton's method, whose
 //! residual stays in double precision, as the single-precision products already did; exact
-//! solves keep their vectors in double precision ([`super::solve`]).
+//! solves keep their vectors in double precision ([`super::solve`]). GMRES's vectors are in
+//! single precision too where friction's growth with depth alone makes `A` unsymmetric
+//! ([`solve_unsymmetric`]; GMRES had been 10.7 % of a dropped 32³ cube's samples, for 13 % of
+//! its linear iterations).
 //!
 //! [`SINGLE_PRECISION_REDUCTION`]: super::super::SINGLE_PRECISION_REDUCTION
 
 use crate::compute::team;
 use crate::vec3::Vec3;
 
+use super::super::gmres::{Gmres, Reached};
 use super::super::multigrid::precondition_single;
 use super::super::stencil::{dot_single, Precision};
 use super::super::{chunk_size, ImplicitScratch, MAX_CG};
-use super::{sum_chunk, Preconditioner};
+use super::{sum_chunk, sum_chunks, Preconditioner};
 
 /// The single-precision conjugate gradients' vectors (structure of arrays) and the fine
 /// level's `D⁻¹`, sized for the model's points.
@@ -36,11 +40,15 @@ pub(in crate::integrate::implicit) struct SingleVectors {
     ap: [Vec<f32>; 3],
     /// `[xx, yy, zz, xy, xz, yz]` of each point's inverse diagonal block.
     diag_inv: [Vec<f32>; 6],
+    /// GMRES in single precision, where friction may slide (its growth with depth makes `A`
+    /// unsymmetric; see [`solve_unsymmetric`]), and the sums of its preconditioner.
+    gmres: Gmres<[Vec<f32>; 3]>,
+    sums: Vec<f64>,
 }
 
 impl SingleVectors {
-    /// For `n` points, all zero.
-    pub fn zeros(n: usize) -> SingleVectors {
+    /// For `n` points, all zero; with GMRES's vectors where friction `slides`.
+    pub fn zeros(n: usize, slides: bool) -> SingleVectors {
         let v = || std::array::from_fn(|_| vec![0.0; n]);
         SingleVectors {
             dv: v(),
@@ -48,7 +56,18 @@ impl SingleVectors {
             z: v(),
             ap: v(),
             diag_inv: std::array::from_fn(|_| vec![0.0; n]),
+            gmres: if slides {
+                Gmres::new(n)
+            } else {
+                Gmres::default()
+            },
+            sums: vec![0.0; sum_chunks(n)],
         }
+    }
+
+    /// Whether its GMRES has room for `n` points.
+    pub fn gmres_fits(&self, n: usize) -> bool {
+        self.gmres.fits(n)
     }
 
     /// The fine level's `D⁻¹` (each point's inverse diagonal block), rounded to single
@@ -138,8 +157,13 @@ fn solve_with(
         rz = rz_next;
         set_direction(s, v, Some(beta));
     }
-    // The direction into the Newton step's buffer, in double precision.
-    let size = chunk_size(n);
+    direction_out(s, v);
+    true
+}
+
+/// The direction `v.dv` into the Newton step's buffer `s.dv`, in double precision.
+fn direction_out(s: &mut ImplicitScratch, v: &SingleVectors) {
+    let size = chunk_size(s.dv.len());
     let dv = &v.dv;
     team::for_each_chunk([&mut s.dv[..]], size, &|c, [out]| {
         let at = c * size;
@@ -148,7 +172,72 @@ fn solve_with(
             *out = Vec3::new(dv[0][p].into(), dv[1][p].into(), dv[2][p].into());
         }
     });
-    true
+}
+
+/// GMRES (see [`super::solve_unsymmetric`]) with single-precision vectors, for an `A` made
+/// unsymmetric by friction's growth with depth alone (no swirl, no pairs found at the
+/// iterate), its products in single precision: `A·Δv = −M·g` into `s.dv`; what it reached.
+pub(super) fn solve_unsymmetric(
+    s: &mut ImplicitScratch,
+    reduction: f64,
+    preconditioner: Preconditioner,
+) -> Reached {
+    let mut v = std::mem::take(&mut s.single);
+    let mut gmres = std::mem::take(&mut v.gmres);
+    let mut sums = std::mem::take(&mut v.sums);
+    right_hand_side(s, &mut v);
+    let reached = {
+        let (springs, free) = (&mut s.springs, &s.free[..]);
+        let multigrid = &mut s.multigrid;
+        let growth = if s.exact_friction {
+            &s.friction_growth[..]
+        } else {
+            &[]
+        };
+        let dots = &mut s.dots;
+        let apply = |x: &[Vec<f32>; 3], y: &mut [Vec<f32>; 3]| {
+            // `x` into the product's input, then `A·x` with friction's growth.
+            let input = springs.single_input();
+            let size = chunk_size(input[0].len());
+            team::for_each_chunk(input, size, &|c, input| {
+                for (input, x) in input.into_iter().zip(x) {
+                    input.copy_from_slice(&x[c * size..c * size + input.len()]);
+                }
+            });
+            springs.apply_dot_single(free, y.each_mut().map(|y| &mut y[..]), dots);
+            for (p, c) in growth {
+                let p = *p as usize;
+                let x = [x[0][p], x[1][p], x[2][p]].map(f64::from);
+                for (row, y) in y.iter_mut().enumerate() {
+                    let c = &c[3 * row..3 * row + 3];
+                    y[p] += ((c[0] * x[0] + c[1] * x[1] + c[2] * x[2]) * free[p]) as f32;
+                }
+            }
+        };
+        let diag_inv = &v.diag_inv;
+        let precondition = |r: &[Vec<f32>; 3], z: &mut [Vec<f32>; 3]| {
+            let multigrid =
+                (preconditioner == Preconditioner::Multigrid).then_some(&mut *multigrid);
+            let (r, z) = (
+                r.each_ref().map(|r| &r[..]),
+                z.each_mut().map(|z| &mut z[..]),
+            );
+            precondition_single(
+                multigrid,
+                Some(free),
+                diag_inv,
+                r,
+                z,
+                Precision::Single,
+                &mut sums,
+            );
+        };
+        gmres.solve(&v.r, &mut v.dv, reduction, MAX_CG, apply, precondition)
+    };
+    direction_out(s, &v);
+    (v.gmres, v.sums) = (gmres, sums);
+    s.single = v;
+    reached
 }
 
 /// `Σ f(chunk)` over the chunks of [`sum_chunk`] points of `n`, each on the team into `sums`,
