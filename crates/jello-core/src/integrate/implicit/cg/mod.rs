@@ -216,28 +216,50 @@ pub(super) fn solve(
     if precision == Precision::Single && s.pair_rows.is_empty() {
         return single::solve(s, reduction, preconditioner);
     }
-    // `z = P⁻¹·r`, returning `r·z`.
-    let precondition = |s: &mut ImplicitScratch| {
-        let fine = fine_operator!(s);
-        precondition_with(
-            preconditioner,
-            &mut s.multigrid,
-            &fine,
-            (&s.r, &mut s.z),
-            precision,
-            &mut s.dots,
-        )
+    let mut double = Double {
+        preconditioner,
+        precision,
     };
+    iterate(s, &mut double, reduction, preconditioner)
+}
+
+/// The passes of a conjugate-gradient iteration over its vectors, each on the team: in double
+/// precision as `Vec3`s ([`Double`]) or in single precision as structure of arrays
+/// ([`single`]). [`iterate`] is the loop that calls them.
+trait Passes {
+    /// `Δv = 0` and `r = −M·g` (zero at held points).
+    fn start(&mut self, s: &mut ImplicitScratch);
+    /// `z = P⁻¹·r`; returns `r·z`.
+    fn precondition(&mut self, s: &mut ImplicitScratch) -> f64;
+    /// `p = z + β·p` (`p = z` without `β`).
+    fn set_direction(&mut self, s: &mut ImplicitScratch, beta: Option<f64>);
+    /// `r·r`.
+    fn rr(&mut self, s: &mut ImplicitScratch) -> f64;
+    /// `A·p`; returns `p·A·p`.
+    fn apply_dot(&mut self, s: &mut ImplicitScratch) -> f64;
+    /// `Δv += α·p` and `r −= α·A·p`; returns the new `r·r` and whether `r` is within
+    /// `m·s.within` at every point (never when `s.within` is 0).
+    fn advance(&mut self, s: &mut ImplicitScratch, alpha: f64) -> (f64, bool);
+}
+
+/// The conjugate gradients over `passes`' vectors from zero, until the residual has fallen by
+/// `reduction` or is within `m·s.within` at every point; false when `A` turns out not to be
+/// positive definite, or the preconditioner (then `s.multigrid_failed` says which).
+fn iterate(
+    s: &mut ImplicitScratch,
+    passes: &mut impl Passes,
+    reduction: f64,
+    preconditioner: Preconditioner,
+) -> bool {
     // A negative `r·z` shows an indefinite preconditioner, `A` itself only with the diagonal.
     let fail = |s: &mut ImplicitScratch| {
         s.multigrid_failed = preconditioner == Preconditioner::Multigrid;
         false
     };
-    s.dv.fill(Vec3::ZERO);
-    set_right_hand_side(s);
-    let mut rz = precondition(s);
-    set_direction(s, None, precision);
-    let mut rr = dot(&s.r, &s.r, &mut s.dots);
+    passes.start(s);
+    let mut rz = passes.precondition(s);
+    passes.set_direction(s, None);
+    let mut rr = passes.rr(s);
     let target = rr * reduction * reduction;
     if !rz.is_finite() {
         return false;
@@ -251,21 +273,63 @@ pub(super) fn solve(
         if rr <= target || rz == 0.0 || within {
             break;
         }
-        let pap = apply_dot(s, precision);
+        let pap = passes.apply_dot(s);
         s.stats.linear_iterations += 1;
         if pap <= 0.0 || !pap.is_finite() {
             return false;
         }
-        (rr, within) = advance(s, rz / pap);
-        let rz_next = precondition(s);
+        (rr, within) = passes.advance(s, rz / pap);
+        let rz_next = passes.precondition(s);
         if rz_next < 0.0 {
             return fail(s);
         }
         let beta = rz_next / rz;
         rz = rz_next;
-        set_direction(s, Some(beta), precision);
+        passes.set_direction(s, Some(beta));
     }
     true
+}
+
+/// The conjugate gradients' vectors in double precision (`Vec3`s in the scratch), the
+/// products in `precision`.
+struct Double {
+    preconditioner: Preconditioner,
+    precision: Precision,
+}
+
+impl Passes for Double {
+    fn start(&mut self, s: &mut ImplicitScratch) {
+        s.dv.fill(Vec3::ZERO);
+        set_right_hand_side(s);
+    }
+
+    fn precondition(&mut self, s: &mut ImplicitScratch) -> f64 {
+        let fine = fine_operator!(s);
+        precondition_with(
+            self.preconditioner,
+            &mut s.multigrid,
+            &fine,
+            (&s.r, &mut s.z),
+            self.precision,
+            &mut s.dots,
+        )
+    }
+
+    fn set_direction(&mut self, s: &mut ImplicitScratch, beta: Option<f64>) {
+        set_direction(s, beta, self.precision);
+    }
+
+    fn rr(&mut self, s: &mut ImplicitScratch) -> f64 {
+        dot(&s.r, &s.r, &mut s.dots)
+    }
+
+    fn apply_dot(&mut self, s: &mut ImplicitScratch) -> f64 {
+        apply_dot(s, self.precision)
+    }
+
+    fn advance(&mut self, s: &mut ImplicitScratch, alpha: f64) -> (f64, bool) {
+        advance(s, alpha)
+    }
 }
 
 /// Solves `A·Δv = −M·g` into `s.dv` by GMRES when `A` holds a field's swirl or the growth of

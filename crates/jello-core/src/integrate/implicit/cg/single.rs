@@ -28,7 +28,7 @@ use super::super::gmres::{Gmres, Reached};
 use super::super::multigrid::precondition_single;
 use super::super::stencil::{dot_single, Precision};
 use super::super::{chunk_size, ImplicitScratch, MAX_CG};
-use super::{sum_chunk, sum_chunks, Preconditioner};
+use super::{iterate, sum_chunk, sum_chunks, Passes, Preconditioner};
 
 /// The single-precision conjugate gradients' vectors (structure of arrays) and the fine
 /// level's `D⁻¹`, sized for the model's points.
@@ -96,69 +96,59 @@ pub(super) fn solve(
     reduction: f64,
     preconditioner: Preconditioner,
 ) -> bool {
-    let mut vectors = std::mem::take(&mut s.single);
-    let solved = solve_with(s, &mut vectors, reduction, preconditioner);
-    s.single = vectors;
+    let mut passes = Single {
+        v: std::mem::take(&mut s.single),
+        preconditioner,
+    };
+    let solved = iterate(s, &mut passes, reduction, preconditioner);
+    if solved {
+        direction_out(s, &passes.v);
+    }
+    s.single = passes.v;
     solved
 }
 
-fn solve_with(
-    s: &mut ImplicitScratch,
-    v: &mut SingleVectors,
-    reduction: f64,
+/// The conjugate gradients' passes over the single-precision vectors `v`.
+struct Single {
+    v: SingleVectors,
     preconditioner: Preconditioner,
-) -> bool {
-    let precision = Precision::Single;
-    let n = s.g.len();
-    // `z = P⁻¹·r`, returning `r·z`.
-    let precondition = |s: &mut ImplicitScratch, v: &mut SingleVectors| {
-        let multigrid = (preconditioner == Preconditioner::Multigrid).then_some(&mut s.multigrid);
+}
+
+impl Passes for Single {
+    fn start(&mut self, s: &mut ImplicitScratch) {
+        right_hand_side(s, &mut self.v);
+    }
+
+    fn precondition(&mut self, s: &mut ImplicitScratch) -> f64 {
+        let v = &mut self.v;
+        let multigrid =
+            (self.preconditioner == Preconditioner::Multigrid).then_some(&mut s.multigrid);
         let r = v.r.each_ref().map(|r| &r[..]);
         let z = v.z.each_mut().map(|z| &mut z[..]);
-        let free = Some(&s.free[..]);
+        let (free, precision) = (Some(&s.free[..]), Precision::Single);
         precondition_single(multigrid, free, &v.diag_inv, r, z, precision, &mut s.dots)
-    };
-    let fail = |s: &mut ImplicitScratch| {
-        s.multigrid_failed = preconditioner == Preconditioner::Multigrid;
-        false
-    };
-    right_hand_side(s, v);
-    let mut rz = precondition(s, v);
-    set_direction(s, v, None);
-    let mut rr = sums(n, &mut s.dots, &|at| {
-        let r = v.r.each_ref().map(|r| &r[at.clone()]);
-        dot_single(r, r)
-    });
-    let target = rr * reduction * reduction;
-    if !rz.is_finite() {
-        return false;
     }
-    if rz < 0.0 {
-        return fail(s);
+
+    fn set_direction(&mut self, s: &mut ImplicitScratch, beta: Option<f64>) {
+        set_direction(s, &self.v, beta);
     }
-    // Whether the residual is within its bound at every point (not judged before a first step).
-    let mut within = false;
-    for _ in 0..MAX_CG {
-        if rr <= target || rz == 0.0 || within {
-            break;
-        }
-        let ap = v.ap.each_mut().map(|ap| &mut ap[..]);
-        let pap = s.springs.apply_dot_single(&s.free, ap, &mut s.dots);
-        s.stats.linear_iterations += 1;
-        if pap <= 0.0 || !pap.is_finite() {
-            return false;
-        }
-        (rr, within) = advance(s, v, rz / pap);
-        let rz_next = precondition(s, v);
-        if rz_next < 0.0 {
-            return fail(s);
-        }
-        let beta = rz_next / rz;
-        rz = rz_next;
-        set_direction(s, v, Some(beta));
+
+    fn rr(&mut self, s: &mut ImplicitScratch) -> f64 {
+        let r = &self.v.r;
+        sums(s.g.len(), &mut s.dots, &|at| {
+            let r = r.each_ref().map(|r| &r[at.clone()]);
+            dot_single(r, r)
+        })
     }
-    direction_out(s, v);
-    true
+
+    fn apply_dot(&mut self, s: &mut ImplicitScratch) -> f64 {
+        let ap = self.v.ap.each_mut().map(|ap| &mut ap[..]);
+        s.springs.apply_dot_single(&s.free, ap, &mut s.dots)
+    }
+
+    fn advance(&mut self, s: &mut ImplicitScratch, alpha: f64) -> (f64, bool) {
+        advance(s, &mut self.v, alpha)
+    }
 }
 
 /// The direction `v.dv` into the Newton step's buffer `s.dv`, in double precision.
@@ -194,7 +184,6 @@ pub(super) fn solve_unsymmetric(
         } else {
             &[]
         };
-        let dots = &mut s.dots;
         let apply = |x: &[Vec<f32>; 3], y: &mut [Vec<f32>; 3]| {
             // `x` into the product's input, then `A·x` with friction's growth.
             let input = springs.single_input();
@@ -204,7 +193,7 @@ pub(super) fn solve_unsymmetric(
                     input.copy_from_slice(&x[c * size..c * size + input.len()]);
                 }
             });
-            springs.apply_dot_single(free, y.each_mut().map(|y| &mut y[..]), dots);
+            springs.apply_single(free, y.each_mut().map(|y| &mut y[..]));
             for (p, c) in growth {
                 let p = *p as usize;
                 let x = [x[0][p], x[1][p], x[2][p]].map(f64::from);

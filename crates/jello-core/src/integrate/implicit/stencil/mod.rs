@@ -499,6 +499,22 @@ impl SpringMatrix {
     /// points summed in order into `sums`, then the chunks' sums in order: the same bits on any
     /// number of threads.
     pub fn apply_dot_single(&mut self, free: &[f64], y: [&mut [f32]; 3], sums: &mut [f64]) -> f64 {
+        self.apply_single_with(free, y, Some(sums))
+    }
+
+    /// [`SpringMatrix::apply_dot_single`] without the dot product (single-precision GMRES).
+    pub fn apply_single(&mut self, free: &[f64], y: [&mut [f32]; 3]) {
+        self.apply_single_with(free, y, None);
+    }
+
+    /// [`SpringMatrix::apply_dot_single`], `p·y` summed into `sums` where given (else 0
+    /// returned).
+    fn apply_single_with(
+        &mut self,
+        free: &[f64],
+        y: [&mut [f32]; 3],
+        sums: Option<&mut [f64]>,
+    ) -> f64 {
         let (spans, n) = (&self.spans[..], self.n);
         self.ranges.fit(n);
         let (blocks, own, x) = (&self.blocks_single, &self.own_single, &self.x_single);
@@ -509,31 +525,27 @@ impl SpringMatrix {
         };
         ranges_rows(&mut self.ranges.0, spans, n, &init, x, &forces);
         let ranges = &self.ranges;
-        let size = sum_chunk(n);
-        team::for_each_chunk_into(y, size, sums, &|c, [y0, y1, y2]| {
-            let (lo, hi) = (c * size, c * size + y0.len());
-            // The chunk's rows out of the ranges that hold them, then its sum in one pass (the
-            // ranges, one per thread, do not decide its order).
-            for range in
-                &ranges.0[lo / ranges.size()..hi.div_ceil(ranges.size()).min(ranges.0.len())]
-            {
-                let (a, b) = (
-                    lo.max(range.start),
-                    hi.min(range.start + range.y_single[0].len()),
-                );
-                if a < b {
-                    let rows = range
-                        .y_single
-                        .each_ref()
-                        .map(|r| &r[a - range.start..b - range.start]);
-                    let out = [
-                        &mut y0[a - lo..b - lo],
-                        &mut y1[a - lo..b - lo],
-                        &mut y2[a - lo..b - lo],
-                    ];
-                    out_rows_free(rows, &free[a..b], out);
-                }
+        // Rows `lo .. lo + y.len()` of the product out of the ranges that hold them.
+        let rows_out = |lo: usize, [y0, y1, y2]: [&mut [f32]; 3]| {
+            for (range, rows) in ranges.holding(lo, lo + y0.len()) {
+                let at = rows.start - range.start..rows.end - range.start;
+                let (a, b) = (rows.start - lo, rows.end - lo);
+                let out = [&mut y0[a..b], &mut y1[a..b], &mut y2[a..b]];
+                let rows_of = range.y_single.each_ref().map(|r| &r[at.clone()]);
+                out_rows_free(rows_of, &free[rows], out);
             }
+        };
+        let size = sum_chunk(n);
+        let Some(sums) = sums else {
+            team::for_each_chunk(y, size, &|c, y| rows_out(c * size, y));
+            return 0.0;
+        };
+        team::for_each_chunk_into(y, size, sums, &|c, [y0, y1, y2]| {
+            // The chunk's rows, then its sum in one pass while they are in the cache (the
+            // ranges, one per thread, do not decide its order).
+            let lo = c * size;
+            rows_out(lo, [&mut *y0, &mut *y1, &mut *y2]);
+            let hi = lo + y0.len();
             dot_single(x.each_ref().map(|x| &x[lo..hi]), [&*y0, &*y1, &*y2])
         });
         sums.iter().sum()
@@ -603,6 +615,21 @@ impl Ranges {
     /// Rows per range of the last product (the last range may have fewer).
     fn size(&self) -> usize {
         self.0.first().map_or(1, |r| r.y[0].len().max(1))
+    }
+
+    /// The ranges that hold rows of `lo .. hi`, each with the rows of them it holds.
+    fn holding(
+        &self,
+        lo: usize,
+        hi: usize,
+    ) -> impl Iterator<Item = (&RowRange, std::ops::Range<usize>)> {
+        let size = self.size();
+        let ranges = &self.0[lo / size..hi.div_ceil(size).min(self.0.len())];
+        ranges.iter().filter_map(move |range| {
+            let len = range.y[0].len();
+            let rows = lo.max(range.start)..hi.min(range.start + len);
+            (!rows.is_empty()).then_some((range, rows))
+        })
     }
 
     /// Sized for a product over `n` rows (anew, allocating, only when the number of
@@ -675,13 +702,8 @@ fn product(
     let ranges = &*ranges;
     // Rows `lo .. lo + y.len()` of the product out of the ranges that hold them.
     let rows_out = |lo: usize, y: &mut [Vec3]| {
-        let (hi, size) = (lo + y.len(), ranges.size());
-        for range in &ranges.0[lo / size..hi.div_ceil(size).min(ranges.0.len())] {
-            let len = range.y[0].len().max(range.y_single[0].len());
-            let (a, b) = (lo.max(range.start), hi.min(range.start + len));
-            if a >= b {
-                continue;
-            }
+        for (range, rows) in ranges.holding(lo, lo + y.len()) {
+            let (a, b) = (rows.start, rows.end);
             let (at, y) = (a - range.start, &mut y[a - lo..b - lo]);
             match precision {
                 Precision::Single => {
