@@ -1,9 +1,20 @@
 //! Models and values for the unit tests of the solver's parts.
 
+use crate::compute::team;
 use crate::model::body::{rotation_xyz, Body, Material};
 use crate::model::lattice::Lattice;
 use crate::model::{Model, ModelBuilder};
 use crate::vec3::Vec3;
+
+/// `f` on a team of `threads` threads, in a pool of its own (so more threads than this
+/// machine's cores too).
+pub fn on_threads<R: Send>(threads: usize, f: impl FnOnce() -> R + Send) -> R {
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .unwrap();
+    pool.install(|| team::run(f))
+}
 
 /// A small deterministic generator of test values in [−1, 1).
 pub fn values(seed: u64) -> impl FnMut() -> f64 {

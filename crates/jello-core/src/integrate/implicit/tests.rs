@@ -110,22 +110,16 @@ fn the_solves_sums_are_the_same_on_any_number_of_threads() {
             .sum()
     };
     let run = |threads: usize| {
-        let pool = rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
-            .build()
-            .unwrap();
-        pool.install(|| {
-            team::run(|| {
-                let mut s = ImplicitScratch::new(&test_models::two_bodies());
-                s.dots = vec![0.0; sum_chunks(n)];
-                s.advanced = vec![(0.0, false); sum_chunks(n)];
-                s.dv = vec![Vec3::ZERO; n];
-                (s.p, s.ap, s.r, s.mass) = (p.clone(), ap.clone(), r.clone(), mass.clone());
-                s.within = 1e3;
-                let ab = dot(&a, &b, &mut s.dots);
-                let (rr, _) = advance(&mut s, 0.37);
-                (ab.to_bits(), rr.to_bits(), s.r.clone(), s.dv.clone())
-            })
+        test_models::on_threads(threads, || {
+            let mut s = ImplicitScratch::new(&test_models::two_bodies());
+            s.dots = vec![0.0; sum_chunks(n)];
+            s.advanced = vec![(0.0, false); sum_chunks(n)];
+            s.dv = vec![Vec3::ZERO; n];
+            (s.p, s.ap, s.r, s.mass) = (p.clone(), ap.clone(), r.clone(), mass.clone());
+            s.within = 1e3;
+            let ab = dot(&a, &b, &mut s.dots);
+            let (rr, _) = advance(&mut s, 0.37);
+            (ab.to_bits(), rr.to_bits(), s.r.clone(), s.dv.clone())
         })
     };
     let one = run(1);
@@ -741,47 +735,41 @@ fn single_precision_solves_reach_their_reduction_with_the_same_bits_on_any_numbe
         .collect();
     let v: Vec<Vec3> = (0..n).map(|_| Vec3::new(next(), next(), next())).collect();
     let solve_on = |threads: usize| {
-        let pool = rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
-            .build()
-            .unwrap();
-        pool.install(|| {
-            team::run(|| {
-                let (control, mut force) = (Control::none(), ForceScratch::new(&model));
-                let mut s = ImplicitScratch::new(&model);
-                s.load(&model);
-                s.start_dampers(&model, &x0);
-                s.v_soa.fill_zero();
-                s.v.copy_from_slice(&v);
-                residual(&model, &control, &mut force, &mut s, &x0, &v, h, false);
-                // Positive definite: the compressed springs' negative stiffness clamped.
-                let curvature = Curvature::Clamped;
-                assemble(&model, &control, force.anchors(), &mut s, &x0, h, curvature);
-                s.within = 0.0;
-                let reduction = 1e-3;
-                assert_eq!(precision_for(reduction), Precision::Single);
-                assert!(cg::solve(&mut s, reduction, cg::Preconditioner::Multigrid));
-                // `−M·g − A·Δv`, `A` in double precision.
-                let b: Vec<Vec3> = (0..n).map(|p| s.g[p] * (-s.mass[p] * s.free[p])).collect();
-                let mut a_dv = vec![Vec3::ZERO; n];
-                let (pairs, blocks) = (s.pair_rows.clone(), s.pair_blocks.clone());
-                let (free, dv) = (s.free.clone(), s.dv.clone());
-                apply_to(
-                    &mut s.springs,
-                    &free,
-                    &pairs,
-                    &blocks,
-                    (None, &[]),
-                    &dv,
-                    &mut a_dv,
-                    Precision::Double,
-                );
-                let norm = |r: &dyn Fn(usize) -> Vec3| {
-                    (0..n).map(|p| r(p).length_squared()).sum::<f64>().sqrt()
-                };
-                let fell = norm(&|p| b[p] - a_dv[p]) / norm(&|p| b[p]);
-                (s.dv, s.stats.linear_iterations, fell)
-            })
+        test_models::on_threads(threads, || {
+            let (control, mut force) = (Control::none(), ForceScratch::new(&model));
+            let mut s = ImplicitScratch::new(&model);
+            s.load(&model);
+            s.start_dampers(&model, &x0);
+            s.v_soa.fill_zero();
+            s.v.copy_from_slice(&v);
+            residual(&model, &control, &mut force, &mut s, &x0, &v, h, false);
+            // Positive definite: the compressed springs' negative stiffness clamped.
+            let curvature = Curvature::Clamped;
+            assemble(&model, &control, force.anchors(), &mut s, &x0, h, curvature);
+            s.within = 0.0;
+            let reduction = 1e-3;
+            assert_eq!(precision_for(reduction), Precision::Single);
+            assert!(cg::solve(&mut s, reduction, cg::Preconditioner::Multigrid));
+            // `−M·g − A·Δv`, `A` in double precision.
+            let b: Vec<Vec3> = (0..n).map(|p| s.g[p] * (-s.mass[p] * s.free[p])).collect();
+            let mut a_dv = vec![Vec3::ZERO; n];
+            let (pairs, blocks) = (s.pair_rows.clone(), s.pair_blocks.clone());
+            let (free, dv) = (s.free.clone(), s.dv.clone());
+            apply_to(
+                &mut s.springs,
+                &free,
+                &pairs,
+                &blocks,
+                (None, &[]),
+                &dv,
+                &mut a_dv,
+                Precision::Double,
+            );
+            let norm = |r: &dyn Fn(usize) -> Vec3| {
+                (0..n).map(|p| r(p).length_squared()).sum::<f64>().sqrt()
+            };
+            let fell = norm(&|p| b[p] - a_dv[p]) / norm(&|p| b[p]);
+            (s.dv, s.stats.linear_iterations, fell)
         })
     };
     let (dv, iterations, fell) = solve_on(1);

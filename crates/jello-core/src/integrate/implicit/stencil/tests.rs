@@ -1,7 +1,7 @@
 //! Tests of the stencil-ordered matrix: its products, diagonal and blocks against the same
 //! quantities summed spring by spring, and its ranges against rows computed at once.
 
-use super::super::test_models::{box_at, two_bodies, values, with_holes};
+use super::super::test_models::{box_at, on_threads, two_bodies, values, with_holes};
 use super::*;
 use crate::model::ModelBuilder;
 
@@ -123,12 +123,8 @@ fn the_diagonal_by_slot_is_the_sum_over_springs() {
     }
     matrix.set_own(&own);
     let run = |threads: usize| {
-        let pool = rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
-            .build()
-            .unwrap();
         let mut diag = vec![[0.0; 6]; n];
-        pool.install(|| team::run(|| matrix.diagonal(&mut diag)));
+        on_threads(threads, || matrix.diagonal(&mut diag));
         diag
     };
     let one = run(1);
