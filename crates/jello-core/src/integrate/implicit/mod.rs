@@ -24,7 +24,8 @@
 //! (one body, no friction), which Newton's method can minimise. The scheme is first order; as
 //! `h → 0` it agrees with the explicit integrators.
 //!
-//! Newton's method, from `v₀` shifted by each body's change of momentum where that lowers the
+//! Newton's method, from `v₀` (from rest for a body resting on a surface at a step long for its
+//! contacts, `first_iterate`) shifted by each body's change of momentum where that lowers the
 //! residual (`shift_by_momentum`): each iteration solves `A·Δv = −M·g` with
 //! `A = M + h·D₀ + h²·K`, `K` the stiffness matrix of the springs (with a compressed spring's
 //! negative transverse stiffness; when that leaves `A` not positive definite, the masses in `A`
@@ -94,7 +95,8 @@
 //! Where the parts are: this file has the step (backward Euler's and SDIRK2's stages) and the
 //! solver's tuning constants; `scratch.rs` its buffers ([`ImplicitScratch`]) and what each step
 //! loads into them; `newton.rs` Newton's
-//! iterations, the momentum shift, the line search and when a step has converged;
+//! iterations, the first iterate and the momentum shift, the line search and when a step has
+//! converged;
 //! `residual.rs` the residual `g` and the potential's fall; `contacts.rs` the contacts'
 //! friction and the dampers between bodies in `g`; `matrix.rs` the assembly of `A`
 //! and the Newton direction (with its Levenberg–Marquardt shift); `cg/` the conjugate
@@ -195,6 +197,17 @@ const SWIRL_SWITCHES: u32 = 6;
 /// of 21–23, which cost more than the assembly saved (10 % slower); at 1e-4 it is 5 % faster than
 /// with no `A` kept, and the 16³ benchmark as fast as at 1e-3.
 const KEEP_MOVE: f64 = 1e-4;
+
+/// How far (times the shortest spring's rest length) a body touching a surface may move in a
+/// step at its start velocities for Newton's method to start it from rest, where the step is
+/// long for the stiffest point (see `newton::first_iterate`). The resting and dropped 32³ cubes
+/// at 1/60 s stepped as fast from 0.1 to 10; 0.1 leaves any body that moves on its `v₀`.
+const REST_MOVE: f64 = 0.1;
+
+/// The least `h²·K/m` (the stiffest point's, [`ImplicitScratch::stiffness_over_mass`]) at which
+/// a body at rest on a surface starts Newton's method from rest: the frame-rate jobs have
+/// 1e3 (8³) to 2e5 (64³) at 1/60 s, the examples at their own steps 2–15.
+const REST_STIFFNESS: f64 = 100.0;
 
 /// Fewest points in a chunk of a loop over points spread over threads ([`chunk_size`]):
 /// smaller ones cost more to hand out than they save.

@@ -79,6 +79,10 @@ pub struct ImplicitScratch {
     /// Whether `A` may take friction's growth with depth (tests only; see `exact_friction`).
     #[cfg(test)]
     pub(super) may_grow: bool,
+    /// Whether a body at rest on a surface may start Newton's method from rest (tests only; see
+    /// `newton::first_iterate`).
+    #[cfg(test)]
+    pub(super) may_start_at_rest: bool,
     /// Whether friction's growth, once in `A`, stays there for the rest of the step (tests
     /// only; see `exact_friction`).
     #[cfg(test)]
@@ -274,6 +278,8 @@ impl ImplicitScratch {
             may_keep: true,
             #[cfg(test)]
             may_grow: true,
+            #[cfg(test)]
+            may_start_at_rest: true,
             #[cfg(test)]
             growth_sticks: true,
             #[cfg(test)]

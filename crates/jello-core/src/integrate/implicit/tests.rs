@@ -3,7 +3,7 @@
 
 use super::cg::{advance, apply_to, dot, sum_chunk, sum_chunks};
 use super::matrix::{assemble, Curvature};
-use super::newton::{enough_reduction, max_norms, shift_by_momentum};
+use super::newton::{enough_reduction, first_iterate, max_norms, shift_by_momentum};
 use super::residual::residual;
 use super::test_models::values;
 use super::*;
@@ -531,6 +531,95 @@ fn landing(may_grow: bool, sticks: bool) -> (Vec<Vec<Vec3>>, u64, u64) {
         ends.push(state.vel.clone());
     }
     (ends, s.stats.newton_iterations, hardest)
+}
+
+/// Newton's first iterate is zero at the moving points of a body that rests on a surface at a
+/// step long for its contacts, and `v₀` elsewhere: at a held point, on a body in the air, on a
+/// body moving faster than a tenth of its shortest spring in a step, and at a step short
+/// enough to resolve the contacts.
+#[test]
+fn a_body_resting_on_a_surface_starts_newton_from_rest() {
+    let model = |dt: f64| {
+        ModelBuilder::new()
+            .bodies(vec![
+                test_models::box_at([4, 4, 4], Vec3::new(0.0, 0.0, -0.01)),
+                test_models::box_at([4, 4, 4], Vec3::new(0.0, 0.0, 5.0)),
+            ])
+            .bounds(Aabb::new(Vec3::new(-9.0, -9.0, -9.0), Vec3::new(9.0, 9.0, 9.0)).unwrap())
+            .plane(Some(crate::Plane::new([0.0, 0.0, 1.0, 0.0]).unwrap()))
+            .pins(vec![1])
+            .collision(1e4, 0.25)
+            .dt(dt)
+            .integrator(Integrator::BackwardEuler)
+            .build()
+            .unwrap()
+    };
+    let first = |model: &crate::Model, v0: &[Vec3]| {
+        let mut s = ImplicitScratch::new(model);
+        s.load(model);
+        let x0 = crate::State::at_rest(model).pos;
+        s.start_dampers(model, &x0);
+        first_iterate(&mut s, model, v0, model.dt);
+        s.v
+    };
+    let long = model(1.0 / 60.0);
+    let n = long.point_count();
+    let (resting, flying) = (long.body(0).points(), long.body(1).points());
+    let slow: Vec<Vec3> = (0..n)
+        .map(|p| Vec3::new(1e-3, -2e-3, p as f64 * 1e-5))
+        .collect();
+    let v = first(&long, &slow);
+    for p in resting.clone() {
+        let want = if p == 1 { slow[p] } else { Vec3::ZERO };
+        assert_eq!(v[p], want, "resting body, point {p}");
+    }
+    assert_eq!(v[flying.clone()], slow[flying]);
+    // One point of the resting body a tenth of a spring a step too fast.
+    let mut fast = slow.clone();
+    fast[resting.start + 20] = Vec3::new(0.0, 1.01 * 0.1 * 60.0, 0.0);
+    assert_eq!(first(&long, &fast), fast);
+    // The same body at a step that resolves its contacts.
+    let short = model(1e-4);
+    assert_eq!(first(&short, &slow), slow);
+}
+
+/// Started from rest where it rests on a floor, the `rest` job at 12³ (1/60 s, solved to
+/// 1e-11 m/s) takes fewer Newton iterations over its first 60 steps than from `v₀`, to the
+/// same steps within the tolerance.
+#[test]
+fn a_resting_body_started_from_rest_takes_fewer_newton_iterations() {
+    let run = |at_rest: bool| {
+        let (mut model, start) = crate::benchmark::Job::Rest
+            .scene(12, Integrator::BackwardEuler, None)
+            .unwrap();
+        model.newton.tolerance = 1e-11;
+        let (control, mut force) = (Control::none(), ForceScratch::new(&model));
+        let mut s = ImplicitScratch::new(&model);
+        s.may_start_at_rest = at_rest;
+        let mut state = start.clone();
+        let mut ends = vec![];
+        let (mut pos, mut vel) = (state.pos.clone(), state.vel.clone());
+        for _ in 0..60 {
+            let h = model.dt;
+            step(
+                &model, &state, &control, &mut force, &mut s, h, &mut pos, &mut vel,
+            )
+            .unwrap();
+            force.update_anchors(&model, &pos);
+            state.pos.copy_from_slice(&pos);
+            state.vel.copy_from_slice(&vel);
+            ends.push(state.vel.clone());
+        }
+        (ends, s.stats.newton_iterations)
+    };
+    let (from_rest, rest_iterations) = run(true);
+    let (from_v0, v0_iterations) = run(false);
+    eprintln!("Newton iterations: {rest_iterations} from rest, {v0_iterations} from v₀");
+    assert!(
+        rest_iterations < v0_iterations,
+        "Newton iterations: {rest_iterations} from rest, {v0_iterations} from v₀"
+    );
+    assert_same_steps(&from_rest, &from_v0);
 }
 
 /// A step's first Newton iteration keeps the last step's `A` where that step ended in the
