@@ -13,6 +13,29 @@ use crate::model::lattice::Lattice;
 use crate::model::solver::TOLERANCE;
 use crate::model::{Aabb, ModelBuilder};
 
+/// A scratch for `model`, loaded, its dampers at the step's start `x0`.
+fn scratch_at(model: &crate::Model, x0: &[Vec3]) -> ImplicitScratch {
+    let mut s = ImplicitScratch::new(model);
+    s.load(model);
+    s.start_dampers(model, x0);
+    s
+}
+
+/// The residual of the step from `(x0, v0)` at the iterate `v`, into `s.g`; returns `|g|²_M`.
+fn residual_at(
+    model: &crate::Model,
+    control: &Control,
+    force: &mut ForceScratch,
+    s: &mut ImplicitScratch,
+    (x0, v0): (&[Vec3], &[Vec3]),
+    v: &[Vec3],
+    h: f64,
+) -> f64 {
+    s.v_soa.fill_zero();
+    s.v.copy_from_slice(v);
+    residual(model, control, force, s, x0, v0, h, false)
+}
+
 /// A solve stopped at `enough_reduction` leaves every moving point's residual within the
 /// tolerance however the linear model's residual falls, even all on the lightest point;
 /// held points and the scale of `g` do not change that.
@@ -219,12 +242,8 @@ fn a_body_in_free_flight_is_solved_by_its_change_of_momentum() {
         let x0 = crate::State::at_rest(&model).pos;
         let v0 = vec![Vec3::new(1.0, -0.5, 2.0); x0.len()];
         let (control, mut force) = (Control::none(), ForceScratch::new(&model));
-        let mut s = ImplicitScratch::new(&model);
-        s.load(&model);
-        s.start_dampers(&model, &x0);
-        s.v_soa.fill_zero();
-        s.v.copy_from_slice(&v0);
-        let norm2 = residual(&model, &control, &mut force, &mut s, &x0, &v0, h, false);
+        let mut s = scratch_at(&model, &x0);
+        let norm2 = residual_at(&model, &control, &mut force, &mut s, (&x0, &v0), &v0, h);
         // The shift is `h·pull/m` (the springs are at rest): asked for a larger one, none.
         let shift = (pull * (h * 512.0)).length();
         let g = s.g.clone();
@@ -260,16 +279,12 @@ fn a_body_about_to_land_is_not_shifted_by_its_change_of_momentum() {
         let h = model.dt;
         let v0 = vec![Vec3::new(0.0, 0.0, -3.0); x0.len()];
         let mut force = ForceScratch::new(&model);
-        let mut s = ImplicitScratch::new(&model);
-        s.load(&model);
-        s.start_dampers(&model, &x0);
+        let mut s = scratch_at(&model, &x0);
         assert!(
             !s.touching.contains(&true),
             "clear of the floor at the start"
         );
-        s.v_soa.fill_zero();
-        s.v.copy_from_slice(&v0);
-        let norm2 = residual(&model, &control, &mut force, &mut s, &x0, &v0, h, false);
+        let norm2 = residual_at(&model, &control, &mut force, &mut s, (&x0, &v0), &v0, h);
         let reached = shift_by_momentum(
             &model, &control, &mut force, &mut s, &x0, &v0, h, norm2, 0.0,
         );
@@ -311,9 +326,7 @@ fn a_anticipates_the_contacts_the_last_newton_step_reached() {
             .map(|&p| Vec3::new(0.0, 0.0, if on_bottom(p) { -0.03 } else { -0.01 } / h))
             .collect();
         let (control, force) = (Control::none(), ForceScratch::new(&model));
-        let mut s = ImplicitScratch::new(&model);
-        s.load(&model);
-        s.start_dampers(&model, &x0);
+        let mut s = scratch_at(&model, &x0);
         s.v.fill(Vec3::ZERO);
         let mut blocks = |taken: bool| {
             s.full_step.copy_from_slice(&full);
@@ -373,12 +386,8 @@ fn the_residual_is_the_backward_euler_equation_spring_by_spring() {
     let v0: Vec<Vec3> = (0..n).map(|_| Vec3::new(next(), next(), next())).collect();
     let v: Vec<Vec3> = (0..n).map(|_| Vec3::new(next(), next(), next())).collect();
     let (control, mut force) = (Control::none(), ForceScratch::new(&model));
-    let mut s = ImplicitScratch::new(&model);
-    s.load(&model);
-    s.start_dampers(&model, &x0);
-    s.v_soa.fill_zero();
-    s.v.copy_from_slice(&v);
-    residual(&model, &control, &mut force, &mut s, &x0, &v0, h, false);
+    let mut s = scratch_at(&model, &x0);
+    residual_at(&model, &control, &mut force, &mut s, (&x0, &v0), &v, h);
 
     let end: Vec<Vec3> = x0.iter().zip(&v).map(|(&x, &v)| x + v * h).collect();
     let mut f = vec![Vec3::ZERO; n];
@@ -555,10 +564,7 @@ fn a_body_resting_on_a_surface_starts_newton_from_rest() {
             .unwrap()
     };
     let first = |model: &crate::Model, v0: &[Vec3]| {
-        let mut s = ImplicitScratch::new(model);
-        s.load(model);
-        let x0 = crate::State::at_rest(model).pos;
-        s.start_dampers(model, &x0);
+        let mut s = scratch_at(model, &crate::State::at_rest(model).pos);
         first_iterate(&mut s, model, v0, model.dt);
         s.v
     };
@@ -726,13 +732,9 @@ fn a_with_the_swirl_is_the_derivative_of_the_residual() {
     let v: Vec<Vec3> = (0..x0.len()).map(|_| random() * 2.0).collect();
     let d: Vec<Vec3> = (0..x0.len()).map(|_| random()).collect();
     let (control, mut force) = (Control::none(), ForceScratch::new(&model));
-    let mut s = ImplicitScratch::new(&model);
-    s.load(&model);
-    s.start_dampers(&model, &x0);
+    let mut s = scratch_at(&model, &x0);
     let mut m_g = |s: &mut ImplicitScratch, v: &[Vec3]| {
-        s.v_soa.fill_zero();
-        s.v.copy_from_slice(v);
-        residual(&model, &control, &mut force, s, &x0, &x0, h, false);
+        residual_at(&model, &control, &mut force, s, (&x0, &x0), v, h);
         (s.g.iter().zip(&s.mass))
             .map(|(&g, &m)| g * m)
             .collect::<Vec<_>>()
@@ -826,12 +828,8 @@ fn single_precision_solves_reach_their_reduction_with_the_same_bits_on_any_numbe
     let solve_on = |threads: usize| {
         test_models::on_threads(threads, || {
             let (control, mut force) = (Control::none(), ForceScratch::new(&model));
-            let mut s = ImplicitScratch::new(&model);
-            s.load(&model);
-            s.start_dampers(&model, &x0);
-            s.v_soa.fill_zero();
-            s.v.copy_from_slice(&v);
-            residual(&model, &control, &mut force, &mut s, &x0, &v, h, false);
+            let mut s = scratch_at(&model, &x0);
+            residual_at(&model, &control, &mut force, &mut s, (&x0, &v), &v, h);
             // Positive definite: the compressed springs' negative stiffness clamped.
             let curvature = Curvature::Clamped;
             assemble(&model, &control, force.anchors(), &mut s, &x0, h, curvature);
