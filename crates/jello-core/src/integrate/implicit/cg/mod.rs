@@ -220,13 +220,15 @@ pub(super) fn solve(
         preconditioner,
         precision,
     };
-    iterate(s, &mut double, reduction, preconditioner)
+    iterate(s, &mut double, reduction)
 }
 
 /// The passes of a conjugate-gradient iteration over its vectors, each on the team: in double
 /// precision as `Vec3`s ([`Double`]) or in single precision as structure of arrays
 /// ([`single`]). [`iterate`] is the loop that calls them.
 trait Passes {
+    /// The preconditioner `precondition` applies.
+    fn preconditioner(&self) -> Preconditioner;
     /// `Δv = 0` and `r = −M·g` (zero at held points).
     fn start(&mut self, s: &mut ImplicitScratch);
     /// `z = P⁻¹·r`; returns `r·z`.
@@ -245,15 +247,11 @@ trait Passes {
 /// The conjugate gradients over `passes`' vectors from zero, until the residual has fallen by
 /// `reduction` or is within `m·s.within` at every point; false when `A` turns out not to be
 /// positive definite, or the preconditioner (then `s.multigrid_failed` says which).
-fn iterate(
-    s: &mut ImplicitScratch,
-    passes: &mut impl Passes,
-    reduction: f64,
-    preconditioner: Preconditioner,
-) -> bool {
+fn iterate(s: &mut ImplicitScratch, passes: &mut impl Passes, reduction: f64) -> bool {
     // A negative `r·z` shows an indefinite preconditioner, `A` itself only with the diagonal.
+    let multigrid = passes.preconditioner() == Preconditioner::Multigrid;
     let fail = |s: &mut ImplicitScratch| {
-        s.multigrid_failed = preconditioner == Preconditioner::Multigrid;
+        s.multigrid_failed = multigrid;
         false
     };
     passes.start(s);
@@ -298,6 +296,10 @@ struct Double {
 }
 
 impl Passes for Double {
+    fn preconditioner(&self) -> Preconditioner {
+        self.preconditioner
+    }
+
     fn start(&mut self, s: &mut ImplicitScratch) {
         s.dv.fill(Vec3::ZERO);
         set_right_hand_side(s);

@@ -100,7 +100,7 @@ pub(super) fn solve(
         v: std::mem::take(&mut s.single),
         preconditioner,
     };
-    let solved = iterate(s, &mut passes, reduction, preconditioner);
+    let solved = iterate(s, &mut passes, reduction);
     if solved {
         direction_out(s, &passes.v);
     }
@@ -115,6 +115,10 @@ struct Single {
 }
 
 impl Passes for Single {
+    fn preconditioner(&self) -> Preconditioner {
+        self.preconditioner
+    }
+
     fn start(&mut self, s: &mut ImplicitScratch) {
         right_hand_side(s, &mut self.v);
     }
