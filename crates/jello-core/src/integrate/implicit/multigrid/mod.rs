@@ -18,7 +18,8 @@
 //! On the fine level the preconditioner is additive: `z = ω·D⁻¹·r + P·(coarse solve of Pᵀ·r)`,
 //! which costs no product with `A` (a V-cycle's smoothing there took two per iteration and
 //! saved fewer conjugate-gradient iterations than that: 16³ benchmark, 60 steps at 1/60 s, 3 312
-//! iterations in 2.2 s against 2 074 in 3.6 s). The coarse levels, an eighth of the size each,
+//! iterations in 2.2 s against 2 074 in 3.6 s). There `P` is trilinear over each full lattice
+//! ([`trilinear`]), a smooth correction, and constant over the aggregates of the others. The coarse levels, an eighth of the size each,
 //! are solved by a V-cycle that smooths with damped block Jacobi before and after the next
 //! level's correction (the same smoother on both sides, so the preconditioner is symmetric, as
 //! conjugate gradients need), a large level taking that correction scaled up
@@ -32,6 +33,8 @@
 //! in): the same bits on any number of threads. Its buffers are sized when it is built and
 //! reused.
 
+mod trilinear;
+
 use std::collections::HashMap;
 
 use super::cg::sum_chunk;
@@ -40,6 +43,7 @@ use super::sym::{add_sym, sym_inverse, sym_mul, Sym};
 use crate::compute::team;
 use crate::model::Model;
 use crate::vec3::Vec3;
+use trilinear::Transfer;
 
 /// A node of a level: its body and its lattice coordinates (halved on each coarser level).
 type Node = (u32, [u32; 3]);
@@ -72,6 +76,12 @@ const STENCIL_NODES: usize = 512;
 /// levels of small lattices it changes little and costs the hardest worlds of the corpus (8³,
 /// levels of 64 nodes and fewer; `leapfrog.w` took 42 % more at 1.3), so they keep theirs.
 const OVER_CORRECTION: f64 = 1.4;
+
+/// [`OVER_CORRECTION`] where the fine level's transfers are trilinear (see [`trilinear`]):
+/// conjugate-gradient iterations a step, BackwardEuler at 1/60 s over the job's time (2
+/// threads, Intel Xeon with AVX-512), 1.4 → 1.7 → 2.0: a 32³ cube resting on a floor 10.2 →
+/// 10.1 → 10.2, dropped on it 15.1 → 13.8 → 14.4; at 16³ 4.5 → 4.4 → 4.4 and 6.0 → 6.1 → 6.1.
+const OVER_CORRECTION_TRILINEAR: f64 = 1.7;
 
 /// Nodes from which a coarse level takes the next one's correction times
 /// [`OVER_CORRECTION`].
@@ -330,13 +340,22 @@ struct Restriction {
     pairs: Vec<u32>,
 }
 
+impl Restriction {
+    /// The nodes of aggregate `j`.
+    fn len(&self, j: usize) -> usize {
+        (self.start[j + 1] - self.start[j]) as usize
+    }
+}
+
 /// The coarse levels of `A`, built for a model's points and springs.
 #[derive(Clone, Debug, Default)]
 pub(super) struct Multigrid {
     /// The fine pairs it was built for: a model whose springs change is built for anew.
     built_for: Vec<[u32; 2]>,
-    /// From the fine level to the first coarse one.
+    /// From the fine level to the first coarse one: the aggregation, and the transfers of the
+    /// residual and the correction.
     down: Restriction,
+    transfer: Transfer,
     /// The fine level's points.
     points: usize,
     levels: Vec<Level>,
@@ -397,12 +416,28 @@ impl Multigrid {
         }
         let mut downs = downs.into_iter();
         self.down = downs.next().unwrap_or_default();
+        self.transfer = if levels.is_empty() {
+            Transfer::default()
+        } else {
+            Transfer::new(model, &self.down)
+        };
         for (level, down) in levels.iter_mut().zip(downs) {
             level.down = down;
         }
         self.levels = levels;
         self.points = model.point_count();
         self.built_for = pairs.to_vec();
+    }
+
+    /// The least nodes of a level that takes the next one's correction scaled up, and the
+    /// scale ([`OVER_CORRECTION`], or [`OVER_CORRECTION_TRILINEAR`] after trilinear transfers).
+    fn over_correction(&self) -> (usize, f64) {
+        let from = self.over_corrected_from.unwrap_or(OVER_CORRECTED_NODES);
+        if self.transfer.is_trilinear() {
+            (from, OVER_CORRECTION_TRILINEAR)
+        } else {
+            (from, OVER_CORRECTION)
+        }
     }
 
     /// The coarse operators for the fine operator `fine` (after each assembly of `A`).
@@ -434,14 +469,24 @@ impl Multigrid {
         precision: Precision,
         sums: &mut [f64],
     ) -> f64 {
+        let over = self.over_correction();
         let Some(first) = self.levels.first_mut() else {
             // One node per body already: block Jacobi is the exact solve of that level.
             return fine.jacobi_dot(r, 1.0, None, z, sums);
         };
-        restrict(&self.down, r, &mut first.r);
-        let over_from = self.over_corrected_from.unwrap_or(OVER_CORRECTED_NODES);
-        cycle(&mut self.levels, precision, over_from);
-        let correction = (&self.down.parent[..], &self.levels[0].e[..]);
+        let transfer = &mut self.transfer;
+        if transfer.is_trilinear() {
+            transfer.restrict_double(&self.down, r, &mut first.r);
+        } else {
+            restrict(&self.down, r, &mut first.r);
+        }
+        cycle(&mut self.levels, precision, over);
+        let correction = if transfer.is_trilinear() {
+            transfer.prolong(&self.down, &self.levels[0].e);
+            (&transfer.identity[..], &transfer.correction[..])
+        } else {
+            (&self.down.parent[..], &self.levels[0].e[..])
+        };
         fine.jacobi_dot(r, FINE_OMEGA, Some(correction), z, sums)
     }
 }
@@ -463,24 +508,16 @@ pub(super) fn precondition_single(
     let Some(multigrid) = coarse.filter(|m| !m.levels.is_empty()) else {
         return jacobi_dot_single(free, diag_inv, r, 1.0, None, z, sums);
     };
-    let first = &mut multigrid.levels[0];
-    let down = &multigrid.down;
-    let size = team::chunk_size(first.r.len(), MIN_NODES);
-    team::for_each_chunk([&mut first.r[..]], size, &|chunk, [coarse]| {
-        for (i, c) in coarse.iter_mut().enumerate() {
-            let j = chunk * size + i;
-            let nodes = &down.nodes[down.start[j] as usize..down.start[j + 1] as usize];
-            *c = nodes.iter().fold(Vec3::ZERO, |sum, &p| {
-                let p = p as usize;
-                sum + Vec3::new(r[0][p].into(), r[1][p].into(), r[2][p].into())
-            });
-        }
-    });
-    let over_from = multigrid
-        .over_corrected_from
-        .unwrap_or(OVER_CORRECTED_NODES);
-    cycle(&mut multigrid.levels, precision, over_from);
-    let correction = (&multigrid.down.parent[..], &multigrid.levels[0].e[..]);
+    let over = multigrid.over_correction();
+    let (down, transfer) = (&multigrid.down, &mut multigrid.transfer);
+    transfer.restrict(down, r, &mut multigrid.levels[0].r);
+    cycle(&mut multigrid.levels, precision, over);
+    let correction = if transfer.is_trilinear() {
+        transfer.prolong(down, &multigrid.levels[0].e);
+        (&transfer.identity[..], &transfer.correction[..])
+    } else {
+        (&down.parent[..], &multigrid.levels[0].e[..])
+    };
     jacobi_dot_single(free, diag_inv, r, FINE_OMEGA, Some(correction), z, sums)
 }
 
@@ -606,9 +643,9 @@ impl Level {
 }
 
 /// One V-cycle from `levels[0].r` into `levels[0].e`, the levels' products in `precision`; a
-/// level of at least `over_from` nodes takes the next level's correction times
-/// [`OVER_CORRECTION`].
-fn cycle(levels: &mut [Level], precision: Precision, over_from: usize) {
+/// level of at least `over.0` nodes takes the next level's correction times `over.1` (see
+/// [`Multigrid::over_correction`]).
+fn cycle(levels: &mut [Level], precision: Precision, over: (usize, f64)) {
     let Some((this, coarser)) = levels.split_first_mut() else {
         return;
     };
@@ -631,12 +668,8 @@ fn cycle(levels: &mut [Level], precision: Precision, over_from: usize) {
         op.jacobi(r, OMEGA, &mut e);
         residual(&e, &mut t);
         restrict(&this.down, &t, &mut next.r);
-        cycle(coarser, precision, over_from);
-        let scale = if e.len() >= over_from {
-            OVER_CORRECTION
-        } else {
-            1.0
-        };
+        cycle(coarser, precision, over);
+        let scale = if e.len() >= over.0 { over.1 } else { 1.0 };
         prolong(&this.down, &coarser[0].e, &mut e, scale);
         residual(&e, &mut t);
         op.jacobi(&t, OMEGA, &mut e);
@@ -903,8 +936,9 @@ fn coarsen(nodes: &[Node], pairs: &[[u32; 2]]) -> (Restriction, Vec<Node>, Vec<[
 #[cfg(test)]
 mod tests {
     use super::super::sym::add_outer;
-    use super::super::test_models::{two_bodies, values};
+    use super::super::test_models::{box_at, on_threads, two_bodies, values, with_holes};
     use super::*;
+    use crate::model::ModelBuilder;
 
     /// A positive definite `A` on the test model: a mass on every point, a positive semi-definite
     /// block on every spring, a few contacts between the bodies, and held points.
@@ -987,6 +1021,191 @@ mod tests {
 
     fn dot(a: &[Vec3], b: &[Vec3]) -> f64 {
         a.iter().zip(b).map(|(a, b)| a.dot(*b)).sum()
+    }
+
+    /// Three bodies: two full boxes (one with an axis of a single point) and one with holes.
+    fn three_bodies() -> Model {
+        let holes = with_holes([6, 5, 7], 7, -0.6);
+        let odd = box_at([5, 4, 3], Vec3::new(8.0, 0.0, 0.0));
+        let flat = box_at([6, 1, 7], Vec3::new(0.0, 8.0, 0.0));
+        (ModelBuilder::new().bodies(vec![holes, odd, flat]).build()).unwrap()
+    }
+
+    /// `v` as structure of arrays in single precision.
+    fn in_single(v: &[Vec3]) -> [Vec<f32>; 3] {
+        let part = |c: fn(&Vec3) -> f64| v.iter().map(|v| c(v) as f32).collect();
+        [part(|v| v.x), part(|v| v.y), part(|v| v.z)]
+    }
+
+    fn bits(v: &[Vec3]) -> Vec<[u64; 3]> {
+        v.iter()
+            .map(|v| [v.x.to_bits(), v.y.to_bits(), v.z.to_bits()])
+            .collect()
+    }
+
+    /// Over each full box the fine level's transfers are trilinear: a constant correction
+    /// comes back constant, and the restriction is the prolongation's transpose; over the body
+    /// with holes they are constant over each aggregate (the correction everywhere times
+    /// `FINE_CORRECTION`). A residual in single precision restricts as its double-precision value does.
+    #[test]
+    fn the_fine_levels_transfers_are_trilinear_over_full_lattices() {
+        let model = three_bodies();
+        let fine = Fine::new(&model);
+        let mut mg = Multigrid::default();
+        mg.build(&model, &fine.pairs, 16);
+        assert!(mg.transfer.is_trilinear());
+        let (n, coarse) = (model.point_count(), mg.levels[0].r.len());
+        let holes = model.body(0).points();
+        let scale = trilinear::FINE_CORRECTION;
+        let e = vec![Vec3::new(1.0, -2.0, 3.0); coarse];
+        mg.transfer.prolong(&mg.down, &e);
+        for (p, &c) in mg.transfer.correction.iter().enumerate() {
+            assert!((c - e[0] * scale).length() < 1e-14, "point {p}: {c:?}");
+        }
+        let e = random(coarse, 5);
+        mg.transfer.prolong(&mg.down, &e);
+        for p in holes.clone() {
+            assert_eq!(
+                mg.transfer.correction[p],
+                e[mg.down.parent[p] as usize] * scale
+            );
+        }
+        // `⟨s·P·e, r⟩ = ⟨e, Pᵀ·(s·r)⟩`.
+        let r = random(n, 6);
+        let scaled: Vec<Vec3> = r.iter().map(|&r| r * scale).collect();
+        let mut restricted = vec![Vec3::ZERO; coarse];
+        mg.transfer
+            .restrict_double(&mg.down, &scaled, &mut restricted);
+        let (pe_r, e_pr) = (dot(&mg.transfer.correction, &r), dot(&e, &restricted));
+        assert!((pe_r - e_pr).abs() < 1e-12 * pe_r.abs(), "{pe_r} ≠ {e_pr}");
+        let single = in_single(&r);
+        let rounded: Vec<Vec3> = (0..n)
+            .map(|p| {
+                Vec3::new(
+                    single[0][p].into(),
+                    single[1][p].into(),
+                    single[2][p].into(),
+                )
+            })
+            .collect();
+        let (mut from_single, mut from_double) =
+            (vec![Vec3::ZERO; coarse], vec![Vec3::ZERO; coarse]);
+        let single = single.each_ref().map(|s| &s[..]);
+        mg.transfer.restrict(&mg.down, single, &mut from_single);
+        mg.transfer
+            .restrict_double(&mg.down, &rounded, &mut from_double);
+        assert_eq!(bits(&from_single), bits(&from_double));
+    }
+
+    /// The transfers' passes give the same bits on any number of threads.
+    #[test]
+    fn the_transfers_have_the_same_bits_on_any_number_of_threads() {
+        let bodies = vec![
+            box_at([16, 15, 14], Vec3::ZERO),
+            with_holes([6, 5, 7], 7, -0.6),
+        ];
+        let model = ModelBuilder::new().bodies(bodies).build().unwrap();
+        let fine = Fine::new(&model);
+        let mut mg = Multigrid::default();
+        mg.build(&model, &fine.pairs, 16);
+        let (n, coarse) = (model.point_count(), mg.levels[0].r.len());
+        let (r, e) = (random(n, 8), random(coarse, 9));
+        let single = in_single(&r);
+        let run = |threads| {
+            on_threads(threads, || {
+                let mut mg = mg.clone();
+                let (mut a, mut b) = (vec![Vec3::ZERO; coarse], vec![Vec3::ZERO; coarse]);
+                mg.transfer.restrict_double(&mg.down, &r, &mut a);
+                mg.transfer
+                    .restrict(&mg.down, single.each_ref().map(|s| &s[..]), &mut b);
+                mg.transfer.prolong(&mg.down, &e);
+                [bits(&a), bits(&b), bits(&mg.transfer.correction)]
+            })
+        };
+        let one = run(1);
+        for threads in [2, 3] {
+            assert!(run(threads) == one, "{threads} threads");
+        }
+    }
+
+    /// Conjugate gradients on a lattice of springs resting on a floor (`A` of the frame-rate
+    /// job at 1/60 s, in units of a point's mass: springs of 100, the floor's penalty 400) reach
+    /// a millionth of their residual in fewer iterations with the trilinear transfers than
+    /// with transfers constant over each aggregate.
+    #[test]
+    fn trilinear_transfers_save_conjugate_gradient_iterations() {
+        let model = (ModelBuilder::new().bodies(vec![box_at([12, 12, 12], Vec3::ZERO)]))
+            .build()
+            .unwrap();
+        let n = model.point_count();
+        let lattice = model.body(0).lattice().clone();
+        let at = |p: u32| lattice.coords(p as usize).map(|c| c as f64);
+        let mut pairs = Vec::new();
+        model
+            .body(0)
+            .for_each_spring(|s| pairs.push([s.a as u32, s.b as u32]));
+        let blocks: Vec<Sym> = (pairs.iter())
+            .map(|&[a, b]| {
+                let ([x, y, z], [u, v, w]) = (at(a), at(b));
+                let d = Vec3::new(x - u, y - v, z - w);
+                let mut m = [0.0; 6];
+                add_outer(&mut m, d * (1.0 / d.length()), 100.0);
+                m
+            })
+            .collect();
+        let own: Vec<Sym> = (0..n as u32)
+            .map(|p| {
+                let floor = if at(p)[2] == 0.0 { 400.0 } else { 0.0 };
+                [1.0, 1.0, 1.0 + floor, 0.0, 0.0, 0.0]
+            })
+            .collect();
+        let (free, mut diag_inv) = (vec![1.0; n], vec![[0.0; 6]; n]);
+        let none: (&[[u32; 2]], &[Sym]) = (&[], &[]);
+        Operator::invert_diagonal(&own, (&pairs, &blocks), none, None, &mut diag_inv);
+        let op = Operator {
+            own: &own,
+            pairs: &pairs,
+            blocks: &blocks,
+            more_pairs: none.0,
+            more_blocks: none.1,
+            diag_inv: &diag_inv,
+            free: Some(&free),
+        };
+        let mut trilinear = Multigrid::default();
+        trilinear.build(&model, &pairs, 0);
+        trilinear.assemble(&op);
+        assert!(trilinear.transfer.is_trilinear());
+        let mut constant = trilinear.clone();
+        constant.transfer = Transfer::default();
+        let b = random(n, 10);
+        let mut sums = vec![0.0; super::super::cg::sum_chunks(n)];
+        let mut iterations = |mg: &mut Multigrid| {
+            let (mut r, mut z, mut q) = (b.clone(), vec![Vec3::ZERO; n], vec![Vec3::ZERO; n]);
+            let mut rz = mg.precondition(&op, &r, &mut z, Precision::Double, &mut sums);
+            let (first, mut p) = (rz, z.clone());
+            for iteration in 1..=200 {
+                op.apply(&p, &mut q);
+                let alpha = rz / dot(&p, &q);
+                for (r, &q) in r.iter_mut().zip(&q) {
+                    *r -= q * alpha;
+                }
+                let next = mg.precondition(&op, &r, &mut z, Precision::Double, &mut sums);
+                if next < 1e-12 * first {
+                    return iteration;
+                }
+                let beta = next / rz;
+                rz = next;
+                for (p, &z) in p.iter_mut().zip(&z) {
+                    *p = z + *p * beta;
+                }
+            }
+            panic!("no convergence in 200 iterations");
+        };
+        let (with, without) = (iterations(&mut trilinear), iterations(&mut constant));
+        assert!(
+            with * 10 <= without * 8,
+            "{with} iterations trilinear, {without} constant"
+        );
     }
 
     /// Each coarse operator is `PᵀAP` of the level above, `P` constant over each aggregate
