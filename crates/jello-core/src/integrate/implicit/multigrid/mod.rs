@@ -482,7 +482,7 @@ impl Multigrid {
         }
         cycle(&mut self.levels, precision, over);
         let correction = if transfer.is_trilinear() {
-            transfer.prolong(&self.down, &self.levels[0].e);
+            transfer.prolong(&self.down, &self.levels[0].e, Precision::Double);
             (&transfer.identity[..], &transfer.correction[..])
         } else {
             (&self.down.parent[..], &self.levels[0].e[..])
@@ -513,12 +513,30 @@ pub(super) fn precondition_single(
     transfer.restrict(down, r, &mut multigrid.levels[0].r);
     cycle(&mut multigrid.levels, precision, over);
     let correction = if transfer.is_trilinear() {
-        transfer.prolong(down, &multigrid.levels[0].e);
-        (&transfer.identity[..], &transfer.correction[..])
+        transfer.prolong(down, &multigrid.levels[0].e, Precision::Single);
+        Correction::Points(transfer.correction_single.each_ref().map(|c| &c[..]))
     } else {
-        (&down.parent[..], &multigrid.levels[0].e[..])
+        Correction::Aggregates(&down.parent[..], &multigrid.levels[0].e[..])
     };
     jacobi_dot_single(free, diag_inv, r, FINE_OMEGA, Some(correction), z, sums)
+}
+
+/// The fine level's correction as [`jacobi_dot_single`] adds it: each point's aggregate and
+/// the next level's correction, or each point's own (single precision, structure of arrays).
+#[derive(Clone, Copy)]
+enum Correction<'a> {
+    Aggregates(&'a [u32], &'a [Vec3]),
+    Points([&'a [f32]; 3]),
+}
+
+impl<'a> Correction<'a> {
+    /// The part for the points `at`.
+    fn of(self, at: std::ops::Range<usize>) -> Correction<'a> {
+        match self {
+            Correction::Aggregates(parent, coarse) => Correction::Aggregates(&parent[at], coarse),
+            Correction::Points(c) => Correction::Points(c.map(|c| &c[at.clone()])),
+        }
+    }
 }
 
 /// `z = ω·D⁻¹·r + P·e` in single precision (see [`Operator::jacobi_dot`]); returns `r·z`.
@@ -527,7 +545,7 @@ fn jacobi_dot_single(
     diag_inv: &[Vec<f32>; 6],
     r: [&[f32]; 3],
     omega: f64,
-    correction: Option<(&[u32], &[Vec3])>,
+    correction: Option<Correction>,
     z: [&mut [f32]; 3],
     sums: &mut [f64],
 ) -> f64 {
@@ -535,7 +553,7 @@ fn jacobi_dot_single(
     team::for_each_chunk_into(z, size, sums, &|chunk, z| {
         let at = chunk * size..chunk * size + z[0].len();
         let free = free.map(|f| &f[at.clone()]);
-        let correction = correction.map(|(parent, coarse)| (&parent[at.clone()], coarse));
+        let correction = correction.map(|c| c.of(at.clone()));
         let r = r.map(|r| &r[at.clone()]);
         let diag_inv = std::array::from_fn(|c| &diag_inv[c][at.clone()]);
         jacobi_dot_single_chunk(r, diag_inv, free, omega as f32, correction, z)
@@ -551,7 +569,7 @@ crate::compute::simd::multiversion! {
         diag_inv: [&[f32]; 6],
         free: Option<&[f64]>,
         omega: f32,
-        correction: Option<(&[u32], &[Vec3])>,
+        correction: Option<Correction>,
         z: [&mut [f32]; 3],
     ) -> f64 {
         let [z0, z1, z2] = z;
@@ -570,18 +588,33 @@ crate::compute::simd::multiversion! {
             z1[i] = (xy[i] * r0[i] + yy[i] * r1[i] + yz[i] * r2[i]) * w;
             z2[i] = (xz[i] * r0[i] + yz[i] * r1[i] + zz[i] * r2[i]) * w;
         }
-        if let Some((parent, coarse)) = correction {
-            let parent = &parent[..n];
-            for i in 0..n {
-                let f = match free {
-                    Some(free) => free[i] as f32,
-                    None => 1.0,
-                };
-                let c = coarse[parent[i] as usize];
-                z0[i] += c.x as f32 * f;
-                z1[i] += c.y as f32 * f;
-                z2[i] += c.z as f32 * f;
+        match correction {
+            Some(Correction::Aggregates(parent, coarse)) => {
+                let parent = &parent[..n];
+                for i in 0..n {
+                    let f = match free {
+                        Some(free) => free[i] as f32,
+                        None => 1.0,
+                    };
+                    let c = coarse[parent[i] as usize];
+                    z0[i] += c.x as f32 * f;
+                    z1[i] += c.y as f32 * f;
+                    z2[i] += c.z as f32 * f;
+                }
             }
+            Some(Correction::Points(c)) => {
+                let [c0, c1, c2] = c.map(|c| &c[..n]);
+                for i in 0..n {
+                    let f = match free {
+                        Some(free) => free[i] as f32,
+                        None => 1.0,
+                    };
+                    z0[i] += c0[i] * f;
+                    z1[i] += c1[i] * f;
+                    z2[i] += c2[i] * f;
+                }
+            }
+            None => {}
         }
         dot_single([r0, r1, r2], [&*z0, &*z1, &*z2])
     }
@@ -1058,18 +1091,22 @@ mod tests {
         let holes = model.body(0).points();
         let scale = trilinear::FINE_CORRECTION;
         let e = vec![Vec3::new(1.0, -2.0, 3.0); coarse];
-        mg.transfer.prolong(&mg.down, &e);
+        mg.transfer.prolong(&mg.down, &e, Precision::Double);
         for (p, &c) in mg.transfer.correction.iter().enumerate() {
             assert!((c - e[0] * scale).length() < 1e-14, "point {p}: {c:?}");
         }
         let e = random(coarse, 5);
-        mg.transfer.prolong(&mg.down, &e);
+        mg.transfer.prolong(&mg.down, &e, Precision::Double);
         for p in holes.clone() {
             assert_eq!(
                 mg.transfer.correction[p],
                 e[mg.down.parent[p] as usize] * scale
             );
         }
+        // In single precision, the same rounded.
+        mg.transfer.prolong(&mg.down, &e, Precision::Single);
+        let rounded = in_single(&mg.transfer.correction);
+        assert!(mg.transfer.correction_single == rounded);
         // `⟨s·P·e, r⟩ = ⟨e, Pᵀ·(s·r)⟩`.
         let r = random(n, 6);
         let scaled: Vec<Vec3> = r.iter().map(|&r| r * scale).collect();
@@ -1097,7 +1134,8 @@ mod tests {
         assert_eq!(bits(&from_single), bits(&from_double));
     }
 
-    /// The transfers' passes give the same bits on any number of threads.
+    /// The transfers' passes give the same bits on any number of threads (`f32`'s `==` tells
+    /// apart all but zero's signs, which no sum here makes).
     #[test]
     fn the_transfers_have_the_same_bits_on_any_number_of_threads() {
         let bodies = vec![
@@ -1118,8 +1156,10 @@ mod tests {
                 mg.transfer.restrict_double(&mg.down, &r, &mut a);
                 mg.transfer
                     .restrict(&mg.down, single.each_ref().map(|s| &s[..]), &mut b);
-                mg.transfer.prolong(&mg.down, &e);
-                [bits(&a), bits(&b), bits(&mg.transfer.correction)]
+                mg.transfer.prolong(&mg.down, &e, Precision::Double);
+                mg.transfer.prolong(&mg.down, &e, Precision::Single);
+                let single = mg.transfer.correction_single.clone();
+                ([bits(&a), bits(&b), bits(&mg.transfer.correction)], single)
             })
         };
         let one = run(1);

@@ -21,7 +21,7 @@
 
 use std::ops::Range;
 
-use super::{Restriction, MIN_NODES};
+use super::{Precision, Restriction, MIN_NODES};
 use crate::compute::team;
 use crate::model::Model;
 use crate::vec3::Vec3;
@@ -91,9 +91,11 @@ pub(super) struct Transfer {
     input: [Vec<f64>; 3],
     halved: [Vec<f64>; 3],
     quartered: [Vec<f64>; 3],
-    /// The correction at each fine node (where a part is trilinear), and each node's index in it.
+    /// The correction at each fine node (where a part is trilinear) and each node's index in
+    /// it; in single precision as structure of arrays.
     pub(super) correction: Vec<Vec3>,
     pub(super) identity: Vec<u32>,
+    pub(super) correction_single: [Vec<f32>; 3],
 }
 
 /// The numbers of a residual the transfer restricts: `f32` or `f64`.
@@ -160,6 +162,7 @@ impl Transfer {
             quartered: std::array::from_fn(|_| vec![0.0; quartered]),
             correction: vec![Vec3::ZERO; n],
             identity: (0..n as u32).collect(),
+            correction_single: std::array::from_fn(|_| vec![0.0; n]),
         }
     }
 
@@ -272,8 +275,9 @@ impl Transfer {
     }
 
     /// `correction = P·coarse` times [`FINE_CORRECTION`] (on every part, the constant ones
-    /// too: the preconditioner stays symmetric only with one scale for all its points).
-    pub(super) fn prolong(&mut self, down: &Restriction, coarse: &[Vec3]) {
+    /// too: the preconditioner stays symmetric only with one scale for all its points), into
+    /// `correction` or, in single precision, `correction_single`.
+    pub(super) fn prolong(&mut self, down: &Restriction, coarse: &[Vec3], into: Precision) {
         for part in &self.parts {
             match *part {
                 Part::Trilinear {
@@ -309,31 +313,61 @@ impl Transfer {
                     // Along x: planes of ny·nz, scaled, into the correction.
                     let plane = ny * nz;
                     let halved = self.halved.each_ref().map(|h| &h[..gx * plane]);
-                    let out = &mut self.correction[first..first + nx * plane];
                     let size = team::chunk_size(nx, MIN_NODES.div_ceil(plane)) * plane;
-                    team::for_each_chunk([out], size, &|c, [out]| {
-                        for (l, out) in out.chunks_exact_mut(plane).enumerate() {
-                            let [(a, wa), (b, wb)] = tx.up[c * size / plane + l];
-                            let [a, b] =
-                                [a, b].map(|i| halved.map(|h| &h[i as usize * plane..][..plane]));
-                            let scale = [wa, wb].map(|w| w * FINE_CORRECTION);
-                            two_planes(out, a, b, scale);
+                    let taps = |line: usize| {
+                        let [(a, wa), (b, wb)] = tx.up[line];
+                        let [a, b] =
+                            [a, b].map(|i| halved.map(|h| &h[i as usize * plane..][..plane]));
+                        (a, b, [wa, wb].map(|w| w * FINE_CORRECTION))
+                    };
+                    let points = first..first + nx * plane;
+                    match into {
+                        Precision::Double => {
+                            let out = &mut self.correction[points];
+                            team::for_each_chunk([out], size, &|c, [out]| {
+                                for (l, out) in out.chunks_exact_mut(plane).enumerate() {
+                                    let (a, b, w) = taps(c * size / plane + l);
+                                    two_planes(out, a, b, w);
+                                }
+                            });
                         }
-                    });
+                        Precision::Single => {
+                            let out = self.correction_single.each_mut();
+                            let out = out.map(|o| &mut o[points.clone()]);
+                            team::for_each_chunk(out, size, &|c, out| {
+                                let [x, y, z] = out.map(|o| o.chunks_exact_mut(plane));
+                                for (l, ((x, y), z)) in x.zip(y).zip(z).enumerate() {
+                                    let (a, b, w) = taps(c * size / plane + l);
+                                    two_planes_single([x, y, z], a, b, w);
+                                }
+                            });
+                        }
+                    }
                 }
                 Part::Constant { ref fine, .. } => {
                     let size = team::chunk_size(fine.len(), MIN_NODES);
                     let start = fine.start;
-                    team::for_each_chunk(
-                        [&mut self.correction[fine.clone()]],
-                        size,
-                        &|c, [out]| {
-                            for (i, o) in out.iter_mut().enumerate() {
-                                *o = coarse[down.parent[start + c * size + i] as usize]
-                                    * FINE_CORRECTION;
-                            }
-                        },
-                    );
+                    let at = |p: usize| coarse[down.parent[start + p] as usize] * FINE_CORRECTION;
+                    match into {
+                        Precision::Double => {
+                            let out = &mut self.correction[fine.clone()];
+                            team::for_each_chunk([out], size, &|c, [out]| {
+                                for (i, o) in out.iter_mut().enumerate() {
+                                    *o = at(c * size + i);
+                                }
+                            });
+                        }
+                        Precision::Single => {
+                            let out = self.correction_single.each_mut();
+                            let out = out.map(|o| &mut o[fine.clone()]);
+                            team::for_each_chunk(out, size, &|c, [x, y, z]| {
+                                for i in 0..x.len() {
+                                    let v = at(c * size + i);
+                                    (x[i], y[i], z[i]) = (v.x as f32, v.y as f32, v.z as f32);
+                                }
+                            });
+                        }
+                    }
                 }
             }
         }
@@ -385,6 +419,20 @@ crate::compute::simd::multiversion! {
         let [x0, x1] = x.map(|x| &x[..n]);
         for i in 0..n {
             out[i] = x0[i] * w[0] + x1[i] * w[1];
+        }
+    }
+}
+
+crate::compute::simd::multiversion! {
+    /// `out = w[0]·a + w[1]·b` element by element (structure of arrays), rounded to single
+    /// precision.
+    fn two_planes_single(out: [&mut [f32]; 3], a: [&[f64]; 3], b: [&[f64]; 3], w: [f64; 2]) {
+        for ((out, a), b) in out.into_iter().zip(a).zip(b) {
+            let n = out.len();
+            let (a, b) = (&a[..n], &b[..n]);
+            for i in 0..n {
+                out[i] = (a[i] * w[0] + b[i] * w[1]) as f32;
+            }
         }
     }
 }
