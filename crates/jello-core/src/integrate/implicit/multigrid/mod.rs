@@ -1056,12 +1056,13 @@ mod tests {
         a.iter().zip(b).map(|(a, b)| a.dot(*b)).sum()
     }
 
-    /// Three bodies: two full boxes (one with an axis of a single point) and one with holes.
+    /// Three bodies: one with holes and two full boxes of odd and even sizes, large enough for
+    /// trilinear transfers.
     fn three_bodies() -> Model {
         let holes = with_holes([6, 5, 7], 7, -0.6);
-        let odd = box_at([5, 4, 3], Vec3::new(8.0, 0.0, 0.0));
-        let flat = box_at([6, 1, 7], Vec3::new(0.0, 8.0, 0.0));
-        (ModelBuilder::new().bodies(vec![holes, odd, flat]).build()).unwrap()
+        let odd = box_at([9, 8, 11], Vec3::new(8.0, 0.0, 0.0));
+        let even = box_at([8, 10, 8], Vec3::new(0.0, 12.0, 0.0));
+        (ModelBuilder::new().bodies(vec![holes, odd, even]).build()).unwrap()
     }
 
     /// `v` as structure of arrays in single precision.
@@ -1334,11 +1335,17 @@ mod tests {
     /// single.
     #[test]
     fn the_preconditioner_is_symmetric_and_positive() {
-        let model = two_bodies();
-        let fine = Fine::new(&model);
+        // With constant transfers alone, and with trilinear ones (the third body's) beside them.
+        symmetric_and_positive(&two_bodies());
+        symmetric_and_positive(&three_bodies());
+    }
+
+    /// [`the_preconditioner_is_symmetric_and_positive`] on `model`.
+    fn symmetric_and_positive(model: &Model) {
+        let fine = Fine::new(model);
         let n = model.point_count();
         let mut mg = Multigrid::default();
-        mg.build(&model, &fine.pairs, 16);
+        mg.build(model, &fine.pairs, 16);
         mg.assemble(&fine.operator());
         let mask = |v: Vec<Vec3>| -> Vec<Vec3> {
             v.iter().zip(&fine.free).map(|(&v, &f)| v * f).collect()

@@ -1,5 +1,6 @@
 //! The transfers between the fine level and the first coarse one: trilinear over each body
-//! whose lattice is full and has no pins, constant over the aggregates of the others.
+//! whose lattice is full, has no pins and [`TRILINEAR_POINTS`] or more along each axis,
+//! constant over the aggregates of the others.
 //!
 //! The coarse levels' operators are the Galerkin products of the aggregation (see the parent
 //! module); the fine level's correction need not come through the same `P`. Taken constant
@@ -31,6 +32,13 @@ use crate::vec3::Vec3;
 /// documentation, 1.0 → 1.2 → 1.4: at 8³ resting 3.3 → 3.1 → 3.0 and dropped 4.3 → 4.1 → 4.0,
 /// at 16³ 4.8 → 4.6 → 4.4 and 6.2 → 6.5 → 6.1, at 32³ 10.1 → 9.9 → 10.1 and 14.3 → 14.1 → 13.8.
 pub(super) const FINE_CORRECTION: f64 = 1.4;
+
+/// The fewest points along each axis of a lattice whose transfers are trilinear. Smaller
+/// lattices (two or three aggregates an axis) keep the constant ones: with trilinear transfers
+/// on every lattice, the examples' piles and stacks of 5³ cubes (`stack.toml`, `tower.toml`
+/// under BackwardEuler at their own steps) took 7–11 % more conjugate-gradient iterations and
+/// 15–18 % more time.
+const TRILINEAR_POINTS: usize = 8;
 
 /// The weights along one axis of a lattice: each aggregate's fine nodes (four, the missing
 /// ones weighing zero) and each fine node's aggregates (two, likewise), from [`up_taps`].
@@ -75,7 +83,8 @@ enum Part {
         coarse: usize,
         taps: [Taps; 3],
     },
-    /// The fine nodes `fine`, whose aggregates are `coarse`: constant over each aggregate.
+    /// The fine nodes `fine` (of one or more bodies in a row), whose aggregates are `coarse`:
+    /// constant over each aggregate.
     Constant {
         fine: Range<usize>,
         coarse: Range<usize>,
@@ -136,7 +145,8 @@ impl Transfer {
                     let own = (i / 2 * halves[1] + j / 2) * halves[2] + k / 2;
                     down.parent[p] as usize == coarse + own
                 });
-            if body.is_full() && !pinned && in_order {
+            let large = counts.iter().all(|&n| n >= TRILINEAR_POINTS);
+            if large && body.is_full() && !pinned && in_order {
                 halved = halved.max(halves[0] * counts[1] * counts[2]);
                 quartered = quartered.max(halves[0] * halves[1] * counts[2]);
                 parts.push(Part::Trilinear {
@@ -147,10 +157,18 @@ impl Transfer {
                 });
             } else {
                 let end = points.clone().map(|p| down.parent[p] as usize + 1).max();
-                parts.push(Part::Constant {
-                    fine: points,
-                    coarse: coarse..end.unwrap_or(coarse),
-                });
+                let end = end.unwrap_or(coarse);
+                // Bodies in a row share one loop (a pile of small ones, one loop per body,
+                // would run each on one thread).
+                match parts.last_mut() {
+                    Some(Part::Constant { fine, coarse: last }) => {
+                        (fine.end, last.end) = (points.end, end.max(last.end));
+                    }
+                    _ => parts.push(Part::Constant {
+                        fine: points,
+                        coarse: coarse..end,
+                    }),
+                }
             }
         }
         let trilinear = parts.iter().any(|p| matches!(p, Part::Trilinear { .. }));
