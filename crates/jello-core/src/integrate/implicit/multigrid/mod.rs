@@ -18,12 +18,13 @@
 //! On the fine level the preconditioner is additive: `z = ω·D⁻¹·r + P·(coarse solve of Pᵀ·r)`,
 //! which costs no product with `A` (a V-cycle's smoothing there took two per iteration and
 //! saved fewer conjugate-gradient iterations than that: 16³ benchmark, 60 steps at 1/60 s, 3 312
-//! iterations in 2.2 s against 2 074 in 3.6 s). There `P` is trilinear over each full lattice
-//! ([`trilinear`]), a smooth correction, and constant over the aggregates of the others. The coarse levels, an eighth of the size each,
-//! are solved by a V-cycle that smooths with damped block Jacobi before and after the next
-//! level's correction (the same smoother on both sides, so the preconditioner is symmetric, as
-//! conjugate gradients need), a large level taking that correction scaled up
-//! ([`OVER_CORRECTION`]); the coarsest by a few Jacobi sweeps. A coarse level's residual
+//! iterations in 2.2 s against 2 074 in 3.6 s). There `P` is trilinear over each large full
+//! lattice ([`trilinear`]), a smooth correction, and constant over the aggregates of the
+//! others. The coarse levels, an eighth of the size each, are solved by a V-cycle that smooths
+//! with damped block Jacobi before and after the next level's correction (the same smoother on
+//! both sides, so the preconditioner is symmetric, as conjugate gradients need), a large level
+//! taking that correction scaled up ([`OVER_CORRECTION`]); the coarsest by a few Jacobi
+//! sweeps. A coarse level's residual
 //! `r − A·e` is a product in stencil order ([`LevelStencil`]: the aggregates of a lattice form a
 //! lattice), in single precision where the fine products are, with the pairs found at the
 //! iterate added after; on a level of small lattices ([`STENCIL_NODES`]), a loop over its list of
@@ -1080,7 +1081,8 @@ mod tests {
     /// Over each full box the fine level's transfers are trilinear: a constant correction
     /// comes back constant, and the restriction is the prolongation's transpose; over the body
     /// with holes they are constant over each aggregate (the correction everywhere times
-    /// `FINE_CORRECTION`). A residual in single precision restricts as its double-precision value does.
+    /// `FINE_CORRECTION`). A residual in single precision restricts as its double-precision
+    /// value does, and the correction in single precision is the double one rounded.
     #[test]
     fn the_fine_levels_transfers_are_trilinear_over_full_lattices() {
         let model = three_bodies();
