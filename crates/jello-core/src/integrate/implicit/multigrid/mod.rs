@@ -225,14 +225,15 @@ impl Operator<'_> {
     }
 
     /// `z = ω·D⁻¹·r + P·e` (`correction`: each node's aggregate on the next level and that
-    /// level's correction `e`, where given; zero at held nodes); returns `r·z`, summed as
+    /// level's correction `e`, or each node's own, where given; zero at held nodes); returns
+    /// `r·z`, summed as
     /// [`super::cg::dot`] sums it (into `sums`). Each node's `z` is the sum
     /// [`Operator::jacobi`] then [`prolong`] make of it from zero.
     pub(super) fn jacobi_dot(
         &self,
         r: &[Vec3],
         omega: f64,
-        correction: Option<(&[u32], &[Vec3])>,
+        correction: Option<Correction<&[Vec3]>>,
         z: &mut [Vec3],
         sums: &mut [f64],
     ) -> f64 {
@@ -240,7 +241,7 @@ impl Operator<'_> {
         team::for_each_chunk_into([z], size, sums, &|chunk, [z]| {
             let at = chunk * size..chunk * size + z.len();
             let free = self.free.map(|f| &f[at.clone()]);
-            let correction = correction.map(|(parent, coarse)| (&parent[at.clone()], coarse));
+            let correction = correction.map(|c| c.of(at.clone()));
             let (r, diag_inv) = (&r[at.clone()], &self.diag_inv[at]);
             jacobi_dot_chunk(r, diag_inv, free, omega, correction, z)
         });
@@ -484,9 +485,9 @@ impl Multigrid {
         cycle(&mut self.levels, precision, over);
         let correction = if transfer.is_trilinear() {
             transfer.prolong(&self.down, &self.levels[0].e, Precision::Double);
-            (&transfer.identity[..], &transfer.correction[..])
+            Correction::Points(&transfer.correction[..])
         } else {
-            (&self.down.parent[..], &self.levels[0].e[..])
+            Correction::Aggregates(&self.down.parent[..], &self.levels[0].e[..])
         };
         fine.jacobi_dot(r, FINE_OMEGA, Some(correction), z, sums)
     }
@@ -522,21 +523,36 @@ pub(super) fn precondition_single(
     jacobi_dot_single(free, diag_inv, r, FINE_OMEGA, Some(correction), z, sums)
 }
 
-/// The fine level's correction as [`jacobi_dot_single`] adds it: each point's aggregate and
-/// the next level's correction, or each point's own (single precision, structure of arrays).
+/// The fine level's correction as [`Operator::jacobi_dot`] and [`jacobi_dot_single`] add it:
+/// each point's aggregate and the next level's correction, or each point's own (`P`: `Vec3`s,
+/// or single precision as structure of arrays).
 #[derive(Clone, Copy)]
-enum Correction<'a> {
+pub(super) enum Correction<'a, P> {
     Aggregates(&'a [u32], &'a [Vec3]),
-    Points([&'a [f32]; 3]),
+    Points(P),
 }
 
-impl<'a> Correction<'a> {
-    /// The part for the points `at`.
-    fn of(self, at: std::ops::Range<usize>) -> Correction<'a> {
+impl<'a, P> Correction<'a, P> {
+    /// The part for the points `at`, `part` taking the points' own.
+    fn part(self, at: std::ops::Range<usize>, part: impl FnOnce(P) -> P) -> Correction<'a, P> {
         match self {
             Correction::Aggregates(parent, coarse) => Correction::Aggregates(&parent[at], coarse),
-            Correction::Points(c) => Correction::Points(c.map(|c| &c[at.clone()])),
+            Correction::Points(c) => Correction::Points(part(c)),
         }
+    }
+}
+
+impl<'a> Correction<'a, &'a [Vec3]> {
+    /// The part for the points `at`.
+    fn of(self, at: std::ops::Range<usize>) -> Self {
+        self.part(at.clone(), |c| &c[at])
+    }
+}
+
+impl<'a> Correction<'a, [&'a [f32]; 3]> {
+    /// The part for the points `at`.
+    fn of(self, at: std::ops::Range<usize>) -> Self {
+        self.part(at.clone(), |c| c.map(|c| &c[at.clone()]))
     }
 }
 
@@ -546,7 +562,7 @@ fn jacobi_dot_single(
     diag_inv: &[Vec<f32>; 6],
     r: [&[f32]; 3],
     omega: f64,
-    correction: Option<Correction>,
+    correction: Option<Correction<[&[f32]; 3]>>,
     z: [&mut [f32]; 3],
     sums: &mut [f64],
 ) -> f64 {
@@ -570,7 +586,7 @@ crate::compute::simd::multiversion! {
         diag_inv: [&[f32]; 6],
         free: Option<&[f64]>,
         omega: f32,
-        correction: Option<Correction>,
+        correction: Option<Correction<[&[f32]; 3]>>,
         z: [&mut [f32]; 3],
     ) -> f64 {
         let [z0, z1, z2] = z;
@@ -635,8 +651,8 @@ crate::compute::simd::multiversion! {
 }
 
 crate::compute::simd::multiversion! {
-    /// One chunk of [`Operator::jacobi_dot`]: `z = ω·D⁻¹·r·f + e[parent]·f` point by point
-    /// (`f` the point's `free`, 1 without), then `r·z` summed in order. Compiled per tier like
+    /// One chunk of [`Operator::jacobi_dot`]: `z = ω·D⁻¹·r·f + c·f` point by point (`c` the
+    /// point's correction, `f` its `free`, 1 without), then `r·z` summed in order. Compiled per tier like
     /// the stencil's kernels (the same bits on each): on the baseline this loop of 3×3 blocks
     /// ran two lanes at a time at best, and took 6.7 % of a dropped 32³ cube's step.
     fn jacobi_dot_chunk(
@@ -644,7 +660,7 @@ crate::compute::simd::multiversion! {
         diag_inv: &[Sym],
         free: Option<&[f64]>,
         omega: f64,
-        correction: Option<(&[u32], &[Vec3])>,
+        correction: Option<Correction<&[Vec3]>>,
         z: &mut [Vec3],
     ) -> f64 {
         let n = z.len();
@@ -653,8 +669,12 @@ crate::compute::simd::multiversion! {
             let f = free.map_or(1.0, |f| f[i]);
             let mut e = Vec3::ZERO;
             e += sym_mul(&diag_inv[i], r[i]) * (omega * f);
-            if let Some((parent, coarse)) = correction {
-                e += coarse[parent[i] as usize] * f;
+            match correction {
+                Some(Correction::Aggregates(parent, coarse)) => {
+                    e += coarse[parent[i] as usize] * f;
+                }
+                Some(Correction::Points(own)) => e += own[i] * f,
+                None => {}
             }
             z[i] = e;
         }

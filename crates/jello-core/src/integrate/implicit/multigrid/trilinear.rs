@@ -100,10 +100,9 @@ pub(super) struct Transfer {
     input: [Vec<f64>; 3],
     halved: [Vec<f64>; 3],
     quartered: [Vec<f64>; 3],
-    /// The correction at each fine node (where a part is trilinear) and each node's index in
-    /// it; in single precision as structure of arrays.
+    /// The correction at each fine node (where a part is trilinear), and in single precision
+    /// as structure of arrays.
     pub(super) correction: Vec<Vec3>,
-    pub(super) identity: Vec<u32>,
     pub(super) correction_single: [Vec<f32>; 3],
 }
 
@@ -179,7 +178,6 @@ impl Transfer {
             halved: std::array::from_fn(|_| vec![0.0; halved]),
             quartered: std::array::from_fn(|_| vec![0.0; quartered]),
             correction: vec![Vec3::ZERO; n],
-            identity: (0..n as u32).collect(),
             correction_single: std::array::from_fn(|_| vec![0.0; n]),
         }
     }
