@@ -1066,6 +1066,12 @@ mod tests {
                 free: Some(&self.free),
             }
         }
+        /// The multigrid of `model` for these pairs (not yet assembled).
+        fn multigrid(&self, model: &Model) -> Multigrid {
+            let mut mg = Multigrid::default();
+            mg.build(model, &self.pairs, 16);
+            mg
+        }
     }
 
     fn random(n: usize, seed: u64) -> Vec<Vec3> {
@@ -1107,8 +1113,7 @@ mod tests {
     fn the_fine_levels_transfers_are_trilinear_over_full_lattices() {
         let model = three_bodies();
         let fine = Fine::new(&model);
-        let mut mg = Multigrid::default();
-        mg.build(&model, &fine.pairs, 16);
+        let mut mg = fine.multigrid(&model);
         assert!(mg.transfer.is_trilinear());
         let (n, coarse) = (model.point_count(), mg.levels[0].r.len());
         let holes = model.body(0).points();
@@ -1167,8 +1172,7 @@ mod tests {
         ];
         let model = ModelBuilder::new().bodies(bodies).build().unwrap();
         let fine = Fine::new(&model);
-        let mut mg = Multigrid::default();
-        mg.build(&model, &fine.pairs, 16);
+        let mg = fine.multigrid(&model);
         let (n, coarse) = (model.point_count(), mg.levels[0].r.len());
         let (r, e) = (random(n, 8), random(coarse, 9));
         let single = in_single(&r);
@@ -1277,8 +1281,7 @@ mod tests {
     fn coarse_operators_are_galerkin_products() {
         let model = two_bodies();
         let fine = Fine::new(&model);
-        let mut mg = Multigrid::default();
-        mg.build(&model, &fine.pairs, 16);
+        let mut mg = fine.multigrid(&model);
         mg.assemble(&fine.operator());
         assert!(mg.levels.len() >= 2, "{} levels", mg.levels.len());
         assert_eq!(mg.levels.last().unwrap().own.len(), 2, "one node per body");
@@ -1319,8 +1322,7 @@ mod tests {
     fn coarse_products_in_stencil_order_are_the_levels_own() {
         let model = two_bodies();
         let fine = Fine::new(&model);
-        let mut mg = Multigrid::default();
-        mg.build(&model, &fine.pairs, 16);
+        let mut mg = fine.multigrid(&model);
         mg.assemble(&fine.operator());
         assert!(
             !mg.levels[0].more_pairs.is_empty(),
@@ -1366,8 +1368,7 @@ mod tests {
     fn symmetric_and_positive(model: &Model) {
         let fine = Fine::new(model);
         let n = model.point_count();
-        let mut mg = Multigrid::default();
-        mg.build(model, &fine.pairs, 16);
+        let mut mg = fine.multigrid(model);
         mg.assemble(&fine.operator());
         let mask = |v: Vec<Vec3>| -> Vec<Vec3> {
             v.iter().zip(&fine.free).map(|(&v, &f)| v * f).collect()
