@@ -93,7 +93,7 @@ pub(super) fn assemble(
     };
     let at = |p: usize, v: &[Vec3]| x0[p] + v[p] * h;
     let floor = if clamp { 0.0 } else { f64::MIN };
-    s.springs.assemble(x0, &s.v, h, floor, &mut s.spring_blocks);
+    s.springs.assemble(x0, &s.v, h, floor);
     // Each point's mass (scaled by the shift), the penalty springs of walls, plane and obstacles
     // where the iterate is, their dampers as at the start, and friction along the surfaces at
     // the iterate: each point's own, so the points in chunks over the team.

@@ -120,9 +120,26 @@ macro_rules! fine_operator {
         Operator {
             own: &$s.extra,
             pairs: &$s.spring_pairs,
-            blocks: &$s.spring_blocks,
+            blocks: $s.springs.blocks_by_spring(),
             more_pairs: &$s.pair_rows,
             more_blocks: &$s.pair_blocks,
+            diag_inv: &$s.diag_inv,
+            free: Some(&$s.free),
+        }
+    };
+}
+
+/// The finest level as the preconditioner takes it: its diagonal blocks (inverted) and held
+/// points, without the springs' blocks, so that a solve's products may borrow those mutably
+/// meanwhile (the preconditioner reads only the coarse levels' operators).
+macro_rules! fine_diagonal {
+    ($s:expr) => {
+        Operator {
+            own: &$s.extra,
+            pairs: &[],
+            blocks: $crate::integrate::implicit::multigrid::Blocks::Listed(&[]),
+            more_pairs: &[],
+            more_blocks: &[],
             diag_inv: &$s.diag_inv,
             free: Some(&$s.free),
         }

@@ -39,12 +39,12 @@ pub struct ImplicitScratch {
     pub(super) listed_rows: Vec<Row>,
     /// The bodies whose springs are listed (none before the first step).
     pub(super) loaded: Option<Vec<Body>>,
-    /// The springs' ends, and each spring's block of `A` at the iterate (see
-    /// [`Operator`](multigrid::Operator)): `axial·ûûᵀ + transverse·(I − ûûᵀ)` of its stiffness plus
-    /// `damping·û₀û₀ᵀ` of its damper along its direction at the step's start.
+    /// The springs' ends (in slot order), the fine pairs of the multigrid's
+    /// [`Operator`](multigrid::Operator).
     pub(super) spring_pairs: Vec<[u32; 2]>,
-    pub(super) spring_blocks: Vec<Sym>,
-    /// The same blocks by stencil slot, for `A·x`.
+    /// Each spring's block of `A` at the iterate, `axial·ûûᵀ + transverse·(I − ûûᵀ)` of its
+    /// stiffness plus `damping·û₀û₀ᵀ` of its damper along its direction at the step's start, by
+    /// stencil slot: for `A·x`, and read by spring for the multigrid's coarse levels.
     pub(super) springs: SpringMatrix,
     /// Each spring's direction at the step's start (zero for a spring of zero length).
     pub(super) start_dir: Vec<Vec3>,
@@ -258,7 +258,6 @@ impl ImplicitScratch {
             spring_pairs: Vec::with_capacity(model.spring_count()),
             // Zero pages until written (the assembly writes each block; `resize` in
             // `list_springs` would touch them all on the leader first).
-            spring_blocks: vec![[0.0; 6]; model.spring_count()],
             springs: SpringMatrix::new(model),
             start_dir: Vec::with_capacity(model.spring_count()),
             field: zeros.clone(),
@@ -428,7 +427,6 @@ impl ImplicitScratch {
         self.spring_pairs.clear();
         self.spring_pairs
             .extend(self.rows.iter().map(|r| [r.a, r.b]));
-        self.spring_blocks.resize(self.rows.len(), [0.0; 6]);
         self.falls
             .resize(fall_chunks(self.mass.len(), self.rows.len()), [0.0; 3]);
         self.shortest_spring = self

@@ -306,7 +306,7 @@ impl Passes for Double {
     }
 
     fn precondition(&mut self, s: &mut ImplicitScratch) -> f64 {
-        let fine = fine_operator!(s);
+        let fine = fine_diagonal!(s);
         precondition_with(
             self.preconditioner,
             &mut s.multigrid,
@@ -377,7 +377,7 @@ fn solve_unsymmetric_double(
     set_right_hand_side(s);
     let mut gmres = std::mem::take(&mut s.gmres);
     let reached = {
-        let fine = fine_operator!(s);
+        let fine = fine_diagonal!(s);
         let (springs, multigrid) = (&mut s.springs, &mut s.multigrid);
         let pairs = (&s.pair_rows[..], &s.pair_blocks[..]);
         let field = s.swirl.then_some(&s.field_correction[..]);

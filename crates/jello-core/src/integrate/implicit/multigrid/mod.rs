@@ -34,6 +34,7 @@
 //! in): the same bits on any number of threads. Its buffers are sized when it is built and
 //! reused.
 
+mod galerkin;
 mod trilinear;
 
 use std::collections::HashMap;
@@ -44,6 +45,7 @@ use super::sym::{add_sym, sym_inverse, sym_mul, Sym};
 use crate::compute::team;
 use crate::model::Model;
 use crate::vec3::Vec3;
+use galerkin::Galerkin;
 use trilinear::Transfer;
 
 /// A node of a level: its body and its lattice coordinates (halved on each coarser level).
@@ -97,7 +99,7 @@ pub(super) struct Operator<'a> {
     pub own: &'a [Sym],
     /// The pairs that stay from step to step (springs) and their blocks…
     pub pairs: &'a [[u32; 2]],
-    pub blocks: &'a [Sym],
+    pub blocks: Blocks<'a>,
     /// …and those found at the iterate (contacts between bodies).
     pub more_pairs: &'a [[u32; 2]],
     pub more_blocks: &'a [Sym],
@@ -105,6 +107,35 @@ pub(super) struct Operator<'a> {
     /// Per node 1 when it moves, 0 when held (the finest level only; the coarse levels hold
     /// moving nodes alone).
     pub free: Option<&'a [f64]>,
+}
+
+/// The blocks of a level's pairs, pair by pair.
+#[derive(Clone, Copy)]
+pub(super) enum Blocks<'a> {
+    /// A block per pair (the coarse levels').
+    Listed(&'a [Sym]),
+    /// Pair `k`'s block at `slots[k]` of the six single-precision component arrays of the
+    /// springs' stencil-ordered matrix (the fine level's: see `SpringMatrix`), read there
+    /// rather than copied into a block per pair at every assembly (the copy, 24 MB at 32³,
+    /// took 3.5 ms of a 15 ms assembly on one thread).
+    Slots {
+        slots: &'a [u32],
+        components: &'a [Vec<f32>; 6],
+    },
+}
+
+impl Blocks<'_> {
+    /// Pair `k`'s block.
+    #[inline(always)]
+    pub(super) fn get(&self, k: usize) -> Sym {
+        match self {
+            Blocks::Listed(blocks) => blocks[k],
+            Blocks::Slots { slots, components } => {
+                let slot = slots[k] as usize;
+                std::array::from_fn(|c| f64::from(components[c][slot]))
+            }
+        }
+    }
 }
 
 /// Each node's pairs, in the order of the pairs: those of node `a` are
@@ -140,9 +171,14 @@ impl Incidence {
 }
 
 impl Operator<'_> {
-    fn couplings(&self) -> impl Iterator<Item = (&[u32; 2], &Sym)> {
-        let more = self.more_pairs.iter().zip(self.more_blocks);
-        self.pairs.iter().zip(self.blocks).chain(more)
+    fn couplings(&self) -> impl Iterator<Item = ([u32; 2], Sym)> + '_ {
+        let listed = (self.pairs.iter().enumerate()).map(|(k, &pair)| (pair, self.blocks.get(k)));
+        listed.chain(
+            self.more_pairs
+                .iter()
+                .copied()
+                .zip(self.more_blocks.iter().copied()),
+        )
     }
 
     /// `y = A·x`, zero at held nodes.
@@ -150,9 +186,9 @@ impl Operator<'_> {
         for ((y, own), &x) in y.iter_mut().zip(self.own).zip(x) {
             *y = sym_mul(own, x);
         }
-        for (&[a, c], b) in self.couplings() {
+        for ([a, c], b) in self.couplings() {
             let (a, c) = (a as usize, c as usize);
-            let f = sym_mul(b, x[a] - x[c]);
+            let f = sym_mul(&b, x[a] - x[c]);
             y[a] += f;
             y[c] -= f;
         }
@@ -189,9 +225,8 @@ impl Operator<'_> {
         let size = team::chunk_size(forces.len(), MIN_NODES);
         team::for_each_chunk([&mut *forces], size, &|chunk, [f]| {
             let at = chunk * size;
-            let (pairs, blocks) = (&self.pairs[at..], &self.blocks[at..]);
-            for ((f, &[a, c]), b) in f.iter_mut().zip(pairs).zip(blocks) {
-                *f = sym_mul(b, e[a as usize] - e[c as usize]);
+            for (k, (f, &[a, c])) in f.iter_mut().zip(&self.pairs[at..]).enumerate() {
+                *f = sym_mul(&self.blocks.get(at + k), e[a as usize] - e[c as usize]);
             }
         });
         let forces = &*forces;
@@ -358,6 +393,8 @@ pub(super) struct Multigrid {
     /// residual and the correction.
     down: Restriction,
     transfer: Transfer,
+    /// The first coarse level's operator over the large full lattices.
+    galerkin: Galerkin,
     /// The fine level's points.
     points: usize,
     levels: Vec<Level>,
@@ -418,10 +455,12 @@ impl Multigrid {
         }
         let mut downs = downs.into_iter();
         self.down = downs.next().unwrap_or_default();
-        self.transfer = if levels.is_empty() {
-            Transfer::default()
-        } else {
-            Transfer::new(model, &self.down)
+        (self.transfer, self.galerkin) = match levels.first() {
+            None => Default::default(),
+            Some(first) => (
+                Transfer::new(model, &self.down),
+                Galerkin::new(model, &self.down, &first.pairs),
+            ),
         };
         for (level, down) in levels.iter_mut().zip(downs) {
             level.down = down;
@@ -447,11 +486,11 @@ impl Multigrid {
         let Some((first, _)) = self.levels.split_first_mut() else {
             return;
         };
-        restrict_operator(fine, &self.down, first);
+        restrict_operator(fine, &self.down, first, Some(&mut self.galerkin));
         for l in 1..self.levels.len() {
             let (finer, coarser) = self.levels.split_at_mut(l);
             let finer = &finer[l - 1];
-            restrict_operator(&finer.operator(), &finer.down, &mut coarser[0]);
+            restrict_operator(&finer.operator(), &finer.down, &mut coarser[0], None);
         }
     }
 
@@ -687,7 +726,7 @@ impl Level {
         Operator {
             own: &self.own,
             pairs: &self.pairs,
-            blocks: &self.blocks,
+            blocks: Blocks::Listed(&self.blocks),
             more_pairs: &self.more_pairs,
             more_blocks: &self.more_blocks,
             diag_inv: &self.diag_inv,
@@ -806,7 +845,37 @@ fn prolong(down: &Restriction, coarse: &[Vec3], fine: &mut [Vec3], scale: f64) {
 /// with one held end adds its block to the moving end's aggregate. Each coarse block is summed
 /// in the order of the fine nodes and pairs whoever computes it, so the aggregates and the
 /// coarse pairs are spread over the team's threads with the same bits.
-fn restrict_operator(fine: &Operator, down: &Restriction, coarse: &mut Level) {
+fn restrict_operator(
+    fine: &Operator,
+    down: &Restriction,
+    coarse: &mut Level,
+    galerkin: Option<&mut Galerkin>,
+) {
+    match fine.blocks {
+        Blocks::Listed(blocks) => restrict_with(fine, down, coarse, |k| blocks[k], None),
+        Blocks::Slots { slots, components } => {
+            let galerkin = galerkin.filter(|g| g.is_used()).map(|g| (g, components));
+            let block = |k: usize| {
+                let slot = slots[k] as usize;
+                std::array::from_fn(|c| f64::from(components[c][slot]))
+            };
+            restrict_with(fine, down, coarse, block, galerkin)
+        }
+    }
+}
+
+/// [`restrict_operator`] with the fine pairs' blocks from `block` (inlined for each kind of
+/// [`Blocks`], so that the loop over the fine pairs does not branch on it), and the large full
+/// lattices' pairs summed in stencil order by `galerkin` from the fine blocks' components where
+/// given (and no point is held).
+#[inline(always)]
+fn restrict_with(
+    fine: &Operator,
+    down: &Restriction,
+    coarse: &mut Level,
+    block: impl Fn(usize) -> Sym + Sync,
+    galerkin: Option<(&mut Galerkin, &[Vec<f32>; 6])>,
+) {
     // Where no point is held (the common case) every pair is summed without looking up its
     // ends, which lie far apart in memory (this function took 8 % of a step of a 32³ cube
     // resting on a floor, on one thread; the look-ups 1.5 % of the step's instructions).
@@ -824,25 +893,33 @@ fn restrict_operator(fine: &Operator, down: &Restriction, coarse: &mut Level) {
             }
         }
     });
-    // The pairs between two aggregates, both ends moving, into their coarse pair. Eight items
-    // a thread: the coarse pairs met first (across the aggregates' faces) sum the most fine
-    // pairs, and with one item a thread the leader summed four times the helper's share (32³
-    // benchmark, 2 threads).
-    let size = team::chunk_size(coarse.blocks.len(), MIN_NODES)
-        .div_ceil(PAIR_ITEMS_PER_THREAD)
-        .max(MIN_NODES);
-    team::for_each_chunk([&mut coarse.blocks[..]], size, &|chunk, [blocks]| {
-        for (i, block) in blocks.iter_mut().enumerate() {
-            let slot = chunk * size + i;
-            *block = [0.0; 6];
-            let (from, to) = (down.pair_start[slot], down.pair_start[slot + 1]);
-            for &k in &down.pairs[from as usize..to as usize] {
-                if !held || fine.pairs[k as usize].iter().all(|&p| moves(p)) {
-                    add_sym(block, &fine.blocks[k as usize]);
-                }
+    // The pairs between two aggregates, both ends moving, into their coarse pair.
+    let sum_pair = |pair: usize| {
+        let mut sum = [0.0; 6];
+        let (from, to) = (down.pair_start[pair], down.pair_start[pair + 1]);
+        for &k in &down.pairs[from as usize..to as usize] {
+            if !held || fine.pairs[k as usize].iter().all(|&p| moves(p)) {
+                add_sym(&mut sum, &block(k as usize));
             }
         }
-    });
+        sum
+    };
+    match galerkin.filter(|_| !held) {
+        Some((galerkin, components)) => galerkin.restrict(components, coarse, &sum_pair),
+        None => {
+            // Eight items a thread: the coarse pairs met first (across the aggregates' faces)
+            // sum the most fine pairs, and with one item a thread the leader summed four times
+            // the helper's share (32³ benchmark, 2 threads).
+            let size = team::chunk_size(coarse.blocks.len(), MIN_NODES)
+                .div_ceil(PAIR_ITEMS_PER_THREAD)
+                .max(MIN_NODES);
+            team::for_each_chunk([&mut coarse.blocks[..]], size, &|chunk, [blocks]| {
+                for (i, block) in blocks.iter_mut().enumerate() {
+                    *block = sum_pair(chunk * size + i);
+                }
+            });
+        }
+    }
     // The pairs with one held end (only where a point is held), then those found at the
     // iterate, in order.
     coarse.more_pairs.clear();
@@ -861,8 +938,8 @@ fn restrict_operator(fine: &Operator, down: &Restriction, coarse: &mut Level) {
         }
     };
     if held {
-        for (&pair, b) in fine.pairs.iter().zip(fine.blocks) {
-            couple(pair, b, false);
+        for (k, &pair) in fine.pairs.iter().enumerate() {
+            couple(pair, &block(k), false);
         }
     }
     for (&pair, b) in fine.more_pairs.iter().zip(fine.more_blocks) {
@@ -1059,7 +1136,7 @@ mod tests {
             Operator {
                 own: &self.own,
                 pairs: &self.pairs,
-                blocks: &self.blocks,
+                blocks: Blocks::Listed(&self.blocks),
                 more_pairs: &self.more_pairs,
                 more_blocks: &self.more_blocks,
                 diag_inv: &self.diag_inv,
@@ -1195,6 +1272,77 @@ mod tests {
         }
     }
 
+    /// The first coarse level's pairs over a large full lattice, summed from the fine blocks in
+    /// stencil order (`galerkin`), are those the list of fine pairs sums (to rounding: in
+    /// another order), beside lattices that keep the list (one with holes, one too small); with
+    /// the same bits on any number of threads.
+    #[test]
+    fn full_lattices_sum_their_coarse_pairs_in_stencil_order() {
+        let bodies = vec![
+            box_at([17, 16, 19], Vec3::ZERO),
+            with_holes([6, 5, 7], 7, -0.6),
+            box_at([9, 8, 11], Vec3::new(30.0, 0.0, 0.0)),
+        ];
+        let model = ModelBuilder::new().bodies(bodies).build().unwrap();
+        let mut fine = Fine::new(&model);
+        fine.free.fill(1.0);
+        // Each spring's block at its stencil slot in single precision, and listed as rounded.
+        let n = model.point_count();
+        let mut slots = Vec::new();
+        for body in model.bodies() {
+            let first = body.points().start;
+            body.for_each_spring_entry(|s, e| slots.push((e * n + first + s.a) as u32));
+        }
+        let mut components: [Vec<f32>; 6] = std::array::from_fn(|_| vec![0.0; 16 * n]);
+        for (block, &slot) in fine.blocks.iter_mut().zip(&slots) {
+            for (component, b) in components.iter_mut().zip(block.iter_mut()) {
+                component[slot as usize] = *b as f32;
+                *b = f64::from(*b as f32);
+            }
+        }
+        let mut listed = fine.multigrid(&model);
+        listed.assemble(&fine.operator());
+        let run = |threads| {
+            on_threads(threads, || {
+                let mut mg = fine.multigrid(&model);
+                let blocks = Blocks::Slots {
+                    slots: &slots,
+                    components: &components,
+                };
+                mg.assemble(&Operator {
+                    blocks,
+                    ..fine.operator()
+                });
+                mg
+            })
+        };
+        let mg = run(1);
+        let galerkin = &mg.galerkin;
+        assert_eq!(galerkin.parts.len(), 1, "the large full box");
+        assert!(!galerkin.targets.is_empty() && !galerkin.gathered.is_empty());
+        for (got, want) in mg.levels.iter().zip(&listed.levels) {
+            let scale = want
+                .blocks
+                .iter()
+                .flatten()
+                .fold(1.0, |m: f64, b| m.max(b.abs()));
+            let close = |a: &[Sym], b: &[Sym]| {
+                let far = a.iter().flatten().zip(b.iter().flatten());
+                far.map(|(a, b)| (a - b).abs()).fold(0.0, f64::max) <= 1e-12 * scale
+            };
+            assert!(close(&got.blocks, &want.blocks), "the coarse pairs' blocks");
+            assert!(close(&got.own, &want.own), "the aggregates' own blocks");
+        }
+        let bits_of = |mg: &Multigrid| {
+            let level = &mg.levels[0];
+            let all = level.blocks.iter().chain(&level.diag_inv).flatten();
+            all.map(|b| b.to_bits()).collect::<Vec<u64>>()
+        };
+        for threads in [2, 3] {
+            assert!(bits_of(&run(threads)) == bits_of(&mg), "{threads} threads");
+        }
+    }
+
     /// Conjugate gradients on a lattice of springs resting on a floor (`A` of the frame-rate
     /// job at 1/60 s, in units of a point's mass: springs of 100, the floor's penalty 400) reach
     /// a millionth of their residual in fewer iterations with the trilinear transfers than
@@ -1232,7 +1380,7 @@ mod tests {
         let op = Operator {
             own: &own,
             pairs: &pairs,
-            blocks: &blocks,
+            blocks: Blocks::Listed(&blocks),
             more_pairs: none.0,
             more_blocks: none.1,
             diag_inv: &diag_inv,

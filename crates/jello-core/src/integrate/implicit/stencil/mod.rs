@@ -48,7 +48,7 @@ mod level;
 #[cfg(test)]
 mod tests;
 
-pub(super) use level::LevelStencil;
+pub(super) use level::{LevelStencil, COARSE_STENCIL};
 
 pub(super) use kernels::dot_single;
 use kernels::{
@@ -57,6 +57,7 @@ use kernels::{
 };
 
 use super::cg::{dot_chunk, sum_chunk};
+use super::multigrid::Blocks;
 use super::sym::{sym_mul, Sym};
 use crate::compute::soa::Soa;
 use crate::compute::team;
@@ -337,19 +338,20 @@ impl SpringMatrix {
     }
 
     /// The springs' blocks of `A` at the end positions `x0 + h·v` (see [`spring_blocks`];
-    /// `floor` bounds `1 − rest/l` from below) in single precision, and into `blocks` by spring
-    /// (in slot order) as rounded: they make the preconditioner.
-    pub fn assemble(&mut self, x0: &[Vec3], v: &[Vec3], h: f64, floor: f64, blocks: &mut [Sym]) {
+    /// `floor` bounds `1 − rest/l` from below) in single precision.
+    pub fn assemble(&mut self, x0: &[Vec3], v: &[Vec3], h: f64, floor: f64) {
         self.load_end_positions(x0, v, h);
         (self.double_behind, self.assembled_with) = (true, [h, floor]);
         self.compute_blocks(Precision::Single);
-        let (all, slots) = (&self.blocks_single, &self.slot);
-        let size = team::chunk_size(blocks.len(), MIN_POINTS_PER_RANGE);
-        team::for_each_chunk([blocks], size, &|chunk, [blocks]| {
-            for (block, &slot) in blocks.iter_mut().zip(&slots[chunk * size..]) {
-                *block = std::array::from_fn(|c| f64::from(all[c][slot as usize]));
-            }
-        });
+    }
+
+    /// The single-precision blocks of the last assembly by spring (in slot order), as the
+    /// multigrid's fine level reads them.
+    pub fn blocks_by_spring(&self) -> Blocks<'_> {
+        Blocks::Slots {
+            slots: &self.slot,
+            components: &self.blocks_single,
+        }
     }
 
     /// The double-precision blocks of the last assembly, where they are behind it: from its end
@@ -558,52 +560,66 @@ impl SpringMatrix {
     /// it, in the entries' order. Each point's sum is taken in that order whoever computes it
     /// (the points in chunks over the team); every block is read from its slot in order, where
     /// a gather by each point's springs read it twice, far apart (5 % of the 16³ benchmark's
-    /// samples on 2 threads).
+    /// samples on 2 threads). Compiled for each SIMD tier: for the baseline alone it took
+    /// 2.3–2.9 ms of a 32³ cube's assembly on one thread, 1.5 ms with AVX-512.
     pub fn diagonal(&self, diag: &mut [Sym]) {
-        // Points per pass over the entries: their sums, component by component, stay in the L1
-        // cache, and each pass adds two contiguous runs (vectorised).
-        const BLOCK: usize = 256;
         let (spans, blocks, n, own) = (&self.spans[..], &self.blocks_single, self.n, &self.own);
         let size = team::chunk_size(n, MIN_POINTS_PER_RANGE);
         team::for_each_chunk([diag], size, &|chunk, [diag]| {
-            let start = chunk * size;
-            let mut sums = [[0.0; BLOCK]; 6];
-            for (b, diag) in diag.chunks_mut(BLOCK).enumerate() {
-                let (p0, p1) = (start + b * BLOCK, start + b * BLOCK + diag.len());
-                for (i, own) in own[p0..p1].iter().enumerate() {
-                    for (sum, &o) in sums.iter_mut().zip(own) {
-                        sum[i] = o;
-                    }
-                }
-                // The blocks at slots `base + p − back` for the points `p` of `from .. to`.
-                let mut add = |(from, to): (usize, usize), base: usize, back: usize| {
-                    if from < to {
-                        for (sum, block) in sums.iter_mut().zip(blocks) {
-                            let block = &block[base + from - back..base + to - back];
-                            for (s, &b) in sum[from - p0..to - p0].iter_mut().zip(block) {
-                                *s += f64::from(b);
-                            }
-                        }
-                    }
-                };
-                for span in spans {
-                    let (first, end) = (span.first, span.first + span.len);
-                    let entries = span.offset.iter().enumerate();
-                    let entries = entries.filter(|&(_, &o)| o != 0 && o < span.len);
-                    // From each point: slot `e·n + p`, where the partner `p + o` is in the body.
-                    for (e, &o) in entries.clone() {
-                        add((p0.max(first), p1.min(end - o)), e * n, 0);
-                    }
-                    // To each point: slot `e·n + p − o`, for the points `p ≥ first + o`.
-                    for (e, &o) in entries {
-                        add((p0.max(first + o), p1.min(end)), e * n, o);
-                    }
-                }
-                for (i, d) in diag.iter_mut().enumerate() {
-                    *d = std::array::from_fn(|c| sums[c][i]);
+            diagonal_chunk(spans, blocks, n, own, chunk * size, diag);
+        });
+    }
+}
+
+crate::compute::simd::multiversion! {
+    /// [`SpringMatrix::diagonal`]'s sums for the points `start .. start + diag.len()`.
+    fn diagonal_chunk(
+        spans: &[Span],
+        blocks: &[Vec<f32>; 6],
+        n: usize,
+        own: &[Sym],
+        start: usize,
+        diag: &mut [Sym],
+    ) {
+        // Points per pass over the entries: their sums, component by component, stay in the L1
+        // cache, and each pass adds two contiguous runs (vectorised).
+        const BLOCK: usize = 256;
+        let mut sums = [[0.0; BLOCK]; 6];
+        for (b, diag) in diag.chunks_mut(BLOCK).enumerate() {
+            let (p0, p1) = (start + b * BLOCK, start + b * BLOCK + diag.len());
+            for (i, own) in own[p0..p1].iter().enumerate() {
+                for (sum, &o) in sums.iter_mut().zip(own) {
+                    sum[i] = o;
                 }
             }
-        });
+            // The blocks at slots `base + p − back` for the points `p` of `from .. to`.
+            let mut add = |(from, to): (usize, usize), base: usize, back: usize| {
+                if from < to {
+                    for (sum, block) in sums.iter_mut().zip(blocks) {
+                        let block = &block[base + from - back..base + to - back];
+                        for (s, &b) in sum[from - p0..to - p0].iter_mut().zip(block) {
+                            *s += f64::from(b);
+                        }
+                    }
+                }
+            };
+            for span in spans {
+                let (first, end) = (span.first, span.first + span.len);
+                let entries = span.offset.iter().enumerate();
+                let entries = entries.filter(|&(_, &o)| o != 0 && o < span.len);
+                // From each point: slot `e·n + p`, where the partner `p + o` is in the body.
+                for (e, &o) in entries.clone() {
+                    add((p0.max(first), p1.min(end - o)), e * n, 0);
+                }
+                // To each point: slot `e·n + p − o`, for the points `p ≥ first + o`.
+                for (e, &o) in entries {
+                    add((p0.max(first + o), p1.min(end)), e * n, o);
+                }
+            }
+            for (i, d) in diag.iter_mut().enumerate() {
+                *d = std::array::from_fn(|c| sums[c][i]);
+            }
+        }
     }
 }
 

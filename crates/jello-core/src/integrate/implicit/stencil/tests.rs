@@ -173,8 +173,8 @@ fn blocks_by_slot_are_the_blocks_of_each_spring() {
     let mut directions = vec![Vec3::ZERO; springs.len()];
     matrix.start_dampers(&x0, Some(&mut directions));
     for floor in [f64::MIN, 0.0] {
-        let mut blocks = vec![[0.0; 6]; springs.len()];
-        matrix.assemble(&x0, &v, h, floor, &mut blocks);
+        matrix.assemble(&x0, &v, h, floor);
+        let blocks = by_spring(&matrix, springs.len());
         let mut by_slot = Vec::new();
         for (i, (&[a, b], &[rest, k, d])) in springs.iter().zip(&values).enumerate() {
             let s = matrix.rank(i);
@@ -221,9 +221,9 @@ fn blocks_by_slot_are_the_blocks_of_each_spring() {
         }
     }
     // An assembly puts them behind again: at other end positions, the blocks of those.
-    let mut blocks = vec![[0.0; 6]; springs.len()];
     let v2: Vec<Vec3> = v.iter().map(|&v| v * 3.0).collect();
-    matrix.assemble(&x0, &v2, h, 0.0, &mut blocks);
+    matrix.assemble(&x0, &v2, h, 0.0);
+    let blocks = by_spring(&matrix, springs.len());
     let (own, free) = (vec![[0.0; 6]; n], vec![1.0; n]);
     let (x, mut y) = (vec![Vec3::ZERO; n], vec![Vec3::ZERO; n]);
     matrix.set_own(&own);
@@ -335,4 +335,10 @@ fn rows_in_ranges_have_the_bits_of_rows_at_once() {
             assert_eq!(joined, whole, "tile {tile}, cut at {cuts:?}");
         }
     }
+}
+
+/// The blocks of the last assembly by spring (in slot order), as the multigrid reads them.
+fn by_spring(matrix: &SpringMatrix, springs: usize) -> Vec<Sym> {
+    let blocks = matrix.blocks_by_spring();
+    (0..springs).map(|s| blocks.get(s)).collect()
 }
