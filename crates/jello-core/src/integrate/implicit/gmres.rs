@@ -38,7 +38,7 @@ pub(super) trait Vectors: Default {
 impl Vectors for Vec<Vec3> {
     const BYTES: usize = std::mem::size_of::<Vec3>();
     fn zeros(n: usize) -> Self {
-        vec![Vec3::ZERO; n]
+        Vec3::zeros(n)
     }
     fn points(&self) -> usize {
         self.len()

@@ -9,7 +9,7 @@ use crate::vec3::Vec3;
 
 use super::cg::sum_chunk;
 use super::contacts;
-use super::sym::sym_mul;
+use super::sym::{sym_mul, Sym};
 use super::{chunk_size, ImplicitScratch};
 
 /// Points, and springs, per chunk of [`potential_fall`]'s sums (fixed: the chunks decide the
@@ -39,13 +39,9 @@ pub(super) fn residual(
         let v = if trial { &s.trial } else { &s.v };
         let size = chunk_size(x0.len());
         let parts = (s.x_soa.parts_mut(), s.velocity_soa.parts_mut());
-        team::for_each_chunk_pair(parts, size, &|chunk, ([xx, xy, xz], [vx, vy, vz])| {
+        team::for_each_chunk_pair(parts, size, &|chunk, (x, velocity)| {
             let at = chunk * size;
-            for (i, (&x, &v)) in x0[at..].iter().zip(&v[at..]).take(xx.len()).enumerate() {
-                let p = x + v * h;
-                (xx[i], xy[i], xz[i]) = (p.x, p.y, p.z);
-                (vx[i], vy[i], vz[i]) = (v.x, v.y, v.z);
-            }
+            ends_chunk(&x0[at..], &v[at..], h, x, velocity);
         });
         // The field at the end positions, for the line search's work of the field.
         let field = if trial {
@@ -87,9 +83,7 @@ pub(super) fn residual(
     let (damping, size) = (&s.start_damping[..], chunk_size(g.len()));
     team::for_each_chunk([&mut g[..]], size, &|chunk, [g]| {
         let at = chunk * size;
-        for (i, g) in g.iter_mut().enumerate() {
-            *g = -sym_mul(&damping[at + i], v[at + i]);
-        }
+        damper_forces_chunk(&damping[at..], &v[at..], g);
     });
     for pull in &control.pulls {
         let p = pull.point as usize;
@@ -112,14 +106,15 @@ pub(super) fn residual(
     let (mass, free) = (&s.mass[..], &s.free[..]);
     let size = sum_chunk(g.len());
     team::for_each_chunk_into([&mut g[..]], size, &mut s.dots, &|chunk, [g]| {
-        let mut norm = 0.0;
-        for (j, g) in g.iter_mut().enumerate() {
-            let i = chunk * size + j;
-            let a = Vec3::new(ax[i], ay[i], az[i]) + *g * (free[i] / mass[i]);
-            *g = v[i] - v0[i] - a * h;
-            norm += mass[i] * g.length_squared();
-        }
-        norm
+        let at = chunk * size..chunk * size + g.len();
+        let a = [&ax[at.clone()], &ay[at.clone()], &az[at.clone()]];
+        let points = (
+            &v[at.clone()],
+            &v0[at.clone()],
+            &mass[at.clone()],
+            &free[at],
+        );
+        residual_chunk(a, points, h, g)
     });
     let norm: f64 = s.dots.iter().sum();
     if trial {
@@ -131,6 +126,48 @@ pub(super) fn residual(
         norm
     } else {
         f64::INFINITY
+    }
+}
+
+crate::compute::simd::multiversion! {
+    /// The end positions `x0 + h·v` and the velocities `v` of a chunk's points into `x` and
+    /// `velocity` (structure of arrays; as many points as they hold).
+    fn ends_chunk(x0: &[Vec3], v: &[Vec3], h: f64, x: [&mut [f64]; 3], velocity: [&mut [f64]; 3]) {
+        let ([xx, xy, xz], [vx, vy, vz]) = (x, velocity);
+        for (i, (&x, &v)) in x0.iter().zip(v).take(xx.len()).enumerate() {
+            let p = x + v * h;
+            (xx[i], xy[i], xz[i]) = (p.x, p.y, p.z);
+            (vx[i], vy[i], vz[i]) = (v.x, v.y, v.z);
+        }
+    }
+}
+
+crate::compute::simd::multiversion! {
+    /// The dampers' force from the step's start, `−D₀·v`, of a chunk's points into `g`.
+    fn damper_forces_chunk(damping: &[Sym], v: &[Vec3], g: &mut [Vec3]) {
+        for ((g, d), &v) in g.iter_mut().zip(damping).zip(v) {
+            *g = -sym_mul(d, v);
+        }
+    }
+}
+
+crate::compute::simd::multiversion! {
+    /// A chunk's residual `g = v − v₀ − h·a`, `a` the forces' accelerations `a` plus the
+    /// forces in `g` over the masses (at moving points), and its `|g|²_M`.
+    fn residual_chunk(
+        a: [&[f64]; 3],
+        points: (&[Vec3], &[Vec3], &[f64], &[f64]),
+        h: f64,
+        g: &mut [Vec3],
+    ) -> f64 {
+        let ([ax, ay, az], (v, v0, mass, free)) = (a, points);
+        let mut norm = 0.0;
+        for (i, g) in g.iter_mut().enumerate() {
+            let a = Vec3::new(ax[i], ay[i], az[i]) + *g * (free[i] / mass[i]);
+            *g = v[i] - v0[i] - a * h;
+            norm += mass[i] * g.length_squared();
+        }
+        norm
     }
 }
 

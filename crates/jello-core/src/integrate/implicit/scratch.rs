@@ -249,7 +249,6 @@ impl ImplicitScratch {
         let swirls = can_swirl(model, model.dt);
         let slides = can_slide(model);
         let several = model.surfaces_touch();
-        let zeros = vec![Vec3::ZERO; n];
         ImplicitScratch {
             stats: SolverStats::default(),
             rows: Vec::with_capacity(model.spring_count()),
@@ -260,8 +259,8 @@ impl ImplicitScratch {
             // `list_springs` would touch them all on the leader first).
             springs: SpringMatrix::new(model),
             start_dir: Vec::with_capacity(model.spring_count()),
-            field: zeros.clone(),
-            field_trial: zeros.clone(),
+            field: Vec3::zeros(n),
+            field_trial: Vec3::zeros(n),
             mass: vec![0.0; n],
             last_mass: vec![0.0; n],
             last_free: vec![0.0; n],
@@ -286,7 +285,7 @@ impl ImplicitScratch {
             keep_across: None,
             start_damping: vec![[0.0; 6]; n],
             touching: vec![false; n],
-            touched_at: vec![Vec3::ZERO; if several { n } else { 0 }],
+            touched_at: Vec3::zeros(if several { n } else { 0 }),
             start_touches: Vec::with_capacity(if several {
                 (model.bodies().iter())
                     .map(|b| b.contact_surface().sample_count())
@@ -296,21 +295,21 @@ impl ImplicitScratch {
             }),
             extra: vec![[0.0; 6]; n],
             diag_inv: vec![[0.0; 6]; n],
-            v: zeros.clone(),
-            trial: zeros.clone(),
-            full_step: zeros.clone(),
+            v: Vec3::zeros(n),
+            trial: Vec3::zeros(n),
+            full_step: Vec3::zeros(n),
             full_step_taken: false,
             anticipating: true,
             single: super::cg::single::SingleVectors::zeros(n, slides),
-            g: zeros.clone(),
-            g_trial: zeros.clone(),
-            dv: zeros.clone(),
-            r: zeros.clone(),
-            z: zeros.clone(),
-            p: zeros.clone(),
-            ap: zeros.clone(),
-            base_x: zeros.clone(),
-            base_v: zeros,
+            g: Vec3::zeros(n),
+            g_trial: Vec3::zeros(n),
+            dv: Vec3::zeros(n),
+            r: Vec3::zeros(n),
+            z: Vec3::zeros(n),
+            p: Vec3::zeros(n),
+            ap: Vec3::zeros(n),
+            base_x: Vec3::zeros(n),
+            base_v: Vec3::zeros(n),
             x_soa: Soa::zeros(n),
             v_soa: Soa::zeros(n),
             velocity_soa: Soa::zeros(n),

@@ -177,7 +177,7 @@ impl Transfer {
             input: std::array::from_fn(|_| vec![0.0; n]),
             halved: std::array::from_fn(|_| vec![0.0; halved]),
             quartered: std::array::from_fn(|_| vec![0.0; quartered]),
-            correction: vec![Vec3::ZERO; n],
+            correction: Vec3::zeros(n),
             correction_single: std::array::from_fn(|_| vec![0.0; n]),
         }
     }
