@@ -518,7 +518,7 @@ impl SpringMatrix {
         sums: Option<&mut [f64]>,
     ) -> f64 {
         let (spans, n) = (&self.spans[..], self.n);
-        self.ranges.fit(n);
+        self.ranges.fit(n, spans);
         let (blocks, own, x) = (&self.blocks_single, &self.own_single, &self.x_single);
         let forces = entry_forces(spring_forces_single, blocks);
         let init = |start: usize, out: [&mut [f32]; 3]| {
@@ -628,7 +628,7 @@ crate::compute::simd::multiversion! {
 struct Ranges(Vec<RowRange>);
 
 impl Ranges {
-    /// Rows per range of the last product (the last range may have fewer).
+    /// Rows of the first range of the last product (the others may have fewer).
     fn size(&self) -> usize {
         self.0.first().map_or(1, |r| r.y[0].len().max(1))
     }
@@ -639,29 +639,29 @@ impl Ranges {
         lo: usize,
         hi: usize,
     ) -> impl Iterator<Item = (&RowRange, std::ops::Range<usize>)> {
-        let size = self.size();
-        let ranges = &self.0[lo / size..hi.div_ceil(size).min(self.0.len())];
-        ranges.iter().filter_map(move |range| {
+        self.0.iter().filter_map(move |range| {
             let len = range.y[0].len();
             let rows = lo.max(range.start)..hi.min(range.start + len);
             (!rows.is_empty()).then_some((range, rows))
         })
     }
 
-    /// Sized for a product over `n` rows (anew, allocating, only when the number of
-    /// ranges changes).
-    fn fit(&mut self, n: usize) {
-        let count = team::threads().min(n / MIN_POINTS_PER_RANGE).max(1);
-        let size = n.div_ceil(count).max(1);
-        if self.0.len() == count && self.size() == size.min(n) {
+    /// Sized for a product over the `n` rows of the bodies `spans` (anew, allocating, only when
+    /// the ranges change).
+    fn fit(&mut self, n: usize, spans: &[Span]) {
+        let (starts, count) = Ranges::starts(n, spans);
+        let starts = &starts[..count];
+        let same = self.0.len() == count
+            && self.0.iter().zip(starts).all(|(r, &s)| r.start == s)
+            && self.0.iter().map(|r| r.y[0].len()).sum::<usize>() == n;
+        if same {
             return;
         }
         // Each range's spring forces of one stencil entry in one tile.
         let room = TILE;
-        self.0 = (0..count)
-            .map(|r| {
-                let start = (r * size).min(n);
-                let rows = (n - start).min(size);
+        self.0 = (starts.iter().enumerate())
+            .map(|(r, &start)| {
+                let rows = starts.get(r + 1).unwrap_or(&n) - start;
                 RowRange {
                     start,
                     y: std::array::from_fn(|_| vec![0.0; rows]),
@@ -671,6 +671,36 @@ impl Ranges {
                 }
             })
             .collect();
+    }
+
+    /// The first rows of the ranges of a product over `n` rows (the first `count` of the array
+    /// returned, with `count`): one range a thread, each with as many blocks to read. A range
+    /// that starts inside a body also computes the springs that reach its first rows from
+    /// before it (as many a stencil entry as its offset, about 2 % of a 32³ lattice's), so the
+    /// first range, which has none, takes that many more rows: with equal rows, the leader,
+    /// whose range is the first, waited for the helper at every product.
+    fn starts(n: usize, spans: &[Span]) -> ([usize; team::OWNED_ITEMS], usize) {
+        let count = (team::threads().min(n / MIN_POINTS_PER_RANGE)).clamp(1, team::OWNED_ITEMS);
+        // The springs before row `b` that reach it or later, in rows' worth of blocks.
+        let halo = |b: usize| -> usize {
+            let reaching = |s: &Span| {
+                let inside = s.first < b && b < s.first + s.len;
+                let before = b.saturating_sub(s.first);
+                let offsets = s.offset.iter().filter(|&&o| o != 0 && o < s.len);
+                offsets.map(|&o| o.min(before)).sum::<usize>() * usize::from(inside)
+            };
+            spans.iter().map(reaching).sum::<usize>() / STENCIL.len()
+        };
+        // Each boundary's halo where the rows split evenly.
+        let halos = |r: usize| halo(r * n / count);
+        let work = (n + (1..count).map(halos).sum::<usize>()) / count;
+        let mut starts = [0; team::OWNED_ITEMS];
+        let mut next = work;
+        for r in 1..count {
+            starts[r] = next.min(n).max(starts[r - 1]);
+            next = starts[r] + work.saturating_sub(halos(r));
+        }
+        (starts, count)
     }
 }
 
@@ -693,7 +723,7 @@ fn product(
     out: &(impl Fn(usize, Vec3) -> Vec3 + Sync),
     dot: Option<&mut [f64]>,
 ) -> f64 {
-    ranges.fit(n);
+    ranges.fit(n, spans);
     let own_x = |p: usize| sym_mul(&own[p], x[p]);
     if precision == Precision::Single {
         if input == Input::Load {

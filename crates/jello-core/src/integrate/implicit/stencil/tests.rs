@@ -337,6 +337,44 @@ fn rows_in_ranges_have_the_bits_of_rows_at_once() {
     }
 }
 
+/// A product's ranges cover the rows in order, one a thread, and the first, whose springs all
+/// start in it, takes as many more rows as the others compute springs from before them: each
+/// range reads as many blocks.
+#[test]
+fn the_ranges_of_a_product_read_as_many_blocks_each() {
+    let model = ModelBuilder::new()
+        .bodies(vec![box_at([24, 20, 22], Vec3::ZERO)])
+        .build()
+        .unwrap();
+    let spans = SpringMatrix::spans_of(&model);
+    let n = model.point_count();
+    let span = spans[0];
+    let offsets = || span.offset.iter().filter(|&&o| o != 0 && o < span.len);
+    for threads in [1, 2, 3] {
+        let (team, (starts, count)) =
+            on_threads(threads, || (team::threads(), Ranges::starts(n, &spans)));
+        let starts = &starts[..count];
+        assert_eq!(count, team, "{threads} threads");
+        assert_eq!(starts[0], 0);
+        // Each range's blocks: its rows' and the springs reaching them from before it.
+        let blocks: Vec<usize> = (starts.iter().enumerate())
+            .map(|(r, &start)| {
+                let end = starts.get(r + 1).copied().unwrap_or(n);
+                let halo: usize = offsets().map(|&o| o.min(start)).sum();
+                16 * (end - start) + halo
+            })
+            .collect();
+        let (least, most) = (blocks.iter().min().unwrap(), blocks.iter().max().unwrap());
+        assert!(most - least <= 32, "{threads} threads: {blocks:?}");
+        if team > 1 {
+            assert!(
+                starts[1] > n / team,
+                "the first range has more rows: {starts:?}"
+            );
+        }
+    }
+}
+
 /// The blocks of the last assembly by spring (in slot order), as the multigrid reads them.
 fn by_spring(matrix: &SpringMatrix, springs: usize) -> Vec<Sym> {
     let blocks = matrix.blocks_by_spring();
