@@ -37,7 +37,7 @@
 //! and a damper for each pair that overlapped at the step's start), of the pulls and of the
 //! field (the symmetric part of minus its gradient, made positive
 //! semi-definite), by conjugate gradients preconditioned with a multigrid cycle over aggregates
-//! of the lattice (`multigrid.rs`; `A·x` itself runs in stencil order, `stencil.rs`). They
+//! of the lattice (`multigrid/`; `A·x` itself runs in stencil order, `stencil/`). They
 //! stop when their residual has fallen a hundredfold, or sooner where their linear model already
 //! puts every point within half the tolerance. When the line search finds no way down
 //! along a direction so found, the next is solved to 1e-8 (or only as far as the tolerance
@@ -101,7 +101,7 @@
 //! friction and the dampers between bodies in `g`; `matrix.rs` the assembly of `A`
 //! and the Newton direction (with its Levenberg–Marquardt shift); `cg/` the conjugate
 //! gradients and their sums on the team (`single.rs` the usual solves', their vectors in
-//! single precision); `multigrid.rs` their preconditioner; `stencil/` `A·x` in stencil order;
+//! single precision); `multigrid/` their preconditioner; `stencil/` `A·x` in stencil order;
 //! `gmres.rs` the solve where a field swirls; `sym.rs` symmetric 3×3 blocks; `tests.rs` and
 //! `test_models.rs` the parts' unit tests.
 
