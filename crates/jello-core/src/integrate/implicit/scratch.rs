@@ -255,8 +255,7 @@ impl ImplicitScratch {
             listed_rows: Vec::with_capacity(model.spring_count()),
             loaded: None,
             spring_pairs: Vec::with_capacity(model.spring_count()),
-            // Zero pages until written (the assembly writes each block; `resize` in
-            // `list_springs` would touch them all on the leader first).
+            // Its slot arrays zero pages until written (the assembly writes each block).
             springs: SpringMatrix::new(model),
             start_dir: Vec::with_capacity(model.spring_count()),
             field: Vec3::zeros(n),
