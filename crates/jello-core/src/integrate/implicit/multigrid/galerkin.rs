@@ -14,7 +14,7 @@
 //! one thread (Intel Xeon with AVX-512) 3.3 ms an assembly, here 1.3 ms (the first level's whole
 //! restriction 4.4 → 2.9 ms).
 
-use super::{Level, Restriction, MIN_NODES, STENCIL_NODES};
+use super::{aggregates_in_order, Level, Restriction, MIN_NODES, STENCIL_NODES};
 use crate::compute::team;
 use crate::integrate::implicit::stencil::COARSE_STENCIL;
 use crate::integrate::implicit::sym::Sym;
@@ -61,12 +61,7 @@ impl Galerkin {
             let counts = body.lattice().counts;
             let halves = counts.map(|n| n.div_ceil(2));
             let coarse = points.clone().next().map_or(0, |p| down.parent[p] as usize);
-            let in_order = body.lattice().len() == points.len()
-                && points.clone().all(|p| {
-                    let [i, j, k] = body.lattice().coords(p - points.start);
-                    let own = (i / 2 * halves[1] + j / 2) * halves[2] + k / 2;
-                    down.parent[p] as usize == coarse + own
-                });
+            let in_order = aggregates_in_order(body, down);
             let nodes: usize = halves.iter().product();
             if body.is_full() && in_order && nodes >= STENCIL_NODES {
                 parts.push(Part {

@@ -815,6 +815,25 @@ fn lattices(nodes: &[Node]) -> Vec<(usize, [usize; 3])> {
         .collect()
 }
 
+/// Whether `body`'s lattice is whole and its aggregates under `down` are numbered from its first
+/// point's in the order of their halved coordinates (`coarsen` numbers them in the order of their
+/// first node, which for a full lattice is that order): the trilinear transfers and the stencil
+/// sums of the first coarse level address them so.
+fn aggregates_in_order(body: &crate::model::body::Body, down: &Restriction) -> bool {
+    let points = body.points();
+    let Some(first) = points.clone().next() else {
+        return false;
+    };
+    let coarse = down.parent[first] as usize;
+    let halves = body.lattice().counts.map(|n| n.div_ceil(2));
+    body.lattice().len() == points.len()
+        && points.clone().all(|p| {
+            let [i, j, k] = body.lattice().coords(p - points.start);
+            let own = (i / 2 * halves[1] + j / 2) * halves[2] + k / 2;
+            down.parent[p] as usize == coarse + own
+        })
+}
+
 /// `coarse[J] = Σ fine[p]` over the nodes `p` of aggregate `J`, in their order.
 fn restrict(down: &Restriction, fine: &[Vec3], coarse: &mut [Vec3]) {
     let size = team::chunk_size(coarse.len(), MIN_NODES);

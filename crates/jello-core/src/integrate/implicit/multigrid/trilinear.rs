@@ -22,7 +22,7 @@
 
 use std::ops::Range;
 
-use super::{Precision, Restriction, MIN_NODES};
+use super::{aggregates_in_order, Precision, Restriction, MIN_NODES};
 use crate::compute::team;
 use crate::model::Model;
 use crate::vec3::Vec3;
@@ -136,14 +136,7 @@ impl Transfer {
             let coarse = points.clone().next().map_or(0, |p| down.parent[p] as usize);
             let halves = counts.map(|n| n.div_ceil(2));
             let pinned = model.pins.iter().any(|&p| points.contains(&(p as usize)));
-            // The aggregates of a full lattice are numbered in the order of their halved
-            // coordinates (`coarsen` numbers them in the order of their first node).
-            let in_order = body.lattice().len() == points.len()
-                && points.clone().all(|p| {
-                    let [i, j, k] = body.lattice().coords(p - points.start);
-                    let own = (i / 2 * halves[1] + j / 2) * halves[2] + k / 2;
-                    down.parent[p] as usize == coarse + own
-                });
+            let in_order = aggregates_in_order(body, down);
             let large = counts.iter().all(|&n| n >= TRILINEAR_POINTS);
             if large && body.is_full() && !pinned && in_order {
                 halved = halved.max(halves[0] * counts[1] * counts[2]);
