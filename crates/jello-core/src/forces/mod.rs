@@ -372,8 +372,12 @@ pub(crate) enum Ties<'a> {
     /// wall, plane or obstacle (the implicit integrators add friction themselves, at the
     /// iterate's velocities, those dampers from the step's start, and the contacts between
     /// bodies, at the touches found at the step's start). The springs' dampers act along their
-    /// directions where their ends were at `start`, at the velocities `velocity`.
-    Ignored { start: &'a Soa, velocity: &'a Soa },
+    /// directions where their ends were at `start`, at the velocities `velocity`; with no
+    /// `velocity`, at rest (every velocity zero), they exert nothing and are not computed.
+    Ignored {
+        start: &'a Soa,
+        velocity: Option<&'a Soa>,
+    },
 }
 
 /// [`force_pass`], with the obstacles' friction anchors read or not.
@@ -437,11 +441,16 @@ where
         v,
         dampers: match ties {
             Ties::Held => Dampers::Current,
-            Ties::Ignored { start, velocity } => Dampers::AtStart { start, velocity },
+            Ties::Ignored {
+                start,
+                velocity: Some(velocity),
+            } => Dampers::AtStart { start, velocity },
+            Ties::Ignored { velocity: None, .. } => Dampers::AtRest,
         },
         control,
         contact,
         anchors,
+        friction: held,
         update,
     };
     // Many bodies, none larger than a thread's share of the points, on a team: groups of whole
@@ -485,6 +494,8 @@ struct Shared<'a, U> {
     control: &'a Control,
     contact: Option<&'a Soa>,
     anchors: Option<&'a Anchors>,
+    /// Whether friction acts: not in a pass without ties (see [`Ties::Ignored`]).
+    friction: bool,
     update: &'a U,
 }
 
@@ -520,6 +531,7 @@ where
         control: shared.control,
         contact: shared.contact,
         anchors: shared.anchors,
+        friction: shared.friction,
         update: shared.update,
     };
     let buffers = owns

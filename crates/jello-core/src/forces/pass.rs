@@ -30,6 +30,8 @@ pub(super) struct Pass<'a, U> {
     pub(super) control: &'a Control,
     pub(super) contact: Option<&'a Soa>,
     pub(super) anchors: Option<&'a Anchors>,
+    /// Whether friction acts (see [`PointInputs::friction`]).
+    pub(super) friction: bool,
     pub(super) update: &'a U,
 }
 
@@ -216,6 +218,7 @@ impl<U> Pass<'_, U> {
                 clearance: (!self.body.clearance().is_empty())
                     .then(|| &self.model.clearance()[r.clone()]),
                 anchors: self.anchors,
+                friction: self.friction,
             };
             // The row buffer is free once the chunk's springs are done.
             let [ax, ay, az] = row.parts_mut();

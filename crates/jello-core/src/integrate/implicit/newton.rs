@@ -624,13 +624,16 @@ fn converged(model: &Model, floor: f64, g: &[Vec3], v: &[Vec3]) -> bool {
 }
 
 /// `max |g|` and `max |v|`, over the chunks of [`over_chunks`] on the team (a maximum does not
-/// depend on the order it is taken in).
+/// depend on the order it is taken in). The largest squares, then their roots: a square root is
+/// correctly rounded and never decreasing, so the root of the largest square is the largest
+/// root (two roots, not two a point).
 pub(super) fn max_norms(g: &[Vec3], v: &[Vec3]) -> (f64, f64) {
     let (maxima, chunks) = over_chunks(g.len(), &|at| {
-        let largest = |x: &[Vec3]| x.iter().map(|x| x.length()).fold(0.0, f64::max);
+        let largest = |x: &[Vec3]| x.iter().map(|x| x.length_squared()).fold(0.0, f64::max);
         (largest(&g[at.clone()]), largest(&v[at]))
     });
-    (maxima[..chunks].iter()).fold((0.0, 0.0), |(g, v), &(a, b)| {
+    let (g, v) = (maxima[..chunks].iter()).fold((0.0, 0.0), |(g, v), &(a, b)| {
         (f64::max(g, a), f64::max(v, b))
-    })
+    });
+    (g.sqrt(), v.sqrt())
 }

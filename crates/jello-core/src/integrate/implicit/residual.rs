@@ -35,6 +35,13 @@ pub(super) fn residual(
     h: f64,
     trial: bool,
 ) -> f64 {
+    // At rest (a step's first iterate where a body rests on a floor), no damper acts: the
+    // springs' forces alone (see `Dampers::AtRest`), and no dampers' forces from the step's
+    // start. The same bits, but for the signs of zeros. The test ends at the first point that
+    // moves.
+    let at_rest = (if trial { &s.trial } else { &s.v })
+        .iter()
+        .all(|v| *v == Vec3::ZERO);
     {
         let v = if trial { &s.trial } else { &s.v };
         let size = chunk_size(x0.len());
@@ -73,7 +80,7 @@ pub(super) fn residual(
         },
         Ties::Ignored {
             start: s.springs.start(),
-            velocity: &s.velocity_soa,
+            velocity: (!at_rest).then_some(&s.velocity_soa),
         },
     );
     // The other dampers' force (from the step's start) and friction, into the residual buffer
@@ -81,9 +88,9 @@ pub(super) fn residual(
     let mut g = std::mem::take(if trial { &mut s.g_trial } else { &mut s.g });
     let v = if trial { &s.trial } else { &s.v };
     let (damping, size) = (&s.start_damping[..], chunk_size(g.len()));
-    team::for_each_chunk([&mut g[..]], size, &|chunk, [g]| {
-        let at = chunk * size;
-        damper_forces_chunk(&damping[at..], &v[at..], g);
+    team::for_each_chunk([&mut g[..]], size, &|chunk, [g]| match at_rest {
+        true => g.fill(Vec3::ZERO),
+        false => damper_forces_chunk(&damping[chunk * size..], &v[chunk * size..], g),
     });
     for pull in &control.pulls {
         let p = pull.point as usize;

@@ -875,3 +875,95 @@ fn single_precision_solves_reach_their_reduction_with_the_same_bits_on_any_numbe
         assert!(other == dv, "{threads} threads: other bits");
     }
 }
+
+/// A residual at rest (every velocity zero) computes neither the springs' dampers
+/// (`Dampers::AtRest`) nor friction (`PointInputs::friction`): its force pass gives the same
+/// accelerations as the pass with the dampers along their start directions at zero velocities,
+/// and as an explicit step's pass at zero velocities (its friction slides at zero speed: none),
+/// on a body with holes and one with per-spring factors, pressed into a wall and a plane, both
+/// with friction.
+#[test]
+fn a_pass_at_rest_leaves_out_only_forces_that_are_zero() {
+    use crate::compute::soa::Soa;
+    use crate::forces::{force_pass_with, Ties};
+    use crate::model::obstacle::{Obstacle, Plane};
+    let big = Aabb::new(Vec3::new(0.3, -50.0, -50.0), Vec3::new(50.0, 50.0, 50.0)).unwrap();
+    let floor = Plane::facing([0.0, 0.0, 1.0, -0.3], Vec3::new(0.0, 0.0, 10.0)).unwrap();
+    let holes = test_models::with_holes([6, 5, 7], 7, -0.6);
+    let mut scaled = test_models::box_at([3, 4, 3], Vec3::new(9.0, 0.0, 0.0));
+    let mut next = values(31);
+    scaled
+        .scale_springs(|_| crate::model::springs::SpringScale {
+            rest: 1.0 + 0.1 * next(),
+            stiffness: 1.5 + next(),
+            damping: 1.5 + next(),
+        })
+        .unwrap();
+    let model = ModelBuilder::new()
+        .bodies(vec![holes, scaled])
+        .bounds(big)
+        .obstacle(Obstacle::Plane(floor))
+        .collision(400.0, 0.25)
+        .friction(0.5)
+        .wall_friction(0.5)
+        .gravity(Vec3::new(0.0, 0.0, -9.81))
+        .build()
+        .unwrap();
+    let n = model.point_count();
+    let at = |scale: f64, next: &mut dyn FnMut() -> f64| -> Vec<Vec3> {
+        let rest = crate::State::at_rest(&model).pos;
+        let moved = rest
+            .iter()
+            .map(|&p| p + Vec3::new(next(), next(), next()) * scale);
+        moved.collect()
+    };
+    let (x, start) = (at(0.2, &mut next), at(0.2, &mut next));
+    let pressed = |p: &Vec3| p.x < 0.3 || p.z < 0.3;
+    let (pressed, all) = (x.iter().filter(|p| pressed(p)).count(), x.len());
+    assert!(
+        pressed > 10 && pressed < all - 10,
+        "{pressed} of {all} points pressed"
+    );
+    let (p, zero, start) = (Soa::from_aos(&x), Soa::zeros(n), Soa::from_aos(&start));
+    let control = Control::none();
+    let pass = |ties: Ties| {
+        let mut a = Soa::zeros(n);
+        let copy = |_, out: [&mut [f64]; 3], a: [&[f64]; 3]| {
+            for (o, a) in out.into_iter().zip(a) {
+                o.copy_from_slice(&a[..o.len()]);
+            }
+            true
+        };
+        let mut scratch = ForceScratch::new(&model);
+        force_pass_with(
+            &model,
+            &p,
+            &zero,
+            &control,
+            &mut scratch,
+            a.parts_mut(),
+            &copy,
+            ties,
+        );
+        let mut out = vec![Vec3::ZERO; n];
+        a.copy_to(&mut out);
+        out
+    };
+    let at_rest = pass(Ties::Ignored {
+        start: &start,
+        velocity: None,
+    });
+    let at_start = pass(Ties::Ignored {
+        start: &start,
+        velocity: Some(&zero),
+    });
+    let held = pass(Ties::Held);
+    for (i, ((r, s), h)) in at_rest.iter().zip(&at_start).zip(&held).enumerate() {
+        // `==`: the same bits but for the signs of zeros.
+        assert!(r == s && r == h, "point {i}: {r:?}, {s:?}, {h:?}");
+    }
+    assert!(
+        at_rest.iter().any(|a| a.max_abs() > 100.0),
+        "the springs pull"
+    );
+}
