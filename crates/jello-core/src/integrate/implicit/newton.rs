@@ -629,11 +629,26 @@ fn converged(model: &Model, floor: f64, g: &[Vec3], v: &[Vec3]) -> bool {
 /// root (two roots, not two a point).
 pub(super) fn max_norms(g: &[Vec3], v: &[Vec3]) -> (f64, f64) {
     let (maxima, chunks) = over_chunks(g.len(), &|at| {
-        let largest = |x: &[Vec3]| x.iter().map(|x| x.length_squared()).fold(0.0, f64::max);
-        (largest(&g[at.clone()]), largest(&v[at]))
+        (largest_square(&g[at.clone()]), largest_square(&v[at]))
     });
     let (g, v) = (maxima[..chunks].iter()).fold((0.0, 0.0), |(g, v), &(a, b)| {
         (f64::max(g, a), f64::max(v, b))
     });
     (g.sqrt(), v.sqrt())
+}
+
+crate::compute::simd::multiversion! {
+    /// The largest `|x|²` of `x` (NaN counts as none), in lanes of eight, which vectorise: a
+    /// fold in order waits for each maximum in turn.
+    fn largest_square(x: &[Vec3]) -> f64 {
+        let mut lanes = [0.0f64; 8];
+        let mut chunks = x.chunks_exact(8);
+        for chunk in &mut chunks {
+            for (lane, x) in lanes.iter_mut().zip(chunk) {
+                *lane = lane.max(x.length_squared());
+            }
+        }
+        let rest = chunks.remainder().iter().map(|x| x.length_squared()).fold(0.0, f64::max);
+        lanes.into_iter().fold(rest, f64::max)
+    }
 }
