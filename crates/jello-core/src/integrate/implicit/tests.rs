@@ -967,3 +967,27 @@ fn a_pass_at_rest_leaves_out_only_forces_that_are_zero() {
         "the springs pull"
     );
 }
+
+/// `max_norms` is the largest `|g|` and `|v|`, to the bit, wherever the largest is among the
+/// lanes and the remainder, NaN counting as none.
+#[test]
+fn max_norms_are_the_largest_lengths() {
+    let mut next = values(41);
+    for n in [0, 1, 7, 8, 9, 31, 100, 5000] {
+        let mut g: Vec<Vec3> = (0..n).map(|_| Vec3::new(next(), next(), next())).collect();
+        let v: Vec<Vec3> = (0..n)
+            .map(|_| Vec3::new(next(), next(), next()) * 3.0)
+            .collect();
+        if n > 2 {
+            g[1] = Vec3::new(f64::NAN, 0.0, 0.0);
+        }
+        let largest = |x: &[Vec3]| x.iter().map(|x| x.length()).fold(0.0, f64::max);
+        let want = (largest(&g), largest(&v));
+        assert_eq!(max_norms(&g, &v), want, "{n} points");
+        if n > 0 {
+            let last = n - 1;
+            g[last] = Vec3::new(0.0, 9.0, 0.0);
+            assert_eq!(max_norms(&g, &v).0, 9.0, "{n} points, the last the largest");
+        }
+    }
+}
