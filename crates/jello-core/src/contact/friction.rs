@@ -255,8 +255,8 @@ impl Surface {
 }
 
 /// Whether `past` holds for any of `c`: the tests or-ed together in lanes of eight, which
-/// vectorises (a fold of `f64::max` over the coordinates, as before, waited for each maximum in
-/// turn: with six walls, half of the friction's part of a resting 16³ cube's residuals).
+/// vectorises, where a fold of `f64::max` over the coordinates waits for each maximum in turn
+/// (with six walls, that was half of the friction's part of a resting 16³ cube's residuals).
 #[inline(always)]
 fn any_past(c: &[f64], past: impl Fn(f64) -> bool) -> bool {
     let mut lanes = [false; 8];
