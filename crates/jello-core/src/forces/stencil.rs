@@ -363,11 +363,8 @@ fn spring_run_at_start<'a>(
     let (fx, fy, fz) = (&mut fx[..len], &mut fy[..len], &mut fz[..len]);
     for t in 0..len {
         let (dx, dy, dz) = (xa[t] - xb[t], ya[t] - yb[t], za[t] - zb[t]);
-        let l2 = dx * dx + dy * dy + dz * dz;
-        let inv = if l2 > 0.0 { 1.0 / l2.sqrt() } else { 0.0 };
-        let l = l2 * inv;
         let (k, d, rest) = spring(t);
-        let s = -k * (l - rest) * inv * mask(t);
+        let s = stretch([dx, dy, dz], k, rest) * mask(t);
         let (ex, ey, ez) = (sa[t] - sb[t], ta[t] - tb[t], ua[t] - ub[t]);
         let e2 = ex * ex + ey * ey + ez * ez;
         let closing = (va[t] - vb[t]) * ex + (wa[t] - wb[t]) * ey + (qa[t] - qb[t]) * ez;
@@ -398,13 +395,21 @@ fn spring_run_at_rest(
     let (fx, fy, fz) = (&mut fx[..len], &mut fy[..len], &mut fz[..len]);
     for t in 0..len {
         let (dx, dy, dz) = (xa[t] - xb[t], ya[t] - yb[t], za[t] - zb[t]);
-        let l2 = dx * dx + dy * dy + dz * dz;
-        let inv = if l2 > 0.0 { 1.0 / l2.sqrt() } else { 0.0 };
-        let l = l2 * inv;
         let (k, _, rest) = spring(t);
-        let s = -k * (l - rest) * inv * mask(t);
+        let s = stretch([dx, dy, dz], k, rest) * mask(t);
         (fx[t], fy[t], fz[t]) = (dx * s, dy * s, dz * s);
     }
+}
+
+/// The spring force `−k (|L| − R) L̂` of [`spring_run_at_start`] and [`spring_run_at_rest`] as a
+/// factor of `L` (`−k (|L| − R)/|L|`, zero for a spring of zero length): one square root and one
+/// division.
+#[inline(always)]
+fn stretch([dx, dy, dz]: [f64; 3], k: f64, rest: f64) -> f64 {
+    let l2 = dx * dx + dy * dy + dz * dz;
+    let inv = if l2 > 0.0 { 1.0 / l2.sqrt() } else { 0.0 };
+    let l = l2 * inv;
+    -k * (l - rest) * inv
 }
 
 /// `f[at .. at + len] += sign · row[.. len]`, component by component.

@@ -52,3 +52,18 @@ pub fn two_bodies() -> Model {
         .build()
         .unwrap()
 }
+
+/// A body with holes and a full box beside it whose springs have factors drawn from `next`
+/// (rest 0.9–1.1, stiffness and damping 0.5–2.5 times the material's).
+pub fn holes_and_factors(next: &mut dyn FnMut() -> f64) -> Vec<Body> {
+    let holes = with_holes([6, 5, 7], 7, -0.6);
+    let mut scaled = box_at([3, 4, 3], Vec3::new(9.0, 0.0, 0.0));
+    scaled
+        .scale_springs(|_| crate::model::springs::SpringScale {
+            rest: 1.0 + 0.1 * next(),
+            stiffness: 1.5 + next(),
+            damping: 1.5 + next(),
+        })
+        .unwrap();
+    vec![holes, scaled]
+}

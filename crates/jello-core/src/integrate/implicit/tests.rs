@@ -361,18 +361,9 @@ fn a_anticipates_the_contacts_the_last_newton_step_reached() {
 #[test]
 fn the_residual_is_the_backward_euler_equation_spring_by_spring() {
     let big = Aabb::new(Vec3::new(-50.0, -50.0, -50.0), Vec3::new(50.0, 50.0, 50.0)).unwrap();
-    let holes = test_models::with_holes([6, 5, 7], 7, -0.6);
-    let mut scaled = test_models::box_at([3, 4, 3], Vec3::new(9.0, 0.0, 0.0));
     let mut next = values(23);
-    scaled
-        .scale_springs(|_| crate::model::springs::SpringScale {
-            rest: 1.0 + 0.1 * next(),
-            stiffness: 1.5 + next(),
-            damping: 1.5 + next(),
-        })
-        .unwrap();
     let model = ModelBuilder::new()
-        .bodies(vec![holes, scaled])
+        .bodies(test_models::holes_and_factors(&mut next))
         .bounds(big)
         .build()
         .unwrap();
@@ -889,18 +880,9 @@ fn a_pass_at_rest_leaves_out_only_forces_that_are_zero() {
     use crate::model::obstacle::{Obstacle, Plane};
     let big = Aabb::new(Vec3::new(0.3, -50.0, -50.0), Vec3::new(50.0, 50.0, 50.0)).unwrap();
     let floor = Plane::facing([0.0, 0.0, 1.0, -0.3], Vec3::new(0.0, 0.0, 10.0)).unwrap();
-    let holes = test_models::with_holes([6, 5, 7], 7, -0.6);
-    let mut scaled = test_models::box_at([3, 4, 3], Vec3::new(9.0, 0.0, 0.0));
     let mut next = values(31);
-    scaled
-        .scale_springs(|_| crate::model::springs::SpringScale {
-            rest: 1.0 + 0.1 * next(),
-            stiffness: 1.5 + next(),
-            damping: 1.5 + next(),
-        })
-        .unwrap();
     let model = ModelBuilder::new()
-        .bodies(vec![holes, scaled])
+        .bodies(test_models::holes_and_factors(&mut next))
         .bounds(big)
         .obstacle(Obstacle::Plane(floor))
         .collision(400.0, 0.25)
