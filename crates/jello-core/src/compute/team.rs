@@ -390,6 +390,24 @@ pub fn for_each(items: usize, body: &(dyn Fn(usize) + Sync)) {
     (0..items).for_each(body);
 }
 
+/// `f` of each chunk of `size` items of `0..n` (larger where that makes more than
+/// [`OWNED_ITEMS`] chunks), spread as [`for_each`] spreads them, and how many chunks there are:
+/// for the maxima, sums and tests over all points that a step takes between its parallel loops,
+/// which on the leader alone keep the other threads waiting.
+pub fn map_chunks<R: Copy + Default + Send>(
+    n: usize,
+    size: usize,
+    f: &(dyn Fn(std::ops::Range<usize>) -> R + Sync),
+) -> ([R; OWNED_ITEMS], usize) {
+    let size = size.max(n.div_ceil(OWNED_ITEMS)).max(1);
+    let chunks = n.div_ceil(size);
+    let mut parts = [R::default(); OWNED_ITEMS];
+    for_each_mut(&mut parts[..chunks], &|c, part| {
+        *part = f(c * size..((c + 1) * size).min(n));
+    });
+    (parts, chunks)
+}
+
 /// `body(i, &mut items[i])` for every item, spread as [`for_each`] spreads them.
 pub fn for_each_mut<S: Send>(items: &mut [S], body: &(dyn Fn(usize, &mut S) + Sync)) {
     let base = Base(items.as_mut_ptr());
@@ -619,6 +637,29 @@ mod tests {
             .num_threads(threads)
             .build()
             .unwrap()
+    }
+
+    /// The chunks of `map_chunks` cover the items once, in order, each its `size` but the last,
+    /// and no more than `OWNED_ITEMS` of them however small `size` is.
+    #[test]
+    fn map_chunks_cover_the_items_in_order() {
+        // Items, the size asked, the chunks' size.
+        for (n, size, want) in [(10, 3, 3), (9, 3, 3), (0, 3, 3), (1000, 1, 16), (5, 0, 1)] {
+            let (ranges, chunks) =
+                pool(2).install(|| run(|| map_chunks(n, size, &|at| (at.start, at.end))));
+            let ranges = &ranges[..chunks];
+            assert_eq!(chunks, n.div_ceil(want), "n {n}, size {size}: {ranges:?}");
+            let mut next = 0;
+            for &(start, end) in ranges {
+                assert_eq!(start, next, "n {n}, size {size}: {ranges:?}");
+                assert!(
+                    end - start == want || end == n,
+                    "n {n}, size {size}: {ranges:?}"
+                );
+                next = end;
+            }
+            assert_eq!(next, n, "n {n}, size {size}: {ranges:?}");
+        }
     }
 
     /// Each item gets its own run of the slices, whatever thread takes it; elements between

@@ -27,6 +27,7 @@
 //! model and the steps taken since the scratch was made (never on threads), and a run resumed
 //! from a saved state starts again at full size.
 
+use crate::compute::team;
 use crate::contact::friction::Anchors;
 use crate::integrate::blow_up::{block_is_sound, unsound};
 use crate::integrate::blow_up::{BlowUp, BlowUpCause};
@@ -36,6 +37,9 @@ use crate::integrate::stability;
 use crate::model::Model;
 use crate::state::{Control, State};
 use crate::vec3::Vec3;
+
+/// Fewest points in a chunk of the test that a step's result is sound.
+const SOUND_CHUNK: usize = 4096;
 
 /// Substeps in a row that succeed at one size before twice the size is tried again.
 pub const COARSEN_AFTER: u32 = 4;
@@ -209,7 +213,13 @@ fn substep(
         &mut s.next_vel,
     )
     .map_err(Failure::NotConverged)?;
-    if !block_is_sound(model, &s.next_pos, &s.next_vel) {
+    // In chunks over the team (where the step had one), as the anchors' update below.
+    let (pos, vel) = (&s.next_pos[..], &s.next_vel[..]);
+    let size = team::chunk_size(pos.len(), SOUND_CHUNK);
+    let (sound, chunks) = team::map_chunks(pos.len(), size, &|at| {
+        block_is_sound(model, &pos[at.clone()], &vel[at])
+    });
+    if sound[..chunks].contains(&false) {
         return Err(Failure::Unsound);
     }
     accept(model, state, s, t0, t1);

@@ -42,8 +42,6 @@ pub(super) fn newton(
     h: f64,
     swirls: bool,
 ) -> Result<(), NotConverged> {
-    // The forces but the dampers are evaluated at zero velocity.
-    s.v_soa.fill_zero();
     first_iterate(s, model, v0, h);
     (s.full_step_taken, s.anticipating) = (false, true);
     s.swirl_allowed = swirls;
@@ -274,7 +272,10 @@ pub(super) fn newton(
 /// → 0.111× (its second step, where the bottom face's friction ties start, 13 → 3 Newton
 /// iterations); the 8³ cubes 8–10 % faster on one thread.
 pub(super) fn first_iterate(s: &mut ImplicitScratch, model: &Model, v0: &[Vec3], h: f64) {
-    s.v.copy_from_slice(v0);
+    let size = chunk_size(v0.len());
+    team::for_each_chunk([&mut s.v[..]], size, &|c, [v]| {
+        v.copy_from_slice(&v0[c * size..c * size + v.len()]);
+    });
     #[cfg(test)]
     if !s.may_start_at_rest {
         return;
@@ -285,18 +286,25 @@ pub(super) fn first_iterate(s: &mut ImplicitScratch, model: &Model, v0: &[Vec3],
     let reach = REST_MOVE * s.shortest_spring / h;
     for body in model.bodies() {
         let points = body.points();
-        if !s.touching[points.clone()].contains(&true)
-            || v0[points.clone()]
+        let (touching, v0) = (&s.touching[points.clone()], &v0[points.clone()]);
+        let (found, chunks) = over_chunks(points.len(), &|at| {
+            let fast = v0[at.clone()]
                 .iter()
-                .any(|v| v.length_squared() > reach * reach)
-        {
+                .any(|v| v.length_squared() > reach * reach);
+            (touching[at].contains(&true), fast)
+        });
+        let found = &found[..chunks];
+        if !found.iter().any(|f| f.0) || found.iter().any(|f| f.1) {
             continue;
         }
-        for (v, &free) in s.v[points.clone()].iter_mut().zip(&s.free[points]) {
-            if free != 0.0 {
-                *v = Vec3::ZERO;
+        let free = &s.free[points.clone()];
+        team::for_each_chunk([&mut s.v[points]], size, &|c, [v]| {
+            for (v, &free) in v.iter_mut().zip(&free[c * size..]) {
+                if free != 0.0 {
+                    *v = Vec3::ZERO;
+                }
             }
-        }
+        });
     }
 }
 
@@ -324,13 +332,12 @@ fn keeps_across_steps(s: &ImplicitScratch, kept: Option<f64>, v0: &[Vec3], h: f6
     // point's velocity: within the limit, no spring is fast (a body at rest or moving as a
     // whole), and the springs need not be looked at (their loop was 3 % of a resting 32³ cube's
     // step on one thread).
-    let (lo, hi) = v0.iter().fold(
-        (
-            Vec3::new(f64::INFINITY, f64::INFINITY, f64::INFINITY),
-            -Vec3::new(f64::INFINITY, f64::INFINITY, f64::INFINITY),
-        ),
-        |(lo, hi), &v| (lo.min(v), hi.max(v)),
-    );
+    let far = Vec3::new(f64::INFINITY, f64::INFINITY, f64::INFINITY);
+    let (boxes, chunks) = over_chunks(v0.len(), &|at| {
+        (v0[at].iter()).fold((far, -far), |(lo, hi), &v| (lo.min(v), hi.max(v)))
+    });
+    let (lo, hi) =
+        (boxes[..chunks].iter()).fold((far, -far), |(lo, hi), &(l, h)| (lo.min(l), hi.max(h)));
     if (hi - lo).length_squared() <= limit * limit {
         return true;
     }
@@ -466,17 +473,11 @@ fn rounding_floor(s: &ImplicitScratch, x0: &[Vec3], h: f64) -> f64 {
 /// [`sum_chunk`] fixes them), on the team, and how many there are: the serial loops over the
 /// points that Newton's method folds (maxima, minima, a sum) are then split over the threads,
 /// and each chunk's result is the same whoever computes it.
-fn over_chunks<R: Copy + Default + Send>(
+pub(super) fn over_chunks<R: Copy + Default + Send>(
     n: usize,
     f: &(dyn Fn(std::ops::Range<usize>) -> R + Sync),
 ) -> ([R; team::OWNED_ITEMS], usize) {
-    let size = sum_chunk(n);
-    let chunks = n.div_ceil(size);
-    let mut parts = [R::default(); team::OWNED_ITEMS];
-    team::for_each_mut(&mut parts[..chunks], &|c, part| {
-        *part = f(c * size..((c + 1) * size).min(n));
-    });
-    (parts, chunks)
+    team::map_chunks(n, sum_chunk(n), f)
 }
 
 /// The report of a step that stopped with residual `g` after `iterations`.
@@ -517,11 +518,12 @@ fn line_search(
     let potential = has_potential(model) && !s.unsymmetric();
     // The potential's slope along Δv is M·g·Δv (negative); for |g|²_M a plain fall is asked.
     let slope: f64 = if potential {
-        s.g.iter()
-            .zip(&s.dv)
-            .zip(&s.mass)
-            .map(|((g, d), m)| m * g.dot(*d))
-            .sum()
+        let (g, dv, mass) = (&s.g[..], &s.dv[..], &s.mass[..]);
+        let (sums, chunks) = over_chunks(g.len(), &|at| {
+            let terms = g[at.clone()].iter().zip(&dv[at.clone()]).zip(&mass[at]);
+            terms.map(|((g, d), m)| m * g.dot(*d)).sum::<f64>()
+        });
+        sums[..chunks].iter().sum()
     } else {
         0.0
     };

@@ -9,6 +9,7 @@ use crate::vec3::Vec3;
 
 use super::cg::sum_chunk;
 use super::contacts;
+use super::newton::over_chunks;
 use super::sym::{sym_mul, Sym};
 use super::{chunk_size, ImplicitScratch};
 
@@ -37,11 +38,11 @@ pub(super) fn residual(
 ) -> f64 {
     // At rest (a step's first iterate where a body rests on a floor), no damper acts: the
     // springs' forces alone (see `Dampers::AtRest`), and no dampers' forces from the step's
-    // start. The same bits, but for the signs of zeros. The test ends at the first point that
-    // moves.
-    let at_rest = (if trial { &s.trial } else { &s.v })
-        .iter()
-        .all(|v| *v == Vec3::ZERO);
+    // start. The same bits, but for the signs of zeros. The test, in chunks over the team, ends
+    // each chunk at its first point that moves.
+    let v = if trial { &s.trial } else { &s.v };
+    let (moving, chunks) = over_chunks(v.len(), &|at| v[at].iter().any(|v| *v != Vec3::ZERO));
+    let at_rest = !moving[..chunks].contains(&true);
     {
         let v = if trial { &s.trial } else { &s.v };
         let size = chunk_size(x0.len());

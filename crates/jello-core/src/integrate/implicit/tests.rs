@@ -31,7 +31,6 @@ fn residual_at(
     v: &[Vec3],
     h: f64,
 ) -> f64 {
-    s.v_soa.fill_zero();
     s.v.copy_from_slice(v);
     residual(model, control, force, s, x0, v0, h, false)
 }

@@ -350,11 +350,10 @@ struct Level {
     /// Each node's aggregate and each pair's pair on the next level (empty on the coarsest).
     down: Restriction,
     incidence: Incidence,
-    /// The pairs' blocks in stencil order, for the level's products, and each pair's slot there;
-    /// whether the level's products take them (see [`STENCIL_NODES`]), else they go by the list
+    /// The pairs' blocks in stencil order, for the level's products; whether the level's
+    /// products take them (see [`STENCIL_NODES`]), else they go by the list
     /// of pairs, with a force per pair in `forces`.
     stencil: LevelStencil,
-    slots: Vec<u32>,
     in_stencil_order: bool,
     forces: Vec<Vec3>,
     /// Right-hand side, correction, residual.
@@ -425,13 +424,14 @@ impl Multigrid {
         while nodes.iter().any(|(_, c)| *c != [0; 3]) {
             let (down, coarse_nodes, coarse_pairs) = coarsen(&nodes, &level_pairs);
             let n = coarse_nodes.len();
-            let stencil = LevelStencil::new(&lattices(&coarse_nodes));
-            let slots = (coarse_pairs.iter())
+            let mut stencil = LevelStencil::new(&lattices(&coarse_nodes));
+            let slots: Vec<u32> = (coarse_pairs.iter())
                 .map(|&[a, c]| {
                     (stencil.slot(a as usize, c as usize))
                         .expect("the aggregates a spring joins are lattice neighbours")
                 })
                 .collect();
+            stencil.place_pairs(&slots);
             downs.push(down);
             levels.push(Level {
                 own: vec![[0.0; 6]; n],
@@ -444,7 +444,6 @@ impl Multigrid {
                 incidence: Incidence::of(n, &coarse_pairs),
                 in_stencil_order: n >= STENCIL_NODES * stencil.lattice_count(),
                 stencil,
-                slots,
                 forces: vec![Vec3::ZERO; coarse_pairs.len()],
                 r: vec![Vec3::ZERO; n],
                 e: vec![Vec3::ZERO; n],
@@ -972,7 +971,7 @@ fn restrict_with(
         &mut coarse.diag_inv,
     );
     if coarse.in_stencil_order {
-        coarse.stencil.set(&coarse.slots, &coarse.blocks);
+        coarse.stencil.set(&coarse.blocks);
     }
 }
 
@@ -1338,7 +1337,8 @@ mod tests {
         let mg = run(1);
         let galerkin = &mg.galerkin;
         assert_eq!(galerkin.parts.len(), 1, "the large full box");
-        assert!(!galerkin.targets.is_empty() && !galerkin.gathered.is_empty());
+        let gathered = |&at: &u32| at == galerkin::GATHERED;
+        assert!(galerkin.places.iter().any(gathered) && !galerkin.places.iter().all(gathered));
         for (got, want) in mg.levels.iter().zip(&listed.levels) {
             let scale = want
                 .blocks
@@ -1497,7 +1497,7 @@ mod tests {
         );
         for level in &mut mg.levels {
             // Whether or not the level's own products take them (its lattices are small).
-            level.stencil.set(&level.slots, &level.blocks);
+            level.stencil.set(&level.blocks);
             let n = level.own.len();
             let (r, e) = (random(n, 31), random(n, 32));
             let mut want = vec![Vec3::ZERO; n];

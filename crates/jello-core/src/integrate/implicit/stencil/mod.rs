@@ -418,11 +418,13 @@ impl SpringMatrix {
 
     /// The points' own blocks of `A` ([`SpringMatrix::apply`], [`SpringMatrix::diagonal`]).
     pub fn set_own(&mut self, own: &[Sym]) {
-        self.own.copy_from_slice(own);
         let size = team::chunk_size(own.len(), MIN_POINTS_PER_RANGE);
         let [a, b, c, d, e, f] = &mut self.own_single;
-        team::for_each_chunk([a, b, c, d, e, f], size, &|chunk, mut single| {
-            for (i, own) in own[chunk * size..].iter().take(single[0].len()).enumerate() {
+        let parts = ([&mut self.own[..]], [a, b, c, d, e, f].map(|s| &mut s[..]));
+        team::for_each_chunk_pair(parts, size, &|chunk, ([double], mut single)| {
+            let own = &own[chunk * size..chunk * size + double.len()];
+            double.copy_from_slice(own);
+            for (i, own) in own.iter().enumerate() {
                 for (single, &o) in single.iter_mut().zip(own) {
                     single[i] = o as f32;
                 }
