@@ -43,6 +43,7 @@ pub(super) fn newton(
     swirls: bool,
 ) -> Result<(), NotConverged> {
     first_iterate(s, model, v0, h);
+    add_weight(model, control, s, x0, v0, h);
     (s.full_step_taken, s.anticipating) = (false, true);
     s.swirl_allowed = swirls;
     s.stats.solves += 1;
@@ -304,6 +305,56 @@ pub(super) fn first_iterate(s: &mut ImplicitScratch, model: &Model, v0: &[Vec3],
                     *v = Vec3::ZERO;
                 }
             }
+        });
+    }
+}
+
+/// Adds to the first iterate of each body in free flight the velocity its weight gives it over
+/// the step: `h·(g + n·F/M)`, for gravity `g` and a uniform field's force `F` on each of its `n`
+/// points of mass `M` in all, the change of momentum under the only forces on it that do not
+/// cancel within the body. That is the shift [`shift_by_momentum`] makes after a first residual:
+/// a body falling clear of everything is then solved by the first residual alone (the dropped
+/// cube's steps in free fall took two). In free flight: no point held, pulled or pushed (by the
+/// control's forces), and nothing touched at the step's start or, at `v₀`, at its end (see
+/// [`shift_by_momentum`] for a body about to land).
+pub(super) fn add_weight(
+    model: &Model,
+    control: &Control,
+    s: &mut ImplicitScratch,
+    x0: &[Vec3],
+    v0: &[Vec3],
+    h: f64,
+) {
+    let field = match &model.field {
+        None => Vec3::ZERO,
+        Some(field) => match field.uniform() {
+            Some(force) => force,
+            None => return,
+        },
+    };
+    if (model.gravity == Vec3::ZERO && field == Vec3::ZERO) || !control.forces.is_empty() {
+        return;
+    }
+    for body in model.bodies() {
+        let points = body.points();
+        let pulled = |p: &crate::state::Pull| points.contains(&(p.point as usize));
+        if s.touching[points.clone()].contains(&true)
+            || s.free[points.clone()].contains(&0.0)
+            || control.pulls.iter().any(pulled)
+            || ends_touching(model, x0, v0, h, points.clone())
+        {
+            continue;
+        }
+        let mass = &s.mass[points.clone()];
+        let (sums, chunks) = over_chunks(mass.len(), &|at| mass[at].iter().sum::<f64>());
+        let mass: f64 = sums[..chunks].iter().sum();
+        if mass <= 0.0 {
+            continue;
+        }
+        let shift = (model.gravity + field * (points.len() as f64 / mass)) * h;
+        let size = chunk_size(points.len());
+        team::for_each_chunk([&mut s.v[points]], size, &|_, [v]| {
+            v.iter_mut().for_each(|v| *v += shift);
         });
     }
 }

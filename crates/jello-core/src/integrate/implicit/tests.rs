@@ -3,7 +3,7 @@
 
 use super::cg::{advance, apply_to, dot, sum_chunk, sum_chunks};
 use super::matrix::{assemble, Curvature};
-use super::newton::{enough_reduction, first_iterate, max_norms, shift_by_momentum};
+use super::newton::{add_weight, enough_reduction, first_iterate, max_norms, shift_by_momentum};
 use super::residual::residual;
 use super::test_models::values;
 use super::*;
@@ -262,6 +262,100 @@ fn a_body_in_free_flight_is_solved_by_its_change_of_momentum() {
             assert_eq!(reached, norm2);
             assert_eq!(s.v, v0);
         }
+    }
+}
+
+/// A body in free flight starts from its weight's change of momentum over the step (gravity and
+/// a uniform field's force, `h·(g + n·F/M)`): its first residual is then within the tolerance,
+/// no Newton iteration needed. A body held at a point, pulled, pushed by the control's forces,
+/// or in a field that is not uniform starts from `v₀` (its momentum changes by what the first
+/// residual finds).
+#[test]
+fn a_body_in_free_flight_starts_from_its_weights_change_of_momentum() {
+    let box_ = Aabb::new(Vec3::new(-9.0, -9.0, -9.0), Vec3::new(9.0, 9.0, 9.0)).unwrap();
+    let force = Vec3::new(0.3, -0.2, 0.1);
+    let uniform = ForceField::from_fn(2, box_, |_| force).unwrap();
+    let swirling = ForceField::from_fn(2, box_, |p| Vec3::new(-p.y, p.x, 0.0) * 1e-3).unwrap();
+    let gravity = Vec3::new(0.0, 0.0, -9.81);
+    let h = 1.0 / 60.0;
+    let model = |field: &ForceField, pins: Vec<u32>| {
+        let body = Body::lattice_box(
+            Lattice::new([4, 3, 5], Vec3::new(0.6, 0.4, 0.8)),
+            Material::classic(),
+        );
+        (ModelBuilder::new().bodies(vec![body]).bounds(box_))
+            .field(Some(field.clone()))
+            .gravity(gravity)
+            .dt(h)
+            .pins(pins)
+            .build()
+            .unwrap()
+    };
+    let pull = crate::state::Pull {
+        point: 5,
+        target: Vec3::new(0.0, 0.0, 1.0),
+        stiffness: 10.0,
+        damping: 0.0,
+    };
+    let free = model(&uniform, vec![]);
+    let n = free.point_count();
+    let cases = [
+        ("free", free.clone(), Control::none(), true),
+        ("held", model(&uniform, vec![7]), Control::none(), false),
+        (
+            "swirling field",
+            model(&swirling, vec![]),
+            Control::none(),
+            false,
+        ),
+        (
+            "pulled",
+            free.clone(),
+            Control {
+                pulls: vec![pull],
+                ..Control::none()
+            },
+            false,
+        ),
+        (
+            "pushed",
+            free.clone(),
+            Control {
+                forces: vec![Vec3::ZERO; n],
+                ..Control::none()
+            },
+            false,
+        ),
+    ];
+    for (what, model, control, shifted) in cases {
+        let x0 = crate::State::at_rest(&model).pos;
+        let v0 = vec![Vec3::new(1.0, -0.5, 2.0); n];
+        let mut force_scratch = ForceScratch::new(&model);
+        let mut s = scratch_at(&model, &x0);
+        first_iterate(&mut s, &model, &v0, h);
+        add_weight(&model, &control, &mut s, &x0, &v0, h);
+        if !shifted {
+            assert_eq!(s.v, v0, "{what}");
+            continue;
+        }
+        let mass: f64 = s.mass.iter().sum();
+        let shift = (gravity + force * (n as f64 / mass)) * h;
+        for v in &s.v {
+            assert!((*v - v0[0] - shift).length() <= 1e-15, "{what}: {v:?}");
+        }
+        residual(
+            &model,
+            &control,
+            &mut force_scratch,
+            &mut s,
+            &x0,
+            &v0,
+            h,
+            false,
+        );
+        let (worst, _) = max_norms(&s.g, &s.v);
+        // Rounding alone: the springs' forces at the shifted end positions.
+        assert!(worst <= 0.01 * TOLERANCE, "{what}: max |g| {worst} m/s");
     }
 }
 
