@@ -268,8 +268,8 @@ fn a_body_in_free_flight_is_solved_by_its_change_of_momentum() {
 /// A body in free flight starts from its weight's change of momentum over the step (gravity and
 /// a uniform field's force, `h·(g + n·F/M)`): its first residual is then within the tolerance,
 /// no Newton iteration needed. A body held at a point, pulled, pushed by the control's forces,
-/// or in a field that is not uniform starts from `v₀` (its momentum changes by what the first
-/// residual finds).
+/// in a field that is not uniform, or that the shift would carry into a floor starts from `v₀`
+/// (its momentum changes by what the first residual finds).
 #[test]
 fn a_body_in_free_flight_starts_from_its_weights_change_of_momentum() {
     let box_ = Aabb::new(Vec3::new(-9.0, -9.0, -9.0), Vec3::new(9.0, 9.0, 9.0)).unwrap();
@@ -356,6 +356,20 @@ fn a_body_in_free_flight_starts_from_its_weights_change_of_momentum() {
         let (worst, _) = max_norms(&s.g, &s.v);
         // Rounding alone: the springs' forces at the shifted end positions.
         assert!(worst <= 0.01 * TOLERANCE, "{what}: max |g| {worst} m/s");
+    }
+    // At rest 1 mm above a floor, the shift (2.7 mm down in the step) would carry the body into
+    // it; 1 m above, it flies.
+    for (above, shifted) in [(0.001, false), (1.0, true)] {
+        let (model, x0) = dropped_cube_with_its_bottom_at(4, above);
+        let v0 = vec![Vec3::ZERO; x0.len()];
+        let mut s = scratch_at(&model, &x0);
+        assert!(
+            !s.touching.contains(&true),
+            "clear of the floor at the start"
+        );
+        first_iterate(&mut s, &model, &v0, h);
+        add_weight(&model, &Control::none(), &mut s, &x0, &v0, h);
+        assert_eq!(s.v != v0, shifted, "{above} m above the floor");
     }
 }
 
