@@ -44,7 +44,6 @@ pub(super) fn residual(
     let (moving, chunks) = over_chunks(v.len(), &|at| v[at].iter().any(|v| *v != Vec3::ZERO));
     let at_rest = !moving[..chunks].contains(&true);
     {
-        let v = if trial { &s.trial } else { &s.v };
         let size = chunk_size(x0.len());
         let parts = (s.x_soa.parts_mut(), s.velocity_soa.parts_mut());
         team::for_each_chunk_pair(parts, size, &|chunk, (x, velocity)| {

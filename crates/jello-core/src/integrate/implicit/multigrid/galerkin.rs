@@ -137,7 +137,7 @@ impl Galerkin {
             });
         }
         // Each coarse pair from its place in the sums, or gathered: over the team (on the
-        // leader alone, the copy from the sums was 0.7 ms of each assembly of a 32³ cube on
+        // leader alone, the copy from the sums was 0.46 ms of each assembly of a 32³ cube on
         // two threads, while the other thread waited).
         let (sums, places) = (&self.sums, &self.places[..]);
         let size = team::chunk_size(places.len(), MIN_NODES);
