@@ -360,6 +360,18 @@ mod spinning {
         unsafe { &*team }.lead(items, body);
     }
 
+    pub(super) fn serially<R>(f: impl FnOnce() -> R) -> R {
+        /// Gives the team back to the thread however `f` ends.
+        struct Restore(*const Team);
+        impl Drop for Restore {
+            fn drop(&mut self) {
+                LEADING.set(self.0);
+            }
+        }
+        let _restore = Restore(LEADING.replace(std::ptr::null()));
+        f()
+    }
+
     pub(super) fn threads() -> usize {
         let team = LEADING.get();
         if team.is_null() {
@@ -376,6 +388,16 @@ mod spinning {
 pub fn run<R: Send>(f: impl FnOnce() -> R + Send) -> R {
     #[cfg(feature = "parallel")]
     return spinning::run(f);
+    #[cfg(not(feature = "parallel"))]
+    f()
+}
+
+/// `f()` with the team this thread leads set aside: its loops run in order on this thread (and
+/// [`threads`] is 1), for work too small to be worth the others' start at each loop. The team's
+/// other threads wait meanwhile, as they wait for the leader's serial work.
+pub fn serially<R>(f: impl FnOnce() -> R) -> R {
+    #[cfg(feature = "parallel")]
+    return spinning::serially(f);
     #[cfg(not(feature = "parallel"))]
     f()
 }
@@ -637,6 +659,32 @@ mod tests {
             .num_threads(threads)
             .build()
             .unwrap()
+    }
+
+    /// Within `serially` the team is set aside (one thread; the items in order on the leader),
+    /// and back after it, also when `f` panics.
+    #[test]
+    fn serially_sets_the_team_aside_until_it_returns() {
+        pool(2).install(|| {
+            run(|| {
+                // Two where the machine has two cores or more.
+                let size = threads();
+                let leader = std::thread::current().id();
+                let order = std::sync::Mutex::new(Vec::new());
+                serially(|| {
+                    assert_eq!(threads(), 1);
+                    for_each(8, &|i| {
+                        assert_eq!(std::thread::current().id(), leader);
+                        order.lock().unwrap().push(i);
+                    });
+                });
+                assert_eq!(*order.lock().unwrap(), (0..8).collect::<Vec<_>>());
+                assert_eq!(threads(), size);
+                let panicked = std::panic::catch_unwind(|| serially(|| panic!("in serially")));
+                assert!(panicked.is_err());
+                assert_eq!(threads(), size);
+            })
+        });
     }
 
     /// The chunks of `map_chunks` cover the items once, in order, each its `size` but the last,
