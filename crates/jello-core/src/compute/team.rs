@@ -30,6 +30,8 @@
 //! it run. A helper that never starts (the pool busy with other work) costs nothing: the leader
 //! claims every item itself.
 
+use crate::vec3::Vec3;
+
 /// Loops of at most this many items are cut into a block per thread (see the module's
 /// documentation); the items of longer ones are claimed in order by whichever thread is free.
 pub const OWNED_ITEMS: usize = 64;
@@ -430,6 +432,17 @@ pub fn map_chunks<R: Copy + Default + Send>(
     (parts, chunks)
 }
 
+/// The smallest box holding `points` (its lowest and highest corners; inside out, from +∞ to
+/// −∞, for none), in chunks of `size` points spread as [`map_chunks`] spreads them.
+pub fn bounds(points: &[Vec3], size: usize) -> (Vec3, Vec3) {
+    let far = Vec3::new(f64::INFINITY, f64::INFINITY, f64::INFINITY);
+    let grow = |(lo, hi): (Vec3, Vec3), (l, h): (Vec3, Vec3)| (lo.min(l), hi.max(h));
+    let (boxes, chunks) = map_chunks(points.len(), size, &|at| {
+        (points[at].iter()).fold((far, -far), |b, &p| grow(b, (p, p)))
+    });
+    boxes[..chunks].iter().fold((far, -far), |b, &c| grow(b, c))
+}
+
 /// `body(i, &mut items[i])` for every item, spread as [`for_each`] spreads them.
 pub fn for_each_mut<S: Send>(items: &mut [S], body: &(dyn Fn(usize, &mut S) + Sync)) {
     let base = Base(items.as_mut_ptr());
@@ -685,6 +698,25 @@ mod tests {
                 assert_eq!(threads(), size);
             })
         });
+    }
+
+    /// `bounds` is the smallest box holding the points, whatever the chunks, and inside out for
+    /// none.
+    #[test]
+    fn bounds_hold_the_points_in_the_smallest_box() {
+        let points: Vec<Vec3> = (0..100)
+            .map(|i| Vec3::new((i % 7) as f64, -(i as f64), ((i * 37) % 11) as f64 - 5.0))
+            .collect();
+        for size in [1, 3, 64, 1000] {
+            let got = pool(2).install(|| run(|| bounds(&points, size)));
+            assert_eq!(
+                got,
+                (Vec3::new(0.0, -99.0, -5.0), Vec3::new(6.0, 0.0, 5.0)),
+                "{size}"
+            );
+        }
+        let far = Vec3::new(f64::INFINITY, f64::INFINITY, f64::INFINITY);
+        assert_eq!(bounds(&[], 4), (far, -far));
     }
 
     /// The chunks of `map_chunks` cover the items once, in order, each its `size` but the last,

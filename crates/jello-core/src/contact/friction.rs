@@ -393,16 +393,7 @@ impl Anchors {
         // The walls no point is past: the lattice's bounds first, when any wall has friction.
         // Each point's anchor on its own: on the team's threads, in chunks of points.
         let size = crate::compute::team::chunk_size(self.points, 4096);
-        let bounds = (model.wall_friction != 0.0).then(|| {
-            let far = Vec3::new(f64::INFINITY, f64::INFINITY, f64::INFINITY);
-            let fold = |p: &[Vec3]| {
-                p.iter()
-                    .fold((far, -far), |(lo, hi), &p| (lo.min(p), hi.max(p)))
-            };
-            let (boxes, chunks) =
-                crate::compute::team::map_chunks(pos.len(), size, &|at| fold(&pos[at]));
-            (boxes[..chunks].iter()).fold((far, -far), |(lo, hi), &(l, h)| (lo.min(l), hi.max(h)))
-        });
+        let bounds = (model.wall_friction != 0.0).then(|| crate::compute::team::bounds(pos, size));
         for (slot, surface) in anchored_surfaces(model).enumerate() {
             // A wall that no point is past ties none (`may_touch` is false for every point):
             // where none was tied either, there is nothing to do (each wall's pass over the

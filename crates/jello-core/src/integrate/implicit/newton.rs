@@ -311,14 +311,15 @@ pub(super) fn first_iterate(s: &mut ImplicitScratch, model: &Model, v0: &[Vec3],
 
 /// Adds to the first iterate of each body in free flight the velocity its weight gives it over
 /// the step: `h·(g + n·F/M)`, for gravity `g` and a uniform field's force `F` on each of its `n`
-/// points of mass `M` in all, the change of momentum under the only forces on it that do not
-/// cancel within the body. That is the shift [`shift_by_momentum`] makes after a first residual:
-/// a body falling clear of everything is then solved by the first residual alone (the dropped
-/// cube's steps in free fall took two). In free flight: no point held, pulled or pushed (by the
-/// control's forces), and nothing touched at the step's start or at its end from the shifted
-/// velocities (a body resting just clear of a floor, shifted into it, took more Newton
-/// iterations than from `v₀`: the resting 32³ cube at 1/60 s 1.22 → 1.42 a step; see
-/// [`shift_by_momentum`] for a body about to land).
+/// moving points of mass `M` in all, the change of momentum under the only forces on it that do
+/// not cancel within the body. That is the shift [`shift_by_momentum`]
+/// makes after a first residual: a body falling clear of everything is then solved by the first
+/// residual alone (the dropped cube's steps in free fall took two). In free flight: no point
+/// pinned, pulled or pushed (by the control's forces), and nothing touched at the step's start or
+/// at its end from the shifted velocities (a body resting just clear of a floor, shifted into
+/// it, took more Newton iterations than from `v₀`: the resting 32³ cube at 1/60 s 1.22 → 1.42 a
+/// step; see [`shift_by_momentum`] for a body about to land). Only the moving points are shifted
+/// (not a lattice's holes).
 pub(super) fn add_weight(
     model: &Model,
     control: &Control,
@@ -339,23 +340,41 @@ pub(super) fn add_weight(
     }
     for body in model.bodies() {
         let points = body.points();
+        let pinned = |&p: &u32| points.contains(&(p as usize));
         let pulled = |p: &crate::state::Pull| points.contains(&(p.point as usize));
         if s.touching[points.clone()].contains(&true)
-            || s.free[points.clone()].contains(&0.0)
+            || model.pins.iter().any(pinned)
             || control.pulls.iter().any(pulled)
         {
             continue;
         }
-        let mass = &s.mass[points.clone()];
-        let (sums, chunks) = over_chunks(mass.len(), &|at| mass[at].iter().sum::<f64>());
-        let mass: f64 = sums[..chunks].iter().sum();
-        let shift = (model.gravity + field * (points.len() as f64 / mass)) * h;
-        if mass <= 0.0 || ends_touching(model, x0, (v0, shift), h, points.clone()) {
+        // `F/m` as the first residual's mean would give it, `n·F/M` summed over the moving
+        // points: rounded otherwise in its last bit, the crushed cube of `gravityNoVelocity.w`
+        // (BackwardEuler at 1/60 s) ended its first steps in another of their solutions (spring
+        // energy 7.6e3 J after 0.1 s instead of 3.3e3 J).
+        let (mass, free) = (&s.mass[points.clone()], &s.free[points.clone()]);
+        let (sums, chunks) = over_chunks(points.len(), &|at| {
+            let (mass, free) = (&mass[at.clone()], &free[at]);
+            let moving = free.iter().sum::<f64>();
+            (
+                moving,
+                mass.iter().zip(free).map(|(m, f)| m * f).sum::<f64>(),
+            )
+        });
+        let (moving, mass) =
+            (sums[..chunks].iter()).fold((0.0, 0.0), |a, b| (a.0 + b.0, a.1 + b.1));
+        if mass <= 0.0 {
+            continue;
+        }
+        let shift = (model.gravity + field * (moving / mass)) * h;
+        if ends_touching(model, x0, (v0, shift), h, points.clone()) {
             continue;
         }
         let size = chunk_size(points.len());
-        team::for_each_chunk([&mut s.v[points]], size, &|_, [v]| {
-            v.iter_mut().for_each(|v| *v += shift);
+        team::for_each_chunk([&mut s.v[points]], size, &|c, [v]| {
+            for (v, &free) in v.iter_mut().zip(&free[c * size..]) {
+                *v += shift * free;
+            }
         });
     }
 }
@@ -384,12 +403,7 @@ fn keeps_across_steps(s: &ImplicitScratch, kept: Option<f64>, v0: &[Vec3], h: f6
     // point's velocity: within the limit, no spring is fast (a body at rest or moving as a
     // whole), and the springs need not be looked at (their loop was 3 % of a resting 32³ cube's
     // step on one thread).
-    let far = Vec3::new(f64::INFINITY, f64::INFINITY, f64::INFINITY);
-    let (boxes, chunks) = over_chunks(v0.len(), &|at| {
-        (v0[at].iter()).fold((far, -far), |(lo, hi), &v| (lo.min(v), hi.max(v)))
-    });
-    let (lo, hi) =
-        (boxes[..chunks].iter()).fold((far, -far), |(lo, hi), &(l, h)| (lo.min(l), hi.max(h)));
+    let (lo, hi) = team::bounds(v0, sum_chunk(v0.len()));
     if (hi - lo).length_squared() <= limit * limit {
         return true;
     }
