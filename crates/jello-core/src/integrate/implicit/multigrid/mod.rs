@@ -1049,16 +1049,16 @@ fn coarsen(nodes: &[Node], pairs: &[[u32; 2]]) -> (Restriction, Vec<Node>, Vec<[
             *index
         })
         .collect::<Vec<u32>>();
-    // Each coarse pair by its lower aggregate and the step from it to the higher one.
+    // Each coarse pair by its lower aggregate and the step from it to the higher one (checked:
+    // a step out of range would alias another pair's entry).
     let step = |lo: u32, hi: u32| {
         let ((b, a), (b2, c)) = (coarse_nodes[lo as usize], coarse_nodes[hi as usize]);
-        debug_assert_eq!(b, b2, "a spring joins points of one body");
-        let d = |axis: usize| (i64::from(c[axis]) - i64::from(a[axis]) + 1) as usize;
-        debug_assert!(
-            (0..3).all(|axis| d(axis) < 3),
-            "aggregates a spring joins are neighbours"
+        let d = |axis: usize| i64::from(c[axis]) - i64::from(a[axis]) + 1;
+        assert!(
+            b == b2 && (0..3).all(|axis| (0..3).contains(&d(axis))),
+            "the aggregates a spring joins are neighbours in one lattice"
         );
-        (d(0) * 3 + d(1)) * 3 + d(2)
+        ((d(0) * 3 + d(1)) * 3 + d(2)) as usize
     };
     let mut pair_index = vec![NONE; 27 * coarse_nodes.len()];
     let mut coarse_pairs = Vec::new();
