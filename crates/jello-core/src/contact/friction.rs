@@ -390,9 +390,9 @@ impl Anchors {
         if self.at.is_empty() {
             return;
         }
-        // The walls no point is past: the lattice's bounds first, when any wall has friction.
         // Each point's anchor on its own: on the team's threads, in chunks of points.
         let size = crate::compute::team::chunk_size(self.points, 4096);
+        // The walls no point is past: the lattice's bounds first, when any wall has friction.
         let bounds = (model.wall_friction != 0.0).then(|| crate::compute::team::bounds(pos, size));
         for (slot, surface) in anchored_surfaces(model).enumerate() {
             // A wall that no point is past ties none (`may_touch` is false for every point):
