@@ -76,9 +76,10 @@
 //! A step has converged when every point's residual `|g|` is at most [`TOLERANCE`](crate::model::solver::TOLERANCE) times
 //! `max(1, max |v₁|)` (m/s; both settable, [`Model::newton`](crate::Model::newton)), or at most
 //! the residual's rounding floor where that is larger (`rounding_floor`: stiff springs at large
-//! steps); then the
-//! mass-weighted mean residual of the moving points is taken out of their velocities (the exact
-//! solution has none), so internal forces conserve momentum to rounding. A step that does not
+//! steps); then, where nothing outside holds the moving points by where they are (no pin, pull,
+//! field that varies in space, or surface touched), their mass-weighted mean residual is taken
+//! out of their velocities (the exact solution has none), so internal forces conserve momentum
+//! to rounding (`momentum_shift`). A step that does not
 //! converge within [`MAX_NEWTON`](crate::model::solver::MAX_NEWTON) iterations (by default) returns the residual reached; the
 //! caller ([`crate::integrate::cutback`]) then takes it again in halves, and reports it only at the
 //! smallest size allowed, with the state back at the step's start.
@@ -162,7 +163,7 @@ mod test_models;
 mod tests;
 
 use matrix::can_swirl;
-use newton::{mean_residual, newton};
+use newton::{momentum_shift, newton};
 pub use scratch::ImplicitScratch;
 use scratch::Row;
 use stencil::Precision;
@@ -399,8 +400,9 @@ fn backward_euler(
     // The exact solution has Σ m·g = 0 over the moving points (their momentum changes by h
     // times the force on them, which internal forces do not change): take the small mean
     // residual the tolerance allows out of their velocities, so that internal forces conserve
-    // momentum to rounding rather than to the tolerance.
-    let shift = mean_residual(s, 0..s.g.len());
+    // momentum to rounding rather than to the tolerance (`momentum_shift`: only where nothing
+    // outside holds them by where they are).
+    let shift = momentum_shift(model, control, s, x0, h);
     let (v, free, size) = (&s.v[..], &s.free[..], chunk_size(s.v.len()));
     team::for_each_chunk([next_pos, next_vel], size, &|c, [next_pos, next_vel]| {
         let at = c * size;
