@@ -263,9 +263,8 @@ pub(super) fn newton(
 /// Near the solution `g(v) ≈ (I + h²·K/m)·(v − v*)` mode by mode, and backward Euler leaves
 /// a mode of `h²·ω² ≫ 1` at `v* ≈ v₀/(1 + h²·ω²)`: for the stiff modes (a point pressed into
 /// a floor, its friction tie) zero is far closer to `v*` than `v₀` is, and their `h²·K/m`
-/// amplifies `v₀`'s part of the residual (a resting 64³ cube's points move at 1e-12 m/s,
-/// noise of the last step's solve, yet its steps began at |g| 1e-7 m/s, a hundred times the
-/// tolerance). The soft modes, which keep `v₀`, are slow in such a body. A body that moves
+/// amplifies `v₀`'s part of the residual (3·10⁴ times at a resting 64³ cube's floor). The
+/// soft modes, which keep `v₀`, are slow in such a body. A body that moves
 /// (landing, thrown, sliding) or a step short enough to resolve the contacts keeps `v₀`: the
 /// examples at their own steps of 0.5–1 ms (`h²·K/m` 2–15) took 8–24 % longer from rest.
 /// From rest, at 1/60 s on 2 threads (this Xeon, in turn with the build before): the resting

@@ -3,7 +3,8 @@
 
 use super::cg::{advance, apply_to, dot, sum_chunk, sum_chunks};
 use super::matrix::{assemble, Curvature};
-use super::newton::{add_weight, enough_reduction, first_iterate, max_norms, shift_by_momentum};
+use super::newton::shift_by_momentum;
+use super::newton::{add_weight, enough_reduction, first_iterate, max_norms, momentum_shift};
 use super::residual::residual;
 use super::test_models::values;
 use super::*;
@@ -822,6 +823,76 @@ fn a_settled_body_keeps_a_across_steps_and_a_spinning_one_does_not() {
         "{iterations} Newton iterations in 20 steps"
     );
     assert_eq!(kept, 0, "a spinning cube kept A across {kept} steps");
+}
+
+/// A converged step takes its moving points' mean residual out of their velocities only where
+/// a shift of them all changes no force: a cube in free flight is shifted by it; one pinned,
+/// pulled, in a field that varies in space, or pressed into a floor (at the step's start or
+/// at its end) is not, and clear of the floor it is again.
+#[test]
+fn the_momentum_shift_is_taken_only_where_nothing_outside_holds_the_points() {
+    let h = 0.01;
+    let model = |builder: ModelBuilder| {
+        let cube = Body::lattice_box(
+            Lattice::new([3, 3, 3], Vec3::new(1.0, 1.0, 1.0)),
+            Material::classic(),
+        );
+        (builder.bodies(vec![cube]).dt(h))
+            .integrator(Integrator::BackwardEuler)
+            .build()
+            .unwrap()
+    };
+    let mean = Vec3::new(1e-10, -2e-10, 3e-10);
+    // The shift with every point's residual `mean`, the cube raised by `lift` and moving at
+    // `v` (its end `h·v` further).
+    let shift = |model: &Model, control: &Control, lift: f64, v: Vec3| {
+        let mut s = ImplicitScratch::new(model);
+        s.load(model);
+        s.g.fill(mean);
+        s.v.fill(v);
+        let at = crate::State::at_rest(model).pos;
+        let x0: Vec<Vec3> = at.iter().map(|&p| p + Vec3::new(0.0, 0.0, lift)).collect();
+        momentum_shift(model, control, &s, &x0, h)
+    };
+    let none = Control::none();
+    let shifted = |got: Vec3| (got - mean).max_abs() < 1e-24;
+    assert!(shifted(shift(
+        &model(ModelBuilder::new()),
+        &none,
+        0.0,
+        Vec3::ZERO
+    )));
+    let pinned = model(ModelBuilder::new().pins([0]));
+    assert_eq!(shift(&pinned, &none, 0.0, Vec3::ZERO), Vec3::ZERO);
+    let pull = crate::state::Pull {
+        point: 13,
+        target: Vec3::new(0.5, 0.5, 2.0),
+        stiffness: 10.0,
+        damping: 0.0,
+    };
+    let pulled = Control {
+        pulls: vec![pull],
+        ..Control::none()
+    };
+    assert_eq!(
+        shift(&model(ModelBuilder::new()), &pulled, 0.0, Vec3::ZERO),
+        Vec3::ZERO
+    );
+    let box_ = Aabb::new(Vec3::new(-2.0, -2.0, -2.0), Vec3::new(2.0, 2.0, 2.0)).unwrap();
+    let field = |f: fn(Vec3) -> Vec3| Some(ForceField::from_fn(3, box_, f).unwrap());
+    let uniform = model(ModelBuilder::new().field(field(|_| Vec3::new(0.0, 0.0, -1.0))));
+    assert!(shifted(shift(&uniform, &none, 0.0, Vec3::ZERO)));
+    let varying = model(ModelBuilder::new().field(field(|p| Vec3::new(-p.y, p.x, 0.0))));
+    assert_eq!(shift(&varying, &none, 0.0, Vec3::ZERO), Vec3::ZERO);
+    // A floor 1 mm above the cube's bottom face.
+    let floor =
+        model(ModelBuilder::new().plane(Some(crate::Plane::new([0.0, 0.0, 1.0, -1e-3]).unwrap())));
+    assert_eq!(shift(&floor, &none, 0.0, Vec3::ZERO), Vec3::ZERO);
+    assert!(shifted(shift(&floor, &none, 1.0, Vec3::ZERO)));
+    // Clear of it at the start, into it at the end (falling 1 m in the step), and the reverse.
+    let falling = Vec3::new(0.0, 0.0, -100.0);
+    assert_eq!(shift(&floor, &none, 0.5, falling), Vec3::ZERO);
+    assert_eq!(shift(&floor, &none, 0.0, -falling), Vec3::ZERO);
 }
 
 /// With a swirling field's exact gradient in it, `A` is `M·∂g/∂v`: `A·d` matches the central
