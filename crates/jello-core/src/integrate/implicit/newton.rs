@@ -529,13 +529,13 @@ pub(super) fn momentum_shift(
 fn on_surfaces(model: &Model, s: &ImplicitScratch, x0: &[Vec3], h: f64) -> bool {
     let (v, free) = (&s.v[..], &s.free[..]);
     let (touches, chunks) = over_chunks(x0.len(), &|at| {
-        let mut touches = false;
-        for i in at.filter(|&i| free[i] != 0.0) {
+        at.filter(|&i| free[i] != 0.0).any(|i| {
+            let mut touches = false;
             for p in [x0[i], x0[i] + v[i] * h] {
                 model.for_each_contact_of(i, p, true, |_| touches = true);
             }
-        }
-        touches
+            touches
+        })
     });
     touches[..chunks].contains(&true)
 }
