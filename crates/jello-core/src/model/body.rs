@@ -455,34 +455,52 @@ impl Body {
     /// [`Body::for_each_spring`], also passing each spring's stencil entry (its index in
     /// [`crate::model::lattice::STENCIL`]).
     pub fn for_each_spring_entry(&self, mut f: impl FnMut(&Spring, usize)) {
-        let m = &self.material;
-        let n = self.len();
         self.for_each_lattice_spring(|a, b, rest, kind, entry| {
-            let (k, d) = (m.stiffness[kind as usize], m.damping[kind as usize]);
-            let spring = match &self.table {
-                None => Spring {
+            f(&self.spring(a, b, rest, kind, entry), entry);
+        });
+    }
+
+    /// The springs of stencil entry `entry` alone, as [`Body::for_each_spring_entry`] lists
+    /// them, in the order of their first point: the implicit solver lists its springs entry by
+    /// entry, already in the order it keeps them in.
+    pub(crate) fn for_each_spring_of_entry(&self, entry: usize, mut f: impl FnMut(&Spring)) {
+        let links = &self.links;
+        self.lattice
+            .for_each_spring_of_entry(entry, |a, b, rest, kind| {
+                if links.is_empty() || links[a] >> entry & 1 == 1 {
+                    f(&self.spring(a, b, rest, kind, entry));
+                }
+            });
+    }
+
+    /// The spring from `a` to `b` of stencil entry `entry` and `kind`, `rest` long on the rest
+    /// lattice, with the values the force kernel uses for it.
+    #[inline(always)]
+    fn spring(&self, a: usize, b: usize, rest: f64, kind: SpringKind, entry: usize) -> Spring {
+        let m = &self.material;
+        let (k, d) = (m.stiffness[kind as usize], m.damping[kind as usize]);
+        match &self.table {
+            None => Spring {
+                a,
+                b,
+                kind,
+                rest,
+                stiffness: k,
+                damping: d,
+            },
+            Some(table) => {
+                // The same products the kernel forms.
+                let s = table.get(self.len(), entry, a);
+                Spring {
                     a,
                     b,
                     kind,
-                    rest,
-                    stiffness: k,
-                    damping: d,
-                },
-                Some(table) => {
-                    // The same products the kernel forms.
-                    let s = table.get(n, entry, a);
-                    Spring {
-                        a,
-                        b,
-                        kind,
-                        rest: rest * s.rest,
-                        stiffness: k * s.stiffness,
-                        damping: d * s.damping,
-                    }
+                    rest: rest * s.rest,
+                    stiffness: k * s.stiffness,
+                    damping: d * s.damping,
                 }
-            };
-            f(&spring, entry);
-        });
+            }
+        }
     }
 
     /// Multiplies the rest length, stiffness and damping of every spring by the factors

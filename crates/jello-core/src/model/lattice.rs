@@ -160,11 +160,7 @@ impl Lattice {
         mut f: impl FnMut(usize, usize, f64, SpringKind, usize),
     ) {
         let [nx, ny, nz] = self.counts;
-        let h = self.spacing();
-        let rest: [f64; 16] = std::array::from_fn(|s| {
-            let (d, _) = STENCIL[s];
-            Vec3::new(d[0] as f64 * h.x, d[1] as f64 * h.y, d[2] as f64 * h.z).length()
-        });
+        let rest = self.stencil_rest_lengths();
         for i in 0..nx {
             for j in 0..ny {
                 for k in 0..nz {
@@ -181,6 +177,43 @@ impl Lattice {
                 }
             }
         }
+    }
+
+    /// The springs of stencil entry `entry` alone, as [`Lattice::for_each_stencil_spring`]
+    /// lists them (`f(a, b, rest_len, kind)`), in the order of their first point `a`.
+    pub(crate) fn for_each_spring_of_entry(
+        &self,
+        entry: usize,
+        mut f: impl FnMut(usize, usize, f64, SpringKind),
+    ) {
+        let [nx, ny, nz] = self.counts;
+        let (d, kind) = STENCIL[entry];
+        let rest = self.stencil_rest_lengths()[entry];
+        // The first points whose partner is in the lattice: a range along each axis.
+        let along = |n: usize, d: isize| {
+            let lo = if d < 0 { d.unsigned_abs().min(n) } else { 0 };
+            let hi = if d > 0 { n.saturating_sub(d as usize) } else { n };
+            lo..hi.max(lo)
+        };
+        let (di, dj, dk) = (along(nx, d[0]), along(ny, d[1]), along(nz, d[2]));
+        let step = (d[0] * ny as isize + d[1]) * nz as isize + d[2];
+        for i in di {
+            for j in dj.clone() {
+                for k in dk.clone() {
+                    let a = self.index(i, j, k);
+                    f(a, a.wrapping_add_signed(step), rest, kind);
+                }
+            }
+        }
+    }
+
+    /// The rest length of each stencil entry's springs on this lattice.
+    fn stencil_rest_lengths(&self) -> [f64; 16] {
+        let h = self.spacing();
+        std::array::from_fn(|s| {
+            let (d, _) = STENCIL[s];
+            Vec3::new(d[0] as f64 * h.x, d[1] as f64 * h.y, d[2] as f64 * h.z).length()
+        })
     }
 
     /// Number of springs of each kind, indexed by `SpringKind as usize`, without listing them:
@@ -312,5 +345,25 @@ mod tests {
             Lattice::classic().spring_count_by_kind(),
             [1344, 3724, 1152]
         );
+    }
+
+    /// Each entry's springs listed alone are the springs of that entry in the full list, in the
+    /// same order, with the same rest lengths to the bit, on shapes with short axes too.
+    #[test]
+    fn an_entrys_springs_are_its_springs_in_the_full_list() {
+        for counts in [[8, 8, 8], [2, 1, 1], [1, 1, 9], [3, 3, 3], [5, 2, 7], [1, 6, 2]] {
+            let lattice = Lattice::new(counts, Vec3::new(1.0, 2.0, 3.0));
+            let mut full = vec![Vec::new(); STENCIL.len()];
+            lattice.for_each_stencil_spring(|a, b, rest, kind, entry| {
+                full[entry].push((a, b, rest.to_bits(), kind));
+            });
+            for (entry, full) in full.iter().enumerate() {
+                let mut alone = Vec::new();
+                lattice.for_each_spring_of_entry(entry, |a, b, rest, kind| {
+                    alone.push((a, b, rest.to_bits(), kind));
+                });
+                assert_eq!(&alone, full, "{counts:?}, entry {entry}");
+            }
+        }
     }
 }

@@ -15,6 +15,7 @@ use crate::compute::team;
 use crate::contact::bodies::Touch;
 use crate::contact::Contacts;
 use crate::model::body::Body;
+use crate::model::lattice::STENCIL;
 use crate::model::Model;
 use crate::vec3::Vec3;
 
@@ -35,8 +36,6 @@ pub struct ImplicitScratch {
     /// The work done so far (kept when the buffers are sized anew).
     pub(super) stats: SolverStats,
     pub(super) rows: Vec<Row>,
-    /// The springs as the bodies list them, before they are put in slot order.
-    pub(super) listed_rows: Vec<Row>,
     /// The bodies whose springs are listed (none before the first step).
     pub(super) loaded: Option<Vec<Body>>,
     /// The springs' ends (in slot order), the fine pairs of the multigrid's
@@ -262,7 +261,6 @@ impl ImplicitScratch {
         ImplicitScratch {
             stats: SolverStats::default(),
             rows: Vec::with_capacity(model.spring_count()),
-            listed_rows: Vec::with_capacity(model.spring_count()),
             loaded: None,
             spring_pairs: Vec::with_capacity(model.spring_count()),
             // Its slot arrays zero pages until written (the assembly writes each block).
@@ -404,31 +402,29 @@ impl ImplicitScratch {
         }
     }
 
-    /// The model's springs as the bodies list them, into the springs' slot order (see
-    /// `SpringMatrix`), with what follows from them: their pairs, each point's stiffness, the
-    /// multigrid's levels.
+    /// The model's springs, stencil entry by entry and each entry's body by body: the springs'
+    /// slot order (see `SpringMatrix`), which the solver keeps them in; with what follows from
+    /// them: their pairs, each point's stiffness, the multigrid's levels.
     pub(super) fn list_springs(&mut self, model: &Model) {
         self.keep_across = None;
-        self.listed_rows.clear();
+        self.rows.clear();
         self.springs.begin();
-        for body in model.bodies() {
-            let first = body.points().start;
-            body.for_each_spring_entry(|s, entry| {
-                self.springs.push(first + s.a, entry);
-                self.listed_rows.push(Row {
-                    a: (first + s.a) as u32,
-                    b: (first + s.b) as u32,
-                    rest: s.rest,
-                    k: s.stiffness,
-                    d: s.damping,
-                })
-            });
+        for entry in 0..STENCIL.len() {
+            for body in model.bodies() {
+                let first = body.points().start;
+                body.for_each_spring_of_entry(entry, |s| {
+                    self.springs.push(first + s.a, entry);
+                    self.rows.push(Row {
+                        a: (first + s.a) as u32,
+                        b: (first + s.b) as u32,
+                        rest: s.rest,
+                        k: s.stiffness,
+                        d: s.damping,
+                    })
+                });
+            }
         }
         self.springs.finish();
-        self.rows.resize(self.listed_rows.len(), Row::default());
-        for (j, row) in self.listed_rows.iter().enumerate() {
-            self.rows[self.springs.rank(j)] = *row;
-        }
         for (s, r) in self.rows.iter().enumerate() {
             self.springs.set_spring(s, r.rest, r.k, r.d);
         }

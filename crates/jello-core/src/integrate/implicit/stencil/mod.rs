@@ -108,16 +108,13 @@ impl Span {
 pub(super) struct SpringMatrix {
     n: usize,
     spans: Vec<Span>,
-    /// Each spring's slot in the order the springs were listed ([`SpringMatrix::push`]); while
-    /// a list is made, how far it has come and whether it differs from the last.
-    listed: Vec<u32>,
+    /// Each spring's slot, in the order the springs were listed ([`SpringMatrix::push`]): slot
+    /// order, which the solver keeps its springs in (the blocks it reads back by spring,
+    /// [`SpringMatrix::assemble`], come from each array in order); while a list is made, how far
+    /// it has come and whether it differs from the last.
+    slot: Vec<u32>,
     cursor: usize,
     changed: bool,
-    /// Each listed spring's place in slot order, and the slots in that order: the solver keeps
-    /// its springs in slot order, and the blocks it reads back by spring
-    /// ([`SpringMatrix::assemble`]) come from each array in order.
-    rank: Vec<u32>,
-    slot: Vec<u32>,
     /// The blocks' six components (`[xx, yy, zz, xy, xz, yz]`), each `16·n` long, rounded to
     /// single precision (see the module documentation), and in double precision for exact
     /// solves: computed only when one asks for them after an assembly
@@ -195,11 +192,9 @@ impl SpringMatrix {
         SpringMatrix {
             n,
             spans: SpringMatrix::spans_of(model),
-            listed: Vec::with_capacity(model.spring_count()),
+            slot: Vec::with_capacity(model.spring_count()),
             cursor: 0,
             changed: false,
-            rank: Vec::with_capacity(model.spring_count()),
-            slot: Vec::with_capacity(model.spring_count()),
             blocks_single: std::array::from_fn(|_| vec![0.0; 16 * n]),
             blocks: std::array::from_fn(|_| vec![0.0; 16 * n]),
             double_behind: false,
@@ -239,53 +234,40 @@ impl SpringMatrix {
         self.changed = false;
     }
 
-    /// The next spring of the list: from flat point `a` along stencil entry `entry`.
+    /// The next spring of the list: from flat point `a` along stencil entry `entry`. Springs
+    /// come in slot order, `entry·n + a` increasing: entry by entry, and in each by first point
+    /// (so the solver's order needs no sort: finding it for springs listed point by point took
+    /// a sixth of a 32³ cube's setup).
     pub fn push(&mut self, a: usize, entry: usize) {
         let slot = (entry * self.n + a) as u32;
-        match self.listed.get_mut(self.cursor) {
+        assert!(
+            self.cursor == 0 || self.slot[self.cursor - 1] < slot,
+            "springs listed out of slot order"
+        );
+        match self.slot.get_mut(self.cursor) {
             Some(s) if *s == slot => {}
             Some(s) => (*s, self.changed) = (slot, true),
-            None => (_, self.changed) = (self.listed.push(slot), true),
+            None => (_, self.changed) = (self.slot.push(slot), true),
         }
         self.cursor += 1;
     }
 
-    /// Ends the list. When it differs from the last one, every block is zeroed (so that no slot
-    /// keeps the block of a spring no longer there) and the slot order is found again.
+    /// Ends the list. When it differs from the last one, every block is zeroed, so that no slot
+    /// keeps the block of a spring no longer there.
     pub fn finish(&mut self) {
-        if self.cursor != self.listed.len() {
-            self.listed.truncate(self.cursor);
+        if self.cursor != self.slot.len() {
+            self.slot.truncate(self.cursor);
             self.changed = true;
-        }
-        if !self.changed {
-            return;
         }
         // Fresh, they are zero already (and filling them touched 54 MB at 32³ on the leader
         // alone, a third of the first step's setup: 20 ms).
-        if !std::mem::take(&mut self.fresh) {
+        if self.changed && !std::mem::take(&mut self.fresh) {
             self.blocks.iter_mut().for_each(|b| b.fill(0.0));
             self.blocks_single.iter_mut().for_each(|b| b.fill(0.0));
             self.rest.fill(0.0);
             self.stiffness.fill(0.0);
             self.damping.fill(0.0);
         }
-        // The slots are distinct: mark each with its spring, then read them in order.
-        let mut spring_at = vec![u32::MAX; 16 * self.n];
-        for (j, &slot) in self.listed.iter().enumerate() {
-            spring_at[slot as usize] = j as u32;
-        }
-        self.rank.resize(self.listed.len(), 0);
-        self.slot.clear();
-        for (slot, &j) in spring_at.iter().enumerate().filter(|(_, &j)| j != u32::MAX) {
-            self.rank[j as usize] = self.slot.len() as u32;
-            self.slot.push(slot as u32);
-        }
-    }
-
-    /// The place in slot order of the `j`-th listed spring: the solver keeps its springs in
-    /// that order, and [`SpringMatrix::set_spring`] takes it.
-    pub fn rank(&self, j: usize) -> usize {
-        self.rank[j] as usize
     }
 
     /// Sets the block of spring `s` (its place in slot order).

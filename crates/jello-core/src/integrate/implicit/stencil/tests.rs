@@ -5,20 +5,46 @@ use super::super::test_models::{box_at, on_threads, two_bodies, values, with_hol
 use super::*;
 use crate::model::ModelBuilder;
 
-/// A matrix with `model`'s springs listed, and their ends (flat indices) in listed order.
+/// A matrix with `model`'s springs listed as the solver lists them (entry by entry, each body
+/// by body), and their ends (flat indices) in that order, the slot order.
 fn listed(model: &Model) -> (SpringMatrix, Vec<[usize; 2]>) {
     let mut matrix = SpringMatrix::new(model);
     let mut springs = Vec::new();
     matrix.begin();
-    for body in model.bodies() {
-        let first = body.points().start;
-        body.for_each_spring_entry(|s, entry| {
-            matrix.push(first + s.a, entry);
-            springs.push([first + s.a, first + s.b]);
-        });
+    for entry in 0..STENCIL.len() {
+        for body in model.bodies() {
+            let first = body.points().start;
+            body.for_each_spring_of_entry(entry, |s| {
+                matrix.push(first + s.a, entry);
+                springs.push([first + s.a, first + s.b]);
+            });
+        }
     }
     matrix.finish();
     (matrix, springs)
+}
+
+/// The solver's listing (entry by entry) has every spring the bodies list point by point, with
+/// the same values: on bodies with holes (their links) and with springs' factors (their table).
+#[test]
+fn listing_entry_by_entry_lists_every_spring_once() {
+    let mut next = values(5);
+    for body in super::super::test_models::holes_and_factors(&mut next) {
+        let key = |s: &crate::model::springs::Spring, entry: usize| {
+            let values = [s.rest, s.stiffness, s.damping].map(f64::to_bits);
+            (entry, s.a, s.b, s.kind, values)
+        };
+        let mut by_point = Vec::new();
+        body.for_each_spring_entry(|s, entry| by_point.push(key(s, entry)));
+        let mut by_entry = Vec::new();
+        for entry in 0..STENCIL.len() {
+            body.for_each_spring_of_entry(entry, |s| by_entry.push(key(s, entry)));
+        }
+        assert!(by_entry.windows(2).all(|w| (w[0].0, w[0].1) < (w[1].0, w[1].1)));
+        by_point.sort_by_key(|k| (k.0, k.1));
+        assert_eq!(by_entry, by_point);
+        assert!(by_entry.len() < body.len() * STENCIL.len(), "the holes cut springs");
+    }
 }
 
 #[test]
@@ -30,7 +56,7 @@ fn the_stencil_product_is_the_product_over_springs() {
     let (mut matrix, springs) = listed(&model);
     let blocks: Vec<Sym> = springs.iter().map(|_| sym()).collect();
     for (i, b) in blocks.iter().enumerate() {
-        matrix.set(matrix.rank(i), b);
+        matrix.set(i, b);
     }
     let own: Vec<Sym> = (0..n).map(|_| sym()).collect();
     let free: Vec<f64> = (0..n).map(|i| if i % 7 == 3 { 0.0 } else { 1.0 }).collect();
@@ -111,7 +137,7 @@ fn the_diagonal_by_slot_is_the_sum_over_springs() {
     let mut sym = || -> Sym { std::array::from_fn(|_| next()) };
     let blocks: Vec<Sym> = springs.iter().map(|_| sym()).collect();
     for (i, b) in blocks.iter().enumerate() {
-        matrix.set(matrix.rank(i), b);
+        matrix.set(i, b);
     }
     let own: Vec<Sym> = (0..n).map(|_| sym()).collect();
     let mut want = own.clone();
@@ -159,7 +185,7 @@ fn blocks_by_slot_are_the_blocks_of_each_spring() {
         .map(|_| [1.0 + next(), 100.0 * (2.0 + next()), 1.0 + next()])
         .collect();
     for (i, &[rest, k, d]) in values.iter().enumerate() {
-        matrix.set_spring(matrix.rank(i), rest, k, d);
+        matrix.set_spring(i, rest, k, d);
     }
     let mut random = || Vec3::new(next(), next(), next());
     let mut x0: Vec<Vec3> = (0..n).map(|_| random()).collect();
@@ -177,11 +203,10 @@ fn blocks_by_slot_are_the_blocks_of_each_spring() {
         let blocks = by_spring(&matrix, springs.len());
         let mut by_slot = Vec::new();
         for (i, (&[a, b], &[rest, k, d])) in springs.iter().zip(&values).enumerate() {
-            let s = matrix.rank(i);
             let d0 = x0[a] - x0[b];
             let l0 = d0.length();
             let u0 = if l0 > 0.0 { d0 / l0 } else { Vec3::ZERO };
-            assert_eq!(directions[s], u0, "spring {i}");
+            assert_eq!(directions[i], u0, "spring {i}");
             let e = (x0[a] + v[a] * h) - (x0[b] + v[b] * h);
             let l = e.length();
             let mut want = [0.0; 6];
@@ -195,11 +220,11 @@ fn blocks_by_slot_are_the_blocks_of_each_spring() {
             let bits = |m: &Sym| m.map(f64::to_bits);
             let rounded = want.map(|w| f64::from(w as f32));
             assert_eq!(
-                bits(&blocks[s]),
+                bits(&blocks[i]),
                 bits(&rounded),
                 "spring {i}, floor {floor}"
             );
-            let slot = matrix.slot[s] as usize;
+            let slot = matrix.slot[i] as usize;
             let single: [f32; 6] = std::array::from_fn(|c| matrix.blocks_single[c][slot]);
             assert_eq!(single, want.map(|w| w as f32), "spring {i}'s rounded block");
             by_slot.push((slot, want));
