@@ -192,7 +192,11 @@ impl Lattice {
         // The first points whose partner is in the lattice: a range along each axis.
         let along = |n: usize, d: isize| {
             let lo = if d < 0 { d.unsigned_abs().min(n) } else { 0 };
-            let hi = if d > 0 { n.saturating_sub(d as usize) } else { n };
+            let hi = if d > 0 {
+                n.saturating_sub(d as usize)
+            } else {
+                n
+            };
             lo..hi.max(lo)
         };
         let (di, dj, dk) = (along(nx, d[0]), along(ny, d[1]), along(nz, d[2]));
@@ -351,7 +355,14 @@ mod tests {
     /// same order, with the same rest lengths to the bit, on shapes with short axes too.
     #[test]
     fn an_entrys_springs_are_its_springs_in_the_full_list() {
-        for counts in [[8, 8, 8], [2, 1, 1], [1, 1, 9], [3, 3, 3], [5, 2, 7], [1, 6, 2]] {
+        for counts in [
+            [8, 8, 8],
+            [2, 1, 1],
+            [1, 1, 9],
+            [3, 3, 3],
+            [5, 2, 7],
+            [1, 6, 2],
+        ] {
             let lattice = Lattice::new(counts, Vec3::new(1.0, 2.0, 3.0));
             let mut full = vec![Vec::new(); STENCIL.len()];
             lattice.for_each_stencil_spring(|a, b, rest, kind, entry| {

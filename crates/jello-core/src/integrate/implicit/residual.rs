@@ -218,6 +218,7 @@ pub(super) fn potential_fall(
     v0: &[Vec3],
     h: f64,
 ) -> f64 {
+    s.start_directions();
     let mut falls = std::mem::take(&mut s.falls);
     let fall = fall_by_chunks(model, control, s, &mut falls, x0, v0, h);
     s.falls = falls;

@@ -6,7 +6,7 @@ use super::cg::sum_chunks;
 use super::gmres::Gmres;
 use super::matrix::{can_slide, can_swirl};
 use super::multigrid::Multigrid;
-use super::residual::{fall_chunks, has_potential};
+use super::residual::fall_chunks;
 use super::stencil::SpringMatrix;
 use super::sym::{add_outer, Sym};
 use super::SolverStats;
@@ -45,8 +45,12 @@ pub struct ImplicitScratch {
     /// stiffness plus `damping·û₀û₀ᵀ` of its damper along its direction at the step's start, by
     /// stencil slot: for `A·x`, and read by spring for the multigrid's coarse levels.
     pub(super) springs: SpringMatrix,
-    /// Each spring's direction at the step's start (zero for a spring of zero length).
+    /// Each spring's direction at the step's start (zero for a spring of zero length), for the
+    /// line search's potential alone: found only when a step first evaluates that
+    /// ([`ImplicitScratch::start_directions`]), which most steps do not.
     pub(super) start_dir: Vec<Vec3>,
+    /// Whether `start_dir` is of this step's start.
+    pub(super) start_dir_found: bool,
     /// The field's force on each point at the iterate's and the trial's end positions (for the
     /// line search; see `residual::field_work`).
     pub(super) field: Vec<Vec3>,
@@ -266,6 +270,7 @@ impl ImplicitScratch {
             // Its slot arrays zero pages until written (the assembly writes each block).
             springs: SpringMatrix::new(model),
             start_dir: Vec::with_capacity(model.spring_count()),
+            start_dir_found: false,
             field: Vec3::zeros(n),
             field_trial: Vec3::zeros(n),
             mass: vec![0.0; n],
@@ -456,15 +461,8 @@ impl ImplicitScratch {
     /// dampers), the contacts each point is in, and the pairs of points of different bodies
     /// that overlap.
     pub(super) fn start_dampers(&mut self, model: &Model, x0: &[Vec3]) {
-        // The directions by spring serve the line search's potential alone (sized here, only
-        // for a model that has one: 12 MB at 32³).
-        let directions = if has_potential(model) {
-            self.start_dir.resize(self.rows.len(), Vec3::ZERO);
-            Some(&mut self.start_dir[..])
-        } else {
-            None
-        };
-        self.springs.start_dampers(x0, directions);
+        self.springs.start_dampers(x0);
+        self.start_dir_found = false;
         if model.surfaces_touch() {
             let (contacts, touches) = (&mut self.contacts, &mut self.start_touches);
             super::contacts::start_touches(model, contacts, self.springs.start(), touches);
@@ -497,6 +495,17 @@ impl ImplicitScratch {
                     self.touching[p as usize] = true;
                 }
             }
+        }
+    }
+
+    /// The springs' directions at the step's start into `start_dir`, where not found yet this
+    /// step: the line search's potential needs them (sized here, for a model that has one: 12
+    /// MB at 32³). Found at each step's start, they had been 45 % of a 32³ cube's steps in free
+    /// fall without friction (one thread), whose first residual solves them.
+    pub(super) fn start_directions(&mut self) {
+        if !std::mem::replace(&mut self.start_dir_found, true) {
+            self.start_dir.resize(self.rows.len(), Vec3::ZERO);
+            self.springs.start_directions(&mut self.start_dir);
         }
     }
 }

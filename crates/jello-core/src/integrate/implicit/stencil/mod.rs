@@ -291,18 +291,19 @@ impl SpringMatrix {
         self.damping[slot] = damping;
     }
 
-    /// The step's start `x0`, along whose springs the dampers act; their directions there into
-    /// `directions` by spring (in slot order) when asked for.
-    pub fn start_dampers(&mut self, x0: &[Vec3], directions: Option<&mut [Vec3]>) {
+    /// The step's start `x0`, along whose springs the dampers act.
+    pub fn start_dampers(&mut self, x0: &[Vec3]) {
         let size = team::chunk_size(x0.len(), MIN_POINTS_PER_RANGE);
         team::for_each_chunk(self.start.parts_mut(), size, &|chunk, [x, y, z]| {
             for (i, p) in x0[chunk * size..].iter().take(x.len()).enumerate() {
                 (x[i], y[i], z[i]) = (p.x, p.y, p.z);
             }
         });
-        let Some(directions) = directions else {
-            return;
-        };
+    }
+
+    /// The springs' directions at the step's start ([`SpringMatrix::start_dampers`]) into
+    /// `directions`, by spring (in slot order).
+    pub fn start_directions(&self, directions: &mut [Vec3]) {
         let (start, slots, spans, n) = (&self.start, &self.slot, &self.spans[..], self.n);
         let size = team::chunk_size(directions.len(), MIN_POINTS_PER_RANGE);
         team::for_each_chunk([directions], size, &|chunk, [directions]| {

@@ -40,10 +40,15 @@ fn listing_entry_by_entry_lists_every_spring_once() {
         for entry in 0..STENCIL.len() {
             body.for_each_spring_of_entry(entry, |s| by_entry.push(key(s, entry)));
         }
-        assert!(by_entry.windows(2).all(|w| (w[0].0, w[0].1) < (w[1].0, w[1].1)));
+        assert!(by_entry
+            .windows(2)
+            .all(|w| (w[0].0, w[0].1) < (w[1].0, w[1].1)));
         by_point.sort_by_key(|k| (k.0, k.1));
         assert_eq!(by_entry, by_point);
-        assert!(by_entry.len() < body.len() * STENCIL.len(), "the holes cut springs");
+        assert!(
+            by_entry.len() < body.len() * STENCIL.len(),
+            "the holes cut springs"
+        );
     }
 }
 
@@ -197,7 +202,8 @@ fn blocks_by_slot_are_the_blocks_of_each_spring() {
     let mut v = v;
     v[b] = v[a];
     let mut directions = vec![Vec3::ZERO; springs.len()];
-    matrix.start_dampers(&x0, Some(&mut directions));
+    matrix.start_dampers(&x0);
+    matrix.start_directions(&mut directions);
     for floor in [f64::MIN, 0.0] {
         matrix.assemble(&x0, &v, h, floor);
         let blocks = by_spring(&matrix, springs.len());
