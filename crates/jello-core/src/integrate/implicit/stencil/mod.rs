@@ -306,13 +306,24 @@ impl SpringMatrix {
     pub fn start_directions(&self, directions: &mut [Vec3]) {
         let (start, slots, spans, n) = (&self.start, &self.slot, &self.spans[..], self.n);
         let size = team::chunk_size(directions.len(), MIN_POINTS_PER_RANGE);
+        let (x, y, z) = (start.x(), start.y(), start.z());
         team::for_each_chunk([directions], size, &|chunk, [directions]| {
+            // The slots rise through the chunk: its springs' entry and body are followed as
+            // they change, not found again for each (a division and a search a spring were
+            // most of this pass).
+            let (mut e, mut span) = (usize::MAX, 0);
+            let (mut entry_start, mut entry_end) = (0, 0);
             for (u, &slot) in directions.iter_mut().zip(&slots[chunk * size..]) {
-                let (e, q) = (slot as usize / n, slot as usize % n);
-                // The body of `q` (the spans in the order of their points).
-                let span = spans[spans.partition_point(|s| s.first + s.len <= q)];
-                let b = q + span.offset[e];
-                let (x, y, z) = (start.x(), start.y(), start.z());
+                let slot = slot as usize;
+                if slot >= entry_end {
+                    e = slot / n;
+                    (entry_start, entry_end, span) = (e * n, (e + 1) * n, 0);
+                }
+                let q = slot - entry_start;
+                while spans[span].first + spans[span].len <= q {
+                    span += 1;
+                }
+                let b = q + spans[span].offset[e];
                 let l = Vec3::new(x[q] - x[b], y[q] - y[b], z[q] - z[b]);
                 let length = l.length();
                 *u = if length > 0.0 { l / length } else { Vec3::ZERO };
