@@ -329,17 +329,21 @@ fn offset(c: usize, d: isize, n: usize) -> Option<usize> {
 mod tests {
     use super::*;
 
+    /// Lattice shapes with short axes too (one and two points, where the bend springs of an
+    /// axis are missing).
+    const SHAPES: [[usize; 3]; 6] = [
+        [8, 8, 8],
+        [2, 1, 1],
+        [1, 1, 9],
+        [3, 3, 3],
+        [5, 2, 7],
+        [1, 6, 2],
+    ];
+
     /// The closed-form counts agree with the listed springs, on shapes with short axes too.
     #[test]
     fn counts_without_listing_match_the_list() {
-        for counts in [
-            [8, 8, 8],
-            [2, 1, 1],
-            [1, 1, 9],
-            [3, 3, 3],
-            [5, 2, 7],
-            [1, 6, 2],
-        ] {
+        for counts in SHAPES {
             let lattice = Lattice::new(counts, Vec3::new(1.0, 2.0, 3.0));
             let mut listed = [0; 3];
             lattice.for_each_spring(|_, _, _, kind| listed[kind as usize] += 1);
@@ -355,14 +359,7 @@ mod tests {
     /// same order, with the same rest lengths to the bit, on shapes with short axes too.
     #[test]
     fn an_entrys_springs_are_its_springs_in_the_full_list() {
-        for counts in [
-            [8, 8, 8],
-            [2, 1, 1],
-            [1, 1, 9],
-            [3, 3, 3],
-            [5, 2, 7],
-            [1, 6, 2],
-        ] {
+        for counts in SHAPES {
             let lattice = Lattice::new(counts, Vec3::new(1.0, 2.0, 3.0));
             let mut full = vec![Vec::new(); STENCIL.len()];
             lattice.for_each_stencil_spring(|a, b, rest, kind, entry| {
