@@ -404,6 +404,45 @@ pub fn serially<R>(f: impl FnOnce() -> R) -> R {
     f()
 }
 
+/// `(a(), b())`, the two at once where this thread leads a team of two or more: `b` on a
+/// helper while `a` runs here (each with its own loops in order on its thread, see
+/// [`serially`]); in order on this thread otherwise. For independent serial work, such as the
+/// parts of a solver's setup.
+pub fn join<A: Send, B: Send>(
+    a: impl FnOnce() -> A + Send,
+    b: impl FnOnce() -> B + Send,
+) -> (A, B) {
+    if threads() < 2 {
+        return (a(), b());
+    }
+    use std::sync::Mutex;
+    fn take<T>(m: &Mutex<Option<T>>) -> Option<T> {
+        m.lock().unwrap_or_else(|e| e.into_inner()).take()
+    }
+    fn put<T>(m: &Mutex<Option<T>>, v: T) {
+        *m.lock().unwrap_or_else(|e| e.into_inner()) = Some(v);
+    }
+    let tasks = (Mutex::new(Some(a)), Mutex::new(Some(b)));
+    let results = (Mutex::new(None), Mutex::new(None));
+    // Two items: the leader's own block is the first, a helper's the second (see the module
+    // documentation), and a thread done with its own takes the other if it is still waiting.
+    for_each(2, &|i| {
+        if i == 0 {
+            put(
+                &results.0,
+                serially(take(&tasks.0).expect("each item runs once")),
+            );
+        } else {
+            put(
+                &results.1,
+                serially(take(&tasks.1).expect("each item runs once")),
+            );
+        }
+    });
+    let done = "both items ran (a panic in either is raised by the loop)";
+    (take(&results.0).expect(done), take(&results.1).expect(done))
+}
+
 /// `body(i)` for every `i` in `0..items`, spread over the team this thread leads (in order on
 /// this thread when it leads none). `body` must give the same results whichever thread runs an
 /// item and in whatever order the items run.
@@ -952,6 +991,47 @@ mod tests {
                         assert_eq!(*owner, me, "item {i} changed threads in round {round}");
                     });
                 }
+            })
+        });
+    }
+
+    /// `join` returns both closures' results: in order outside a team, and on a team of two
+    /// or more at once, on two threads (each closure below waits until the other has started,
+    /// so run one after the other they would never finish: a limit turns that into a
+    /// failure), each with its own loops in order on its thread.
+    #[test]
+    fn join_runs_both_closures_at_once_on_a_team() {
+        assert_eq!(join(|| 1, || "two"), (1, "two"));
+        pool(2).install(|| {
+            run(|| {
+                if super::threads() < 2 {
+                    eprintln!("skipped: this machine gives the team one thread");
+                    return;
+                }
+                let started = AtomicUsize::new(0);
+                let both_started = || {
+                    started.fetch_add(1, Ordering::AcqRel);
+                    let waiting = std::time::Instant::now();
+                    while started.load(Ordering::Acquire) < 2 {
+                        assert!(
+                            waiting.elapsed() < std::time::Duration::from_secs(20),
+                            "join ran its closures one after the other"
+                        );
+                        std::hint::spin_loop();
+                    }
+                    std::thread::current().id()
+                };
+                let (a, b) = join(both_started, both_started);
+                assert_ne!(a, b);
+                let in_order = || {
+                    let seen = std::sync::Mutex::new(Vec::new());
+                    for_each(5, &|i| seen.lock().unwrap().push(i));
+                    (seen.into_inner().unwrap(), super::threads())
+                };
+                assert_eq!(
+                    join(in_order, in_order),
+                    ((vec![0, 1, 2, 3, 4], 1), (vec![0, 1, 2, 3, 4], 1))
+                );
             })
         });
     }
