@@ -424,13 +424,19 @@ impl Body {
     /// the body) with its rest length on the rest lattice and its stencil entry, in stencil
     /// order: first points in flat-index order, then stencil entries.
     fn for_each_lattice_spring(&self, mut f: impl FnMut(usize, usize, f64, SpringKind, usize)) {
-        let links = &self.links;
         self.lattice
             .for_each_stencil_spring(|a, b, rest, kind, entry| {
-                if links.is_empty() || links[a] >> entry & 1 == 1 {
+                if self.is_linked(a, entry) {
                     f(a, b, rest, kind, entry);
                 }
             });
+    }
+
+    /// Whether the lattice spring from point `a` along stencil entry `entry` is one of the
+    /// body's (every one, where the body keeps no links).
+    #[inline(always)]
+    fn is_linked(&self, a: usize, entry: usize) -> bool {
+        self.links.is_empty() || self.links[a] >> entry & 1 == 1
     }
 
     /// Calls `f` with every spring of the body (lattice indices of the body) and the values the
@@ -464,10 +470,9 @@ impl Body {
     /// them, in the order of their first point: the implicit solver lists its springs entry by
     /// entry, already in the order it keeps them in.
     pub(crate) fn for_each_spring_of_entry(&self, entry: usize, mut f: impl FnMut(&Spring)) {
-        let links = &self.links;
         self.lattice
             .for_each_spring_of_entry(entry, |a, b, rest, kind| {
-                if links.is_empty() || links[a] >> entry & 1 == 1 {
+                if self.is_linked(a, entry) {
                     f(&self.spring(a, b, rest, kind, entry));
                 }
             });
