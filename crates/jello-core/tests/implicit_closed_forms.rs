@@ -157,7 +157,7 @@ fn a_bar_tied_to_a_floor_follows_each_methods_recurrence() {
     let floor = Plane::facing([0.0, 0.0, 1.0, 0.0], Vec3::new(0.0, 0.0, 1.0)).unwrap();
     for integrator in [Integrator::BackwardEuler, Integrator::Sdirk2] {
         for h in [0.01, 1.0 / 60.0] {
-            let model = ModelBuilder::new()
+            let mut model = ModelBuilder::new()
                 .bodies(vec![bar.clone()])
                 .bounds(far_walls())
                 .obstacle(Obstacle::Plane(floor))
@@ -168,6 +168,10 @@ fn a_bar_tied_to_a_floor_follows_each_methods_recurrence() {
                 .dt(h)
                 .build()
                 .unwrap();
+            // Each step solved well within the comparison's bounds (at the default 1e-9 m/s,
+            // SDIRK2's speeds wander by up to 1.3e-8 m/s from the recurrence over 60 steps,
+            // each within the tolerance).
+            model.newton.tolerance = 1e-11;
             let depth = m * g / kc;
             let mut state = State::new(
                 vec![Vec3::new(0.0, 0.0, -depth), Vec3::new(1.0, 0.0, -depth)],

@@ -39,7 +39,10 @@
 //! semi-definite), by conjugate gradients preconditioned with a multigrid cycle over aggregates
 //! of the lattice (`multigrid/`; `A·x` itself runs in stencil order, `stencil/`). They
 //! stop when their residual has fallen a hundredfold, or sooner where their linear model already
-//! puts every point within half the tolerance. When the line search finds no way down
+//! puts every point within half the tolerance. A step's first solve with an `A` kept from the
+//! last steps starts from the best combination, in `A`'s norm, of their first solves'
+//! directions rather than from zero (`cg/recycle.rs`): a body settling on a floor rings down in
+//! a few slow modes. When the line search finds no way down
 //! along a direction so found, the next is solved to 1e-8 (or only as far as the tolerance
 //! needs: `enough_reduction`), unless that did not help: where `A` itself is inexact (sliding
 //! friction ties, a shift), no solve is exact enough, and the reduction goes back to the last.
@@ -102,7 +105,8 @@
 //! friction and the dampers between bodies in `g`; `matrix.rs` the assembly of `A`
 //! and the Newton direction (with its Levenberg–Marquardt shift); `cg/` the conjugate
 //! gradients and their sums on the team (`single.rs` the usual solves', their vectors in
-//! single precision); `multigrid/` their preconditioner; `stencil/` `A·x` in stencil order;
+//! single precision; `recycle.rs` a step's first solve's start); `multigrid/` their
+//! preconditioner; `stencil/` `A·x` in stencil order;
 //! `gmres.rs` the solve where a field swirls; `sym.rs` symmetric 3×3 blocks; `tests.rs` and
 //! `test_models.rs` the parts' unit tests.
 

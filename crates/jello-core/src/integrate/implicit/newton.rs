@@ -144,6 +144,14 @@ pub(super) fn newton(
         } else {
             reduction
         };
+        // A step's first solve may start from the last steps' first directions (see
+        // `cg/recycle.rs`); the later ones correct this step's own error, which they do not
+        // span.
+        s.recycling = iterations == 1;
+        #[cfg(test)]
+        {
+            s.recycling &= s.may_recycle;
+        }
         let own = (keep && solve(s, solve_to, Preconditioner::Multigrid))
             || newton_direction(
                 model,
@@ -155,6 +163,7 @@ pub(super) fn newton(
                 solve_to,
                 &mut shift,
             );
+        s.recycling = false;
         let before = norm2;
         let swirled = s.swirl;
         let reached = line_search(model, control, force, s, x0, v0, h, norm2, floor);

@@ -93,6 +93,10 @@ pub struct ImplicitScratch {
     /// Steps whose first Newton iteration kept the last step's `A` (tests only).
     #[cfg(test)]
     pub(super) kept_across: u32,
+    /// Whether a step's first solve may start from the last steps' directions (tests only; see
+    /// `cg/recycle.rs`).
+    #[cfg(test)]
+    pub(super) may_recycle: bool,
     /// Per point: the damping matrix `dCollision·Σ n nᵀ` of the walls, plane and obstacles it is
     /// in at the step's start.
     pub(super) start_damping: Vec<Sym>,
@@ -127,6 +131,9 @@ pub struct ImplicitScratch {
     /// `A` times the direction.
     pub(super) dv: Vec<Vec3>,
     pub(super) r: Vec<Vec3>,
+    /// Whether the solve is a step's first (a Newton iteration's first), which may start from
+    /// the last steps' directions (`cg/recycle.rs`).
+    pub(super) recycling: bool,
     pub(super) z: Vec<Vec3>,
     pub(super) p: Vec<Vec3>,
     pub(super) ap: Vec<Vec3>,
@@ -291,6 +298,8 @@ impl ImplicitScratch {
             #[cfg(test)]
             may_start_at_rest: true,
             #[cfg(test)]
+            may_recycle: true,
+            #[cfg(test)]
             growth_sticks: true,
             #[cfg(test)]
             kept_across: 0,
@@ -317,6 +326,7 @@ impl ImplicitScratch {
             g_trial: Vec3::zeros(n),
             dv: Vec3::zeros(n),
             r: Vec3::zeros(n),
+            recycling: false,
             z: Vec3::zeros(n),
             p: Vec3::zeros(n),
             ap: Vec3::zeros(n),

@@ -2,6 +2,7 @@
 //! preconditioned by the multigrid cycle, with `A·x` in stencil order and the dot products
 //! summed over fixed chunks on the step's team.
 
+mod recycle;
 pub(super) mod single;
 
 use crate::compute::team;
@@ -198,9 +199,10 @@ pub(super) enum Preconditioner {
 }
 
 /// Solves `A·Δv = −M·g` into `s.dv` by conjugate gradients preconditioned by `preconditioner`,
-/// from zero, until its residual has fallen by `reduction` or is within `m·s.within` at every
-/// point; false when `A` turns out not to be positive definite, or the preconditioner (then
-/// `s.multigrid_failed` says which).
+/// from zero (a step's first solve, `s.recycling`, from the last steps' directions where they
+/// help: [`recycle`]), until its residual has fallen by `reduction` from the right-hand side's
+/// or is within `m·s.within` at every point; false when `A` turns out not to be positive
+/// definite, or the preconditioner (then `s.multigrid_failed` says which).
 pub(super) fn solve(
     s: &mut ImplicitScratch,
     reduction: f64,
@@ -229,8 +231,10 @@ pub(super) fn solve(
 trait Passes {
     /// The preconditioner `precondition` applies.
     fn preconditioner(&self) -> Preconditioner;
-    /// `Δv = 0` and `r = −M·g` (zero at held points).
-    fn start(&mut self, s: &mut ImplicitScratch);
+    /// `Δv = 0` and `r = −M·g` (zero at held points); or, for a step's first solve, the start
+    /// the last steps' directions give where it lowers the residual (see [`recycle`]), and then
+    /// `b·b` for `b = −M·g` and whether that start is within `m·s.within` at every point.
+    fn start(&mut self, s: &mut ImplicitScratch) -> Option<(f64, bool)>;
     /// `z = P⁻¹·r`; returns `r·z`.
     fn precondition(&mut self, s: &mut ImplicitScratch) -> f64;
     /// `p = z + β·p` (`p = z` without `β`).
@@ -254,11 +258,15 @@ fn iterate(s: &mut ImplicitScratch, passes: &mut impl Passes, reduction: f64) ->
         s.multigrid_failed = multigrid;
         false
     };
-    passes.start(s);
+    let started = passes.start(s);
+    if started.is_some_and(|(_, within)| within) {
+        return true;
+    }
     let mut rz = passes.precondition(s);
     passes.set_direction(s, None);
     let mut rr = passes.rr(s);
-    let target = rr * reduction * reduction;
+    // The reduction is of the right-hand side's residual, wherever the solve starts.
+    let target = started.map_or(rr, |(bb, _)| bb) * reduction * reduction;
     if !rz.is_finite() {
         return false;
     }
@@ -300,9 +308,10 @@ impl Passes for Double {
         self.preconditioner
     }
 
-    fn start(&mut self, s: &mut ImplicitScratch) {
+    fn start(&mut self, s: &mut ImplicitScratch) -> Option<(f64, bool)> {
         s.dv.fill(Vec3::ZERO);
         set_right_hand_side(s);
+        None
     }
 
     fn precondition(&mut self, s: &mut ImplicitScratch) -> f64 {

@@ -28,6 +28,7 @@ use super::super::gmres::{Gmres, Reached};
 use super::super::multigrid::precondition_single;
 use super::super::stencil::{dot_single, Precision};
 use super::super::{chunk_size, ImplicitScratch, MAX_CG};
+use super::recycle::Recycled;
 use super::{iterate, sum_chunk, sum_chunks, Passes, Preconditioner};
 
 /// The single-precision conjugate gradients' vectors (structure of arrays) and the fine
@@ -40,6 +41,8 @@ pub(in crate::integrate::implicit) struct SingleVectors {
     ap: [Vec<f32>; 3],
     /// `[xx, yy, zz, xy, xz, yz]` of each point's inverse diagonal block.
     diag_inv: [Vec<f32>; 6],
+    /// The last steps' directions, for a step's first solve ([`Recycled`]).
+    recycled: Recycled,
     /// GMRES in single precision, where friction may slide (its growth with depth makes `A`
     /// unsymmetric; see [`solve_unsymmetric`]), and the sums of its preconditioner.
     gmres: Gmres<[Vec<f32>; 3]>,
@@ -56,6 +59,7 @@ impl SingleVectors {
             z: v(),
             ap: v(),
             diag_inv: std::array::from_fn(|_| vec![0.0; n]),
+            recycled: Recycled::default(),
             gmres: if slides {
                 Gmres::new(n)
             } else {
@@ -87,10 +91,12 @@ impl SingleVectors {
 }
 
 /// [`super::solve`] with single-precision vectors: `A·Δv = −M·g` into `s.dv`, preconditioned
-/// by `preconditioner`, from zero, until the residual has fallen by `reduction` or is within
-/// `m·s.within` at every point; false when `A` turns out not to be positive definite, or the
-/// preconditioner (then `s.multigrid_failed` says which). `A` symmetric, without pairs found at
-/// the iterate (contacts between bodies), its products in single precision.
+/// by `preconditioner`, from zero (a step's first solve from the last steps' directions where
+/// they help, and its own direction kept for the next: [`Recycled`]), until the residual has
+/// fallen by `reduction` or is within `m·s.within` at every point; false when `A` turns out not
+/// to be positive definite, or the preconditioner (then `s.multigrid_failed` says which). `A`
+/// symmetric, without pairs found at the iterate (contacts between bodies), its products in
+/// single precision.
 pub(super) fn solve(
     s: &mut ImplicitScratch,
     reduction: f64,
@@ -103,6 +109,11 @@ pub(super) fn solve(
     let solved = iterate(s, &mut passes, reduction);
     if solved {
         direction_out(s, &passes.v);
+        if s.recycling {
+            let v = &mut passes.v;
+            let given = (&s.g[..], &s.mass[..], &s.free[..]);
+            v.recycled.push(s.stats.assemblies, (&v.dv, &v.r), given);
+        }
     }
     s.single = passes.v;
     solved
@@ -119,8 +130,18 @@ impl Passes for Single {
         self.preconditioner
     }
 
-    fn start(&mut self, s: &mut ImplicitScratch) {
+    fn start(&mut self, s: &mut ImplicitScratch) -> Option<(f64, bool)> {
         right_hand_side(s, &mut self.v);
+        if !s.recycling {
+            return None;
+        }
+        let v = &mut self.v;
+        v.recycled.start(
+            s.stats.assemblies,
+            (&mut v.dv, &mut v.r),
+            (&mut v.ap, &mut v.z),
+            (&s.mass, s.within),
+        )
     }
 
     fn precondition(&mut self, s: &mut ImplicitScratch) -> f64 {
