@@ -708,8 +708,17 @@ fn a_body_resting_on_a_surface_starts_newton_from_rest() {
 /// The first 60 steps of the `rest` job at 12³ (1/60 s, solved to 1e-11 m/s), the solver's
 /// scratch set up by `setup`: each step's end velocities, and the solver's work.
 fn rest_job_steps(setup: impl Fn(&mut ImplicitScratch)) -> (Vec<Vec<Vec3>>, SolverStats) {
+    rest_job(12, 60, setup)
+}
+
+/// [`rest_job_steps`] for an `n`³ cube and `steps` steps.
+fn rest_job(
+    n: usize,
+    steps: usize,
+    setup: impl Fn(&mut ImplicitScratch),
+) -> (Vec<Vec<Vec3>>, SolverStats) {
     let (mut model, start) = crate::benchmark::Job::Rest
-        .scene(12, Integrator::BackwardEuler, None)
+        .scene(n, Integrator::BackwardEuler, None)
         .unwrap();
     model.newton.tolerance = 1e-11;
     let (control, mut force) = (Control::none(), ForceScratch::new(&model));
@@ -718,7 +727,7 @@ fn rest_job_steps(setup: impl Fn(&mut ImplicitScratch)) -> (Vec<Vec<Vec3>>, Solv
     let mut state = start.clone();
     let mut ends = vec![];
     let (mut pos, mut vel) = (state.pos.clone(), state.vel.clone());
-    for _ in 0..60 {
+    for _ in 0..steps {
         let h = model.dt;
         step(
             &model, &state, &control, &mut force, &mut s, h, &mut pos, &mut vel,
@@ -767,6 +776,29 @@ fn a_settling_body_recycles_its_directions_into_fewer_iterations() {
     );
     assert_eq!(with.newton_iterations, without.newton_iterations);
     assert_same_steps(&recycled, &from_zero);
+}
+
+/// The starts from the last steps' directions take the same bits on any number of threads:
+/// the `rest` job at 16³ (4 096 points, stepped on a team), its settling steps recycling.
+#[test]
+fn recycled_starts_are_the_same_on_any_number_of_threads() {
+    let run = |threads: usize, recycle: bool| {
+        test_models::on_threads(threads, || rest_job(16, 30, |s| s.may_recycle = recycle))
+    };
+    let (one, with) = run(1, true);
+    let (_, without) = run(1, false);
+    assert!(
+        with.linear_iterations < without.linear_iterations,
+        "the starts were taken: {} against {} conjugate-gradient iterations",
+        with.linear_iterations,
+        without.linear_iterations
+    );
+    for threads in [2, 3] {
+        assert!(
+            run(threads, true) == (one.clone(), with),
+            "{threads} threads"
+        );
+    }
 }
 
 /// A step's first Newton iteration keeps the last step's `A` where that step ended in the

@@ -183,33 +183,17 @@ impl Recycled {
             self.directions.push(zeros());
             self.products.push(zeros());
         }
+        // Its parts along the directions held (the first needs no pass for them).
+        let (whole, c) = match k {
+            0 => (None, [0.0; RECYCLED]),
+            _ => match self.parts_along(k, (dv, r), (g, mass, free)) {
+                Some((whole, c)) => (Some(whole), c),
+                None => return,
+            },
+        };
+        // The new direction less those parts, and its product, into the spare buffers; with its
+        // `A`-norm².
         let size = sum_chunk(n);
-        self.sums.resize(n.div_ceil(size), [0.0; RECYCLED + 1]);
-        // `wᵢ·A·dv` and `dv·A·dv`, `A·dv = b − r`.
-        let directions = &self.directions[..k];
-        team::for_each_mut(&mut self.sums, &|c, sums| {
-            let at = c * size..((c + 1) * size).min(n);
-            *sums = [0.0; RECYCLED + 1];
-            for p in at {
-                let b = rhs(g, mass, free, p);
-                let a = [0, 1, 2].map(|d| b[d] - f64::from(r[d][p]));
-                for (sum, w) in sums.iter_mut().zip(directions) {
-                    *sum += (0..3).map(|d| a[d] * f64::from(w[d][p])).sum::<f64>();
-                }
-                sums[RECYCLED] += (0..3).map(|d| a[d] * f64::from(dv[d][p])).sum::<f64>();
-            }
-        });
-        let total = |i: usize, sums: &[[f64; RECYCLED + 1]]| sums.iter().map(|s| s[i]).sum::<f64>();
-        let whole = total(RECYCLED, &self.sums);
-        let mut c = [0.0; RECYCLED];
-        for (i, c) in c[..k].iter_mut().enumerate() {
-            *c = self.scales[i] * self.scales[i] * total(i, &self.sums);
-        }
-        if !(whole > 0.0 && whole.is_finite() && c.iter().all(|c| c.is_finite())) {
-            return;
-        }
-        // The new direction less its parts along the others, and its product, into the spare
-        // buffers; with its `A`-norm².
         let (held, new) = self.directions.split_at_mut(k);
         let (held_products, new_products) = self.products.split_at_mut(k);
         let [w0, w1, w2] = new[0].each_mut().map(|w| &mut w[..]);
@@ -245,9 +229,43 @@ impl Recycled {
             },
         );
         let norm: f64 = self.norms.iter().sum();
-        if norm > INDEPENDENT * whole && norm.is_finite() {
+        if norm > 0.0 && norm.is_finite() && whole.is_none_or(|whole| norm > INDEPENDENT * whole) {
             self.scales.push(1.0 / norm.sqrt());
         }
+    }
+
+    /// For a new direction `dv` (`A·dv = b − r`, `b = −M·g`): its `A`-norm², and its
+    /// coefficients along the first `k` directions held, `scaleᵢ²·wᵢ·A·dv`; `None` where these
+    /// are not finite or that norm is not positive.
+    fn parts_along(
+        &mut self,
+        k: usize,
+        (dv, r): (&[Vec<f32>; 3], &[Vec<f32>; 3]),
+        (g, mass, free): (&[Vec3], &[f64], &[f64]),
+    ) -> Option<(f64, [f64; RECYCLED])> {
+        let n = dv[0].len();
+        let size = sum_chunk(n);
+        self.sums.resize(n.div_ceil(size), [0.0; RECYCLED + 1]);
+        let directions = &self.directions[..k];
+        team::for_each_mut(&mut self.sums, &|c, sums| {
+            let at = c * size..((c + 1) * size).min(n);
+            *sums = [0.0; RECYCLED + 1];
+            for p in at {
+                let b = rhs(g, mass, free, p);
+                let a = [0, 1, 2].map(|d| b[d] - f64::from(r[d][p]));
+                for (sum, w) in sums.iter_mut().zip(directions) {
+                    *sum += (0..3).map(|d| a[d] * f64::from(w[d][p])).sum::<f64>();
+                }
+                sums[RECYCLED] += (0..3).map(|d| a[d] * f64::from(dv[d][p])).sum::<f64>();
+            }
+        });
+        let total = |i: usize| self.sums.iter().map(|s| s[i]).sum::<f64>();
+        let whole = total(RECYCLED);
+        let mut c = [0.0; RECYCLED];
+        for (i, c) in c[..k].iter_mut().enumerate() {
+            *c = self.scales[i] * self.scales[i] * total(i);
+        }
+        (whole > 0.0 && whole.is_finite() && c.iter().all(|c| c.is_finite())).then_some((whole, c))
     }
 }
 

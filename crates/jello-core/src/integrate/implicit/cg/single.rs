@@ -106,10 +106,12 @@ pub(super) fn solve(
         v: std::mem::take(&mut s.single),
         preconditioner,
     };
+    let iterations = s.stats.linear_iterations;
     let solved = iterate(s, &mut passes, reduction);
     if solved {
         direction_out(s, &passes.v);
-        if s.recycling {
+        // (A solve its start solved found nothing new: its direction is in their span.)
+        if s.recycling && s.stats.linear_iterations > iterations {
             let v = &mut passes.v;
             let given = (&s.g[..], &s.mass[..], &s.free[..]);
             v.recycled.push(s.stats.assemblies, (&v.dv, &v.r), given);
