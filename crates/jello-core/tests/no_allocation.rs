@@ -209,6 +209,28 @@ fn implicit_steps_in_a_swirling_field_do_not_allocate() {
     });
 }
 
+/// A cube settling on a floor under backward Euler at 1/60 s (the frame-rate job's `rest` at
+/// 24³, on the threaded path), counted after its first step, over the steps whose first solves
+/// start from the last steps' directions and keep their own: no allocation.
+#[test]
+fn implicit_steps_of_a_settling_cube_do_not_allocate() {
+    counted(|| {
+        let (model, mut state) = jello_core::benchmark::Job::Rest
+            .scene(24, Integrator::BackwardEuler, None)
+            .unwrap();
+        assert!(model.point_count() >= PARALLEL_MIN_POINTS);
+        let mut scratch = Scratch::new(&model);
+        let control = Control::none();
+        step(&model, &mut state, &control, &mut scratch).unwrap();
+        let before = ALLOCATIONS.load(Ordering::SeqCst);
+        for _ in 0..30 {
+            step(&model, &mut state, &control, &mut scratch).unwrap();
+        }
+        let made = ALLOCATIONS.load(Ordering::SeqCst) - before;
+        assert_eq!(made, 0, "{made} allocations in 30 steps");
+    });
+}
+
 /// One cube dropped onto another under each implicit method (contacts between bodies, with
 /// their dampers and friction, in every residual and matrix), counted once it has landed: no
 /// allocation.

@@ -131,12 +131,12 @@ pub struct ImplicitScratch {
     /// `A` times the direction.
     pub(super) dv: Vec<Vec3>,
     pub(super) r: Vec<Vec3>,
-    /// Whether the solve is a step's first (a Newton iteration's first), which may start from
-    /// the last steps' directions (`cg/recycle.rs`).
-    pub(super) recycling: bool,
     pub(super) z: Vec<Vec3>,
     pub(super) p: Vec<Vec3>,
     pub(super) ap: Vec<Vec3>,
+    /// Whether the solve is a step's first (its first Newton iteration's), which may start from
+    /// the last steps' directions (`cg/recycle.rs`).
+    pub(super) recycling: bool,
     /// SDIRK2: the start of its second stage (positions, velocities).
     pub(super) base_x: Vec<Vec3>,
     pub(super) base_v: Vec<Vec3>,
@@ -326,10 +326,10 @@ impl ImplicitScratch {
             g_trial: Vec3::zeros(n),
             dv: Vec3::zeros(n),
             r: Vec3::zeros(n),
-            recycling: false,
             z: Vec3::zeros(n),
             p: Vec3::zeros(n),
             ap: Vec3::zeros(n),
+            recycling: false,
             base_x: Vec3::zeros(n),
             base_v: Vec3::zeros(n),
             x_soa: Soa::zeros(n),

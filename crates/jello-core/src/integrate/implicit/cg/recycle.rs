@@ -58,6 +58,22 @@ fn rhs(g: &[Vec3], mass: &[f64], free: &[f64], p: usize) -> [f64; 3] {
 }
 
 impl Recycled {
+    /// Room for [`RECYCLED`] directions of `n` points, none held (allocated with the solver's
+    /// buffers, so that later steps do not allocate).
+    pub fn new(n: usize) -> Recycled {
+        let zeros = || std::array::from_fn(|_| vec![0.0f32; n]);
+        let chunks = n.div_ceil(sum_chunk(n));
+        Recycled {
+            assembly: 0,
+            directions: (0..RECYCLED).map(|_| zeros()).collect(),
+            products: (0..RECYCLED).map(|_| zeros()).collect(),
+            scales: Vec::with_capacity(RECYCLED),
+            sums: vec![[0.0; RECYCLED + 1]; chunks],
+            found: vec![(0.0, true); chunks],
+            norms: vec![0.0; chunks],
+        }
+    }
+
     /// How many directions it holds.
     pub fn len(&self) -> usize {
         self.scales.len()

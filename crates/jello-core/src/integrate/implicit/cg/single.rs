@@ -59,7 +59,7 @@ impl SingleVectors {
             z: v(),
             ap: v(),
             diag_inv: std::array::from_fn(|_| vec![0.0; n]),
-            recycled: Recycled::default(),
+            recycled: Recycled::new(n),
             gmres: if slides {
                 Gmres::new(n)
             } else {
