@@ -248,9 +248,11 @@ trait Passes {
     fn advance(&mut self, s: &mut ImplicitScratch, alpha: f64) -> (f64, bool);
 }
 
-/// The conjugate gradients over `passes`' vectors from zero, until the residual has fallen by
-/// `reduction` or is within `m·s.within` at every point; false when `A` turns out not to be
-/// positive definite, or the preconditioner (then `s.multigrid_failed` says which).
+/// The conjugate gradients over `passes`' vectors from the start `passes.start` gives (zero,
+/// or the last steps' directions' best), until the residual has fallen by `reduction` from the
+/// right-hand side's or is within `m·s.within` at every point (a start within it is the
+/// solution); false when `A` turns out not to be positive definite, or the preconditioner
+/// (then `s.multigrid_failed` says which).
 fn iterate(s: &mut ImplicitScratch, passes: &mut impl Passes, reduction: f64) -> bool {
     // A negative `r·z` shows an indefinite preconditioner, `A` itself only with the diagonal.
     let multigrid = passes.preconditioner() == Preconditioner::Multigrid;
