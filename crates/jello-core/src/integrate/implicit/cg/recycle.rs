@@ -34,13 +34,15 @@ pub(super) const RECYCLED: usize = 4;
 const INDEPENDENT: f64 = 1e-9;
 
 /// The directions, in single precision as structure of arrays (the conjugate gradients'
-/// vectors, see [`super::single`]).
+/// vectors, see [`super::single`]), sized by [`Recycled::new`] (the default holds no buffers:
+/// the placeholder of vectors taken out of the scratch).
 #[derive(Clone, Debug, Default)]
 pub(in crate::integrate::implicit) struct Recycled {
     /// The assembly of `A` (its count, `SolverStats::assemblies`) they were found with.
     assembly: u64,
-    /// Directions `wᵢ` and their products `A·wᵢ`, oldest first; `uᵢ = wᵢ·scaleᵢ` are
-    /// `A`-orthonormal. Buffers beyond `scales.len()` are spare.
+    /// Directions `wᵢ` and their products `A·wᵢ`, oldest first, [`RECYCLED`] buffers of each
+    /// ([`Recycled::new`]); `uᵢ = wᵢ·scaleᵢ` are `A`-orthonormal. Buffers beyond
+    /// `scales.len()` are spare.
     directions: Vec<[Vec<f32>; 3]>,
     products: Vec<[Vec<f32>; 3]>,
     scales: Vec<f64>,
@@ -91,16 +93,15 @@ impl Recycled {
         spare: (&mut [Vec<f32>; 3], &mut [Vec<f32>; 3]),
         (mass, bound): (&[f64], f64),
     ) -> Option<(f64, bool)> {
-        let n = r[0].len();
-        if assembly != self.assembly || self.directions.first().is_some_and(|d| d[0].len() != n) {
+        if assembly != self.assembly {
             self.scales.clear();
         }
         let k = self.len();
         if k == 0 {
             return None;
         }
+        let n = r[0].len();
         let size = sum_chunk(n);
-        self.sums.resize(n.div_ceil(size), [0.0; RECYCLED + 1]);
         // `wᵢ·b` and `b·b`.
         let (directions, b) = (&self.directions[..k], &*r);
         team::for_each_mut(&mut self.sums, &|c, sums| {
@@ -132,7 +133,6 @@ impl Recycled {
         let [x0, x1, x2] = spare_dv.each_mut().map(|x| &mut x[..]);
         let [r0, r1, r2] = spare_r.each_mut().map(|r| &mut r[..]);
         let products = &self.products[..k];
-        self.found.resize(n.div_ceil(size), (0.0, true));
         team::for_each_chunk_into(
             [x0, x1, x2, r0, r1, r2],
             size,
@@ -180,25 +180,17 @@ impl Recycled {
         (dv, r): (&[Vec<f32>; 3], &[Vec<f32>; 3]),
         (g, mass, free): (&[Vec3], &[f64], &[f64]),
     ) {
-        let n = dv[0].len();
-        if assembly != self.assembly || self.directions.first().is_some_and(|d| d[0].len() != n) {
+        if assembly != self.assembly {
             self.scales.clear();
             self.assembly = assembly;
         }
-        if self.directions.first().is_some_and(|d| d[0].len() != n) {
-            (self.directions, self.products) = (Vec::new(), Vec::new());
-        }
+        // The oldest's buffers become the new one's.
         if self.len() == RECYCLED {
             self.directions.rotate_left(1);
             self.products.rotate_left(1);
             self.scales.remove(0);
         }
         let k = self.len();
-        if self.directions.len() == k {
-            let zeros = || std::array::from_fn(|_| vec![0.0f32; n]);
-            self.directions.push(zeros());
-            self.products.push(zeros());
-        }
         // Its parts along the directions held (the first needs no pass for them).
         let (whole, c) = match k {
             0 => (None, [0.0; RECYCLED]),
@@ -209,13 +201,13 @@ impl Recycled {
         };
         // The new direction less those parts, and its product, into the spare buffers; with its
         // `A`-norm².
+        let n = dv[0].len();
         let size = sum_chunk(n);
         let (held, new) = self.directions.split_at_mut(k);
         let (held_products, new_products) = self.products.split_at_mut(k);
         let [w0, w1, w2] = new[0].each_mut().map(|w| &mut w[..]);
         let [a0, a1, a2] = new_products[0].each_mut().map(|a| &mut a[..]);
         let (held, held_products) = (&*held, &*held_products);
-        self.norms.resize(n.div_ceil(size), 0.0);
         team::for_each_chunk_into(
             [w0, w1, w2, a0, a1, a2],
             size,
@@ -261,7 +253,6 @@ impl Recycled {
     ) -> Option<(f64, [f64; RECYCLED])> {
         let n = dv[0].len();
         let size = sum_chunk(n);
-        self.sums.resize(n.div_ceil(size), [0.0; RECYCLED + 1]);
         let directions = &self.directions[..k];
         team::for_each_mut(&mut self.sums, &|c, sums| {
             let at = c * size..((c + 1) * size).min(n);
@@ -371,7 +362,7 @@ mod tests {
     fn the_start_is_the_best_in_the_directions_span() {
         let n = 3000;
         let directions: Vec<Vec<Vec3>> = (0..3).map(|i| pattern(n, i)).collect();
-        let mut recycled = Recycled::default();
+        let mut recycled = Recycled::new(n);
         for (i, d) in directions.iter().enumerate() {
             let r: Vec<Vec3> = pattern(n, 10 + i).iter().map(|&v| v * 1e-3).collect();
             push(&mut recycled, 7, d, &r);
