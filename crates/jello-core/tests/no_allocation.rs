@@ -17,8 +17,8 @@ use std::sync::{Mutex, OnceLock};
 use jello_core::forces::PARALLEL_MIN_POINTS;
 use jello_core::model::solver::{Newton, MAX_CUTBACKS};
 use jello_core::{
-    step, Aabb, Body, Control, ForceField, Integrator, Lattice, Material, ModelBuilder, Obstacle,
-    Plane, Pull, Scratch, Sphere, SpringScale, State, Vec3,
+    step, Aabb, Body, Control, ForceField, Integrator, Lattice, Material, Model, ModelBuilder,
+    Obstacle, Plane, Pull, Scratch, Sphere, SpringScale, State, Vec3,
 };
 
 /// Counts allocations (and reallocations) made by the threads marked with [`COUNTED`].
@@ -164,13 +164,25 @@ fn allocations_in(
             damping: 0.1,
         }],
     };
-    let mut scratch = Scratch::new(&model);
-    for _ in 0..3 {
-        step(&model, &mut state, &control, &mut scratch).unwrap();
+    allocations_after(&model, &mut state, &control, 3, steps)
+}
+
+/// Allocations in all threads during `steps` steps of `model` from `state`, after `warm_up`
+/// steps with the same scratch.
+fn allocations_after(
+    model: &Model,
+    state: &mut State,
+    control: &Control,
+    warm_up: usize,
+    steps: usize,
+) -> usize {
+    let mut scratch = Scratch::new(model);
+    for _ in 0..warm_up {
+        step(model, state, control, &mut scratch).unwrap();
     }
     let before = ALLOCATIONS.load(Ordering::SeqCst);
     for _ in 0..steps {
-        step(&model, &mut state, &control, &mut scratch).unwrap();
+        step(model, state, control, &mut scratch).unwrap();
     }
     ALLOCATIONS.load(Ordering::SeqCst) - before
 }
@@ -219,14 +231,7 @@ fn implicit_steps_of_a_settling_cube_do_not_allocate() {
             .scene(24, Integrator::BackwardEuler, None)
             .unwrap();
         assert!(model.point_count() >= PARALLEL_MIN_POINTS);
-        let mut scratch = Scratch::new(&model);
-        let control = Control::none();
-        step(&model, &mut state, &control, &mut scratch).unwrap();
-        let before = ALLOCATIONS.load(Ordering::SeqCst);
-        for _ in 0..30 {
-            step(&model, &mut state, &control, &mut scratch).unwrap();
-        }
-        let made = ALLOCATIONS.load(Ordering::SeqCst) - before;
+        let made = allocations_after(&model, &mut state, &Control::none(), 1, 30);
         assert_eq!(made, 0, "{made} allocations in 30 steps");
     });
 }
@@ -244,16 +249,7 @@ fn implicit_steps_with_bodies_in_contact_do_not_allocate() {
                 .build()
                 .unwrap();
             let mut state = State::at_rest(&model);
-            let mut scratch = Scratch::new(&model);
-            let control = Control::none();
-            for _ in 0..30 {
-                step(&model, &mut state, &control, &mut scratch).unwrap();
-            }
-            let before = ALLOCATIONS.load(Ordering::SeqCst);
-            for _ in 0..20 {
-                step(&model, &mut state, &control, &mut scratch).unwrap();
-            }
-            let made = ALLOCATIONS.load(Ordering::SeqCst) - before;
+            let made = allocations_after(&model, &mut state, &Control::none(), 30, 20);
             assert_eq!(made, 0, "{integrator}: {made} allocations in 20 steps");
         }
     });
