@@ -1232,3 +1232,37 @@ fn max_norms_are_the_largest_lengths() {
         }
     }
 }
+
+/// The single-precision solvers' products read the springs' blocks in 16 bits from
+/// `PACKED_FROM` points on (a 26³ cube, 17 576 points; not a 24³ one, 13 824), and not where the
+/// model's field swirls past the limit at the step (`stencil/packed.rs`).
+#[test]
+fn products_in_16_bits_only_for_large_lattices_without_a_swirl() {
+    let box_ = Aabb::new(Vec3::new(-2.0, -2.0, -2.0), Vec3::new(2.0, 2.0, 2.0)).unwrap();
+    let turning = |c: f64| ForceField::from_fn(5, box_, move |p| Vec3::new(-p.y, p.x, 0.0) * c);
+    let packs = |n: usize, swirl: f64| {
+        let body = Body::lattice_box(
+            Lattice::new([n; 3], Vec3::new(0.04, 0.04, 0.04)),
+            Material::classic(),
+        );
+        let model = ModelBuilder::new().bodies(vec![body]).dt(1.0 / 60.0);
+        let mut model = model.field(Some(turning(swirl).unwrap())).build().unwrap();
+        // Whether or not the step converges, the products are chosen at its start: one
+        // iteration is enough.
+        model.newton.max_iterations = 1;
+        let state = crate::State::at_rest(&model);
+        let (control, mut force) = (Control::none(), ForceScratch::new(&model));
+        let mut s = ImplicitScratch::new(&model);
+        let (mut pos, mut vel) = (state.pos.clone(), state.vel.clone());
+        let h = model.dt;
+        let _ = step(
+            &model, &state, &control, &mut force, &mut s, h, &mut pos, &mut vel,
+        );
+        (s.springs.packs_products(), can_swirl(&model, h))
+    };
+    // Twice the swirl at the limit, for the classic point mass (1/512 kg).
+    let past_limit = 2.0 * SWIRL_LIMIT / 512.0 * 3600.0;
+    assert_eq!(packs(26, 0.0), (true, false));
+    assert_eq!(packs(24, 0.0), (false, false));
+    assert_eq!(packs(26, past_limit), (false, true));
+}

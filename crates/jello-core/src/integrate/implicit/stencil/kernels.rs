@@ -382,6 +382,83 @@ crate::compute::simd::multiversion! {
     }
 }
 
+crate::compute::simd::multiversion! {
+    /// [`block_forces`] with the blocks in 16 bits (see [`pack_tile`]): `f = B·(step·(x − xn))`,
+    /// `B` the blocks' whole numbers of `step`, converted exactly to single precision.
+    pub(super) fn spring_forces_packed(
+        f: [&mut [f32]; 3],
+        x: [&[f32]; 3],
+        xn: [&[f32]; 3],
+        b: [&[i16]; 6],
+        step: f32,
+    ) {
+        let [f0, f1, f2] = f;
+        let n = f0.len();
+        let (f1, f2) = (&mut f1[..n], &mut f2[..n]);
+        let (x0, x1, x2) = (&x[0][..n], &x[1][..n], &x[2][..n]);
+        let (n0, n1, n2) = (&xn[0][..n], &xn[1][..n], &xn[2][..n]);
+        let (bxx, byy, bzz) = (&b[0][..n], &b[1][..n], &b[2][..n]);
+        let (bxy, bxz, byz) = (&b[3][..n], &b[4][..n], &b[5][..n]);
+        for i in 0..n {
+            let dx = (x0[i] - n0[i]) * step;
+            let dy = (x1[i] - n1[i]) * step;
+            let dz = (x2[i] - n2[i]) * step;
+            let (xx, yy, zz) = (f32::from(bxx[i]), f32::from(byy[i]), f32::from(bzz[i]));
+            let (xy, xz, yz) = (f32::from(bxy[i]), f32::from(bxz[i]), f32::from(byz[i]));
+            f0[i] = xx * dx + xy * dy + xz * dz;
+            f1[i] = xy * dx + yy * dy + yz * dz;
+            f2[i] = xz * dx + yz * dy + zz * dz;
+        }
+    }
+}
+
+/// The largest whole number a packed block's component holds: `i16::MAX`, so that every
+/// component's magnitude, at most the tile's largest, rounds into range.
+pub(super) const PACKED_MAX: f32 = i16::MAX as f32;
+
+crate::compute::simd::multiversion! {
+    /// One tile of one stencil entry's single-precision blocks `b` (each component's run, of one
+    /// length) into 16 bits in `packed` (as long, or longer: the rest zeroed): each component
+    /// in whole steps of the tile's largest magnitude over [`PACKED_MAX`], rounded to the
+    /// nearest; returns that step (zero for a tile without a block).
+    pub(super) fn pack_tile(b: [&[f32]; 6], packed: [&mut [i16]; 6]) -> f32 {
+        let n = b[0].len();
+        // The largest magnitude in 32 lanes (four vectors of AVX2's, each its own chain of
+        // maxima), each a plain comparison: NaN counts as none.
+        let mut lanes = [0.0f32; 32];
+        let larger = |lane: &mut f32, v: &f32| {
+            let v = v.abs();
+            *lane = if v > *lane { v } else { *lane };
+        };
+        for b in &b {
+            let mut runs = b[..n].chunks_exact(32);
+            for run in &mut runs {
+                lanes.iter_mut().zip(run).for_each(|(lane, v)| larger(lane, v));
+            }
+            lanes.iter_mut().zip(runs.remainder()).for_each(|(lane, v)| larger(lane, v));
+        }
+        let largest = lanes.into_iter().fold(0.0f32, f32::max);
+        let (step, scale) = if largest > 0.0 {
+            (largest / PACKED_MAX, PACKED_MAX / largest)
+        } else {
+            (0.0, 0.0)
+        };
+        for (b, packed) in b.iter().zip(packed) {
+            let (b, (packed, rest)) = (&b[..n], packed.split_at_mut(n));
+            for (p, &v) in packed.iter_mut().zip(b) {
+                // Clamped into `i16`'s range, where the conversion is exact, NaN to the lowest
+                // (`clamp` would keep it); rounded first, as the conversion truncates.
+                #[allow(clippy::manual_clamp)]
+                let q = (v * scale).round_ties_even().max(-PACKED_MAX).min(PACKED_MAX);
+                // SAFETY: `q` is a whole number within `±PACKED_MAX`, not NaN.
+                *p = unsafe { q.to_int_unchecked::<i32>() } as i16;
+            }
+            rest.fill(0);
+        }
+        step
+    }
+}
+
 /// Each spring's block of `A` (`[xx, yy, zz, xy, xz, yz]`), its ends at `x` and `xn`:
 /// `axial·ûûᵀ + transverse·(I − ûûᵀ)`, `axial = h²·k`,
 /// `transverse = axial·max(1 − rest/l, floor)` (zero for a spring of zero length), plus its

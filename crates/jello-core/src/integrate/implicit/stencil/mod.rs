@@ -41,10 +41,15 @@
 //! which the blocks are computed again in double precision, once an assembly. Half the bytes
 //! and twice the lanes: the 16³ benchmark's first 3 s at 1/60 s took 18 % less time on one
 //! thread (a Zen 3 EPYC), its iteration counts unchanged; 8³ 25 % less. The diagonal and the
-//! multigrid, which only precondition, are made from the rounded blocks too.
+//! multigrid, which only precondition, are made from the rounded blocks too. The
+//! single-precision solvers' products (the conjugate gradients' and GMRES's in `cg::single`) on
+//! lattices of [`PACKED_FROM`] points or more read them once more, packed into 16 bits after
+//! each assembly ([`packed`]): half the bytes again, for products bound by streaming their
+//! blocks from memory.
 
 mod kernels;
 mod level;
+mod packed;
 #[cfg(test)]
 mod tests;
 
@@ -55,6 +60,8 @@ use kernels::{
     out_rows_free, own_rows_soa, rows, spring_blocks, spring_blocks_single, spring_forces,
     spring_forces_single, Lane,
 };
+
+use packed::Packed;
 
 use super::cg::{dot_chunk, sum_chunk};
 use super::multigrid::Blocks;
@@ -71,6 +78,13 @@ use crate::vec3::Vec3;
 /// 2026-11-27, medians of three sets of 4–16 alternated runs; with 4 096 here, as before, they
 /// took one); 32³ 10–20 % faster.
 pub(super) const MIN_POINTS_PER_RANGE: usize = 2048;
+
+/// Points from which the single-precision solvers' products read the springs' blocks in 16 bits
+/// ([`Packed`]; 6.3 MB of single-precision blocks): where the blocks fit in the caches, a
+/// product does not wait for their bytes, and packing them costs a pass an assembly for nothing
+/// (a 16³ cube thrown at 1/60 s on one thread of a 2-vCPU AMD EPYC with AVX2: 2.26 and 2.13×
+/// real time with single-precision blocks, 2.25 and 2.05× with 16-bit ones).
+const PACKED_FROM: usize = 16_384;
 
 /// Springs per tile of a product (by their first ends, see [`kernels::rows`]): one stencil
 /// entry's forces of a tile stay in the L1 cache (6 KB in single precision, 12 KB in double)
@@ -124,6 +138,12 @@ pub(super) struct SpringMatrix {
     /// step allocates.
     blocks_single: [Vec<f32>; 6],
     blocks: [Vec<f64>; 6],
+    /// The single-precision blocks again in 16 bits, for the products of the single-precision
+    /// solvers where `packing` (see [`Packed`]), made from the last assembly's blocks at the first
+    /// such product after it (not `packed_current`). Empty below [`PACKED_FROM`] points.
+    packed: Packed,
+    packed_current: bool,
+    packing: bool,
     /// Whether `blocks` are behind the last assembly, which was at `ends` with `[h, floor]`
     /// (the end positions as structure of arrays).
     double_behind: bool,
@@ -197,6 +217,13 @@ impl SpringMatrix {
             changed: false,
             blocks_single: std::array::from_fn(|_| vec![0.0; 16 * n]),
             blocks: std::array::from_fn(|_| vec![0.0; 16 * n]),
+            packed: if n >= PACKED_FROM {
+                Packed::new(n)
+            } else {
+                Packed::default()
+            },
+            packed_current: false,
+            packing: false,
             double_behind: false,
             ends: std::array::from_fn(|_| vec![0.0; n]),
             assembled_with: [0.0; 2],
@@ -284,6 +311,14 @@ impl SpringMatrix {
         }
     }
 
+    /// The products of the single-precision solvers with the blocks set by
+    /// [`SpringMatrix::set`] in 16 bits, whatever the size.
+    #[cfg(test)]
+    fn pack(&mut self) {
+        self.packed = Packed::new(self.n);
+        (self.packing, self.packed_current) = (true, false);
+    }
+
     /// Sets spring `s` (its place in slot order): rest length, stiffness and damping.
     pub fn set_spring(&mut self, s: usize, rest: f64, stiffness: f64, damping: f64) {
         let slot = self.slot[s] as usize;
@@ -337,6 +372,21 @@ impl SpringMatrix {
         self.load_end_positions(x0, v, h);
         (self.double_behind, self.assembled_with) = (true, [h, floor]);
         self.compute_blocks(Precision::Single);
+        self.packed_current = false;
+    }
+
+    /// Whether the single-precision solvers' products may read the blocks in 16 bits (they do
+    /// from [`PACKED_FROM`] points on): not where the step's field swirls, whose solves converge
+    /// linearly at best and ask more of each direction (`leapfrog.w` at 1/60 s took twice the
+    /// Newton iterations with them).
+    pub fn pack_products(&mut self, may: bool) {
+        self.packing = may && self.n >= PACKED_FROM;
+    }
+
+    /// Whether the single-precision solvers' products read the blocks in 16 bits.
+    #[cfg(test)]
+    pub fn packs_products(&self) -> bool {
+        self.packing
     }
 
     /// The single-precision blocks of the last assembly by spring (in slot order), as the
@@ -491,9 +541,9 @@ impl SpringMatrix {
         self.apply_with(free, x, y, precision, Input::Loaded, Some(sums))
     }
 
-    /// `y = own·p + springs·p` in single precision, scaled by `free` per point, as structure of
-    /// arrays, `p` in [`SpringMatrix::single_input`] already (the single-precision conjugate
-    /// gradients' direction); returns `p·y` (in double precision), each chunk of [`sum_chunk`]
+    /// `y = own·p + springs·p` in single precision (the springs' blocks in 16 bits where
+    /// [`SpringMatrix::pack_products`] allows), scaled by `free` per point, as structure of arrays, `p` in [`SpringMatrix::single_input`]
+    /// already (the single-precision conjugate gradients' direction); returns `p·y` (in double precision), each chunk of [`sum_chunk`]
     /// points summed in order into `sums`, then the chunks' sums in order: the same bits on any
     /// number of threads.
     pub fn apply_dot_single(&mut self, free: &[f64], y: [&mut [f32]; 3], sums: &mut [f64]) -> f64 {
@@ -515,13 +565,21 @@ impl SpringMatrix {
     ) -> f64 {
         let (spans, n) = (&self.spans[..], self.n);
         self.ranges.fit(n, spans);
-        let (blocks, own, x) = (&self.blocks_single, &self.own_single, &self.x_single);
-        let forces = entry_forces(spring_forces_single, blocks);
+        if self.packing && !std::mem::replace(&mut self.packed_current, true) {
+            self.packed.pack(&self.blocks_single, n);
+        }
+        let (own, x) = (&self.own_single, &self.x_single);
         let init = |start: usize, out: [&mut [f32]; 3]| {
             let len = out[0].len();
             own_rows_soa(part(own, start, len), part(x, start, len), out);
         };
-        ranges_rows(&mut self.ranges.0, spans, n, &init, x, &forces);
+        if self.packing {
+            let forces = self.packed.entry_forces(n);
+            ranges_rows(&mut self.ranges.0, spans, n, &init, x, &forces);
+        } else {
+            let forces = entry_forces(spring_forces_single, &self.blocks_single);
+            ranges_rows(&mut self.ranges.0, spans, n, &init, x, &forces);
+        }
         let ranges = &self.ranges;
         // Rows `lo .. lo + y.len()` of the product out of the ranges that hold them.
         let rows_out = |lo: usize, [y0, y1, y2]: [&mut [f32]; 3]| {

@@ -411,3 +411,116 @@ fn by_spring(matrix: &SpringMatrix, springs: usize) -> Vec<Sym> {
     let blocks = matrix.blocks_by_spring();
     (0..springs).map(|s| blocks.get(s)).collect()
 }
+
+/// The single-precision solvers' product reads the springs' blocks in 16 bits: each stencil
+/// entry's blocks of a tile of first ends in whole steps of the tile's largest component over
+/// `i16::MAX`, rounded to the nearest. It is the product with the blocks so rounded (to single
+/// precision's sums), not the single-precision blocks', on bodies with holes, several bodies
+/// and more points than a tile or a range holds; the same bits on any number of threads.
+#[test]
+fn the_packed_product_is_the_product_with_each_tiles_blocks_in_its_steps() {
+    let holes = with_holes([16, 15, 14], 31, -0.7);
+    let cube = box_at([14, 13, 12], Vec3::new(20.0, 0.0, 0.0));
+    let model = ModelBuilder::new()
+        .bodies(vec![holes, cube, two_bodies().body(0).clone()])
+        .build()
+        .unwrap();
+    let n = model.point_count();
+    assert!(
+        n > 2 * MIN_POINTS_PER_RANGE,
+        "{n} points: ranges on 2 threads"
+    );
+    let (mut matrix, springs) = listed(&model);
+    let mut next = values(37);
+    // Blocks of different sizes from tile to tile (and zero in some), as a lattice's do.
+    let blocks: Vec<Sym> = (springs.iter().enumerate())
+        .map(|(i, _)| {
+            let size = [0.0, 1e-3, 1.0, 40.0][(matrix.slot[i] as usize / TILE) % 4];
+            std::array::from_fn(|_| size * next())
+        })
+        .collect();
+    for (i, b) in blocks.iter().enumerate() {
+        matrix.set(i, b);
+    }
+    matrix.pack();
+    let own: Vec<Sym> = (0..n).map(|_| std::array::from_fn(|_| next())).collect();
+    matrix.set_own(&own);
+    let free: Vec<f64> = (0..n).map(|i| if i % 7 == 3 { 0.0 } else { 1.0 }).collect();
+    let x: Vec<Vec3> = (0..n).map(|_| Vec3::new(next(), next(), next())).collect();
+
+    // Each tile's largest single-precision component (a tile: an entry's slots `e·n + t·TILE`
+    // onwards), then each block in its tile's steps.
+    let tile_of = |i: usize| {
+        let slot = matrix.slot[i] as usize;
+        (slot / n, (slot % n) / TILE)
+    };
+    let mut largest = std::collections::HashMap::new();
+    for (i, b) in blocks.iter().enumerate() {
+        let most = largest.entry(tile_of(i)).or_insert(0.0f32);
+        *most = b.iter().fold(*most, |m, &v| m.max((v as f32).abs()));
+    }
+    let max = f32::from(i16::MAX);
+    let packed = |i: usize, b: &Sym| -> Sym {
+        let most = largest[&tile_of(i)];
+        let (step, scale) = if most > 0.0 {
+            (most / max, max / most)
+        } else {
+            (0.0, 0.0)
+        };
+        b.map(|v| f64::from(((v as f32) * scale).round_ties_even() * step))
+    };
+    let mut want: Vec<Vec3> = own.iter().zip(&x).map(|(m, &x)| sym_mul(m, x)).collect();
+    let mut single = want.clone();
+    for (i, (&[a, b], m)) in springs.iter().zip(&blocks).enumerate() {
+        let f = sym_mul(&packed(i, m), x[a] - x[b]);
+        (want[a], want[b]) = (want[a] + f, want[b] - f);
+        let f = sym_mul(&m.map(|v| f64::from(v as f32)), x[a] - x[b]);
+        (single[a], single[b]) = (single[a] + f, single[b] - f);
+    }
+
+    let run = |threads: usize, matrix: &mut SpringMatrix| {
+        let [x0, x1, x2] = matrix.single_input();
+        for (p, x) in x.iter().enumerate() {
+            (x0[p], x1[p], x2[p]) = (x.x as f32, x.y as f32, x.z as f32);
+        }
+        let mut y: [Vec<f32>; 3] = std::array::from_fn(|_| vec![0.0; n]);
+        on_threads(threads, || {
+            matrix.apply_single(&free, y.each_mut().map(|y| &mut y[..]));
+        });
+        y
+    };
+    let one = run(1, &mut matrix);
+    let mut off_single = 0.0f64;
+    for p in 0..n {
+        let y = Vec3::new(one[0][p].into(), one[1][p].into(), one[2][p].into());
+        // Sums of about 30 terms of up to 40·2·2 in single precision: 1e-4 apart at most.
+        let error = (y - want[p] * free[p]).max_abs();
+        assert!(error < 1e-4, "point {p}: {y:?} ≠ {:?}", want[p] * free[p]);
+        off_single = off_single.max((y - single[p] * free[p]).max_abs());
+    }
+    // Steps of 40/32 767 are far coarser than single precision's rounding.
+    assert!(
+        off_single > 1e-3,
+        "{off_single}: the single-precision blocks' product"
+    );
+    for threads in [2, 3] {
+        let y = run(threads, &mut matrix);
+        let bits = |y: &[Vec<f32>; 3]| {
+            y.each_ref()
+                .map(|y| y.iter().map(|v| v.to_bits()).collect::<Vec<_>>())
+        };
+        assert_eq!(bits(&y), bits(&one), "{threads} threads");
+    }
+    // Where the solver does not allow them (a swirling field), or below `PACKED_FROM` points
+    // (this model's), the single-precision blocks' product.
+    assert!(n < PACKED_FROM);
+    for may in [false, true] {
+        matrix.pack_products(may);
+        let y = run(1, &mut matrix);
+        for p in 0..n {
+            let y = Vec3::new(y[0][p].into(), y[1][p].into(), y[2][p].into());
+            let error = (y - single[p] * free[p]).max_abs();
+            assert!(error < 1e-4, "point {p}: {y:?} ≠ {:?}", single[p] * free[p]);
+        }
+    }
+}
