@@ -189,6 +189,15 @@ impl Model {
         }
     }
 
+    /// Whether no point of the box `[lo, hi]` can touch a wall, the inclined plane or an obstacle
+    /// ([`Model::for_each_contact_of`] finds nothing there, whatever the clearance): the box
+    /// inside the walls and clear of the plane and of each obstacle.
+    pub(crate) fn touches_nothing_in(&self, lo: Vec3, hi: Vec3) -> bool {
+        self.bounds.holds(lo, hi)
+            && self.plane.is_none_or(|plane| plane.clears_box(lo, hi))
+            && self.obstacles.iter().all(|o| o.clears_box(lo, hi))
+    }
+
     /// True when surfaces may touch: the model has several bodies, or self-contact on (see
     /// [`crate::contact::bodies`]).
     pub fn surfaces_touch(&self) -> bool {

@@ -90,6 +90,17 @@ impl Aabb {
             .max(out(p.z, self.min.z, self.max.z))
     }
 
+    /// Whether the box `[lo, hi]` lies inside this one (walls included): no point of it touches a
+    /// wall ([`Aabb::wall_contacts`]).
+    pub(crate) fn holds(&self, lo: Vec3, hi: Vec3) -> bool {
+        lo.x >= self.min.x
+            && lo.y >= self.min.y
+            && lo.z >= self.min.z
+            && hi.x <= self.max.x
+            && hi.y <= self.max.y
+            && hi.z <= self.max.z
+    }
+
     /// The walls' contacts with a point, as the box that holds the jello: one per wall the point
     /// is strictly outside of (past an edge or a corner, one per wall crossed), in the order x,
     /// y, z; each toward the point's projection on that wall.
@@ -222,6 +233,20 @@ impl Plane {
         self.value(p) * self.side < 0.0
     }
 
+    /// Whether no point of the box `[lo, hi]` is on the forbidden side: its nearest corner is
+    /// on the allowed side by more than `1e-9` of the terms' sizes, far past any rounding of
+    /// [`Plane::value`] at a point inside.
+    pub(crate) fn clears_box(&self, lo: Vec3, hi: Vec3) -> bool {
+        let [a, b, c, d] = self.coeffs.map(|k| k * self.side);
+        let (lo, hi) = (lo.to_array(), hi.to_array());
+        let (mut least, mut size) = (d, d.abs());
+        for (k, (lo, hi)) in [a, b, c].into_iter().zip(lo.into_iter().zip(hi)) {
+            least += (k * lo).min(k * hi);
+            size += k.abs() * lo.abs().max(hi.abs());
+        }
+        least > 1e-9 * size
+    }
+
     /// `|(a, b, c)|`.
     #[inline]
     pub fn normal_length(&self) -> f64 {
@@ -333,6 +358,34 @@ pub enum Obstacle {
 }
 
 impl Obstacle {
+    /// Whether no point of the box `[lo, hi]` touches the obstacle ([`Obstacle::contact`] finds
+    /// nothing there): a plane's allowed side holds the box ([`Plane::clears_box`]); a ball's
+    /// centre is farther from the box than its radius, by more than `1e-9` of it; a solid box
+    /// shares no inside with it (the box's surface touches nothing).
+    pub(crate) fn clears_box(&self, lo: Vec3, hi: Vec3) -> bool {
+        match self {
+            Obstacle::Plane(plane) => plane.clears_box(lo, hi),
+            Obstacle::Sphere(sphere) => {
+                let c = sphere.centre;
+                let gap = |c: f64, lo: f64, hi: f64| (lo - c).max(c - hi).max(0.0);
+                let d = Vec3::new(
+                    gap(c.x, lo.x, hi.x),
+                    gap(c.y, lo.y, hi.y),
+                    gap(c.z, lo.z, hi.z),
+                );
+                d.length() > sphere.radius * (1.0 + 1e-9)
+            }
+            Obstacle::Box(b) => {
+                hi.x <= b.min.x
+                    || lo.x >= b.max.x
+                    || hi.y <= b.min.y
+                    || lo.y >= b.max.y
+                    || hi.z <= b.min.z
+                    || lo.z >= b.max.z
+            }
+        }
+    }
+
     /// Where a point touches the obstacle, if it does.
     #[inline]
     pub fn contact(&self, p: Vec3) -> Option<ObstacleContact> {
@@ -355,6 +408,90 @@ impl Obstacle {
             }),
             Obstacle::Sphere(sphere) => sphere.check(),
             Obstacle::Box(b) => b.check("box obstacle"),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A small deterministic generator of values in [−1, 1).
+    fn values(seed: u64) -> impl FnMut() -> f64 {
+        let mut x = seed;
+        move || {
+            x = x
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (x >> 11) as f64 / (1u64 << 52) as f64 - 1.0
+        }
+    }
+
+    /// A box judged clear of a surface holds no point that touches it (its corners, a grid
+    /// through it and points drawn inside): for each obstacle, the walls and the inclined plane,
+    /// on boxes of all sizes near and across their surfaces; both answers come up.
+    #[test]
+    fn a_box_clear_of_a_surface_holds_no_point_touching_it() {
+        let plane = Plane::facing([0.3, -1.0, 0.5, 0.2], Vec3::new(0.0, 2.0, 0.0)).unwrap();
+        let ball = Sphere::new(Vec3::new(0.2, -0.1, 0.3), 0.7).unwrap();
+        let solid = Aabb::new(Vec3::new(-0.5, -0.2, 0.1), Vec3::new(0.4, 0.6, 0.9)).unwrap();
+        let walls = Aabb::new(Vec3::new(-1.0, -1.2, -0.8), Vec3::new(1.1, 0.9, 1.0)).unwrap();
+        type Clears = Box<dyn Fn(Vec3, Vec3) -> bool>;
+        type Touches = Box<dyn Fn(Vec3) -> bool>;
+        let surfaces: [(&str, Clears, Touches); 4] = [
+            (
+                "plane",
+                Box::new(move |lo, hi| Obstacle::Plane(plane).clears_box(lo, hi)),
+                Box::new(move |p| Obstacle::Plane(plane).contact(p).is_some()),
+            ),
+            (
+                "ball",
+                Box::new(move |lo, hi| Obstacle::Sphere(ball).clears_box(lo, hi)),
+                Box::new(move |p| Obstacle::Sphere(ball).contact(p).is_some()),
+            ),
+            (
+                "solid box",
+                Box::new(move |lo, hi| Obstacle::Box(solid).clears_box(lo, hi)),
+                Box::new(move |p| Obstacle::Box(solid).contact(p).is_some()),
+            ),
+            (
+                "walls",
+                Box::new(move |lo, hi| walls.holds(lo, hi)),
+                Box::new(move |p| walls.wall_contacts(p).next().is_some()),
+            ),
+        ];
+        let mut next = values(3);
+        for (name, clears, touches) in &surfaces {
+            let (mut clear, mut not) = (0, 0);
+            for _ in 0..4000 {
+                let size = 0.6 * (next() + 1.0).powi(3);
+                let lo = Vec3::new(1.5 * next(), 1.5 * next(), 1.5 * next());
+                let hi = lo + Vec3::new(next() + 1.0, next() + 1.0, next() + 1.0) * size;
+                let at = |t: [f64; 3]| {
+                    Vec3::new(
+                        lo.x + t[0] * (hi.x - lo.x),
+                        lo.y + t[1] * (hi.y - lo.y),
+                        lo.z + t[2] * (hi.z - lo.z),
+                    )
+                };
+                let grid = [0.0, 0.5, 1.0];
+                let mut points: Vec<Vec3> = (grid.iter())
+                    .flat_map(|&a| grid.iter().flat_map(move |&b| grid.map(|c| [a, b, c])))
+                    .map(at)
+                    .collect();
+                for _ in 0..20 {
+                    let t = [next(), next(), next()].map(|v| 0.5 * (v + 1.0));
+                    points.push(at(t));
+                }
+                let touching = points.iter().any(|&p| touches(p));
+                if clears(lo, hi) {
+                    clear += 1;
+                    assert!(!touching, "{name}: box {lo:?}–{hi:?} judged clear");
+                } else {
+                    not += 1;
+                }
+            }
+            assert!(clear > 100 && not > 100, "{name}: {clear} clear, {not} not");
         }
     }
 }
