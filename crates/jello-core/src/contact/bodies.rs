@@ -1168,22 +1168,12 @@ pub fn closest(model: &Model, pos: &[Vec3]) -> Vec<Closest> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::integrate::implicit::test_models::values;
     use crate::model::body::{Body, Material, IDENTITY};
     use crate::model::contact_surface::locate_from;
     use crate::model::lattice::Lattice;
     use crate::model::{Aabb, ModelBuilder};
     use crate::state::State;
-
-    /// A small generator of values in [−1, 1).
-    fn values(seed: u64) -> impl FnMut() -> f64 {
-        let mut x = seed;
-        move || {
-            x = x
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (x >> 11) as f64 / (1u64 << 52) as f64 - 1.0
-        }
-    }
 
     /// A model builder for bodies in a box far larger than they are (its walls touch none),
     /// with collision stiffness 400 N/m and damping 0.3.

@@ -415,17 +415,7 @@ impl Obstacle {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    /// A small deterministic generator of values in [−1, 1).
-    fn values(seed: u64) -> impl FnMut() -> f64 {
-        let mut x = seed;
-        move || {
-            x = x
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (x >> 11) as f64 / (1u64 << 52) as f64 - 1.0
-        }
-    }
+    use crate::integrate::implicit::test_models::values;
 
     /// A box judged clear of a surface holds no point that touches it (its corners, a grid
     /// through it and points drawn inside): for each obstacle, the walls and the inclined plane,

@@ -162,7 +162,7 @@ mod scratch;
 mod stencil;
 mod sym;
 #[cfg(test)]
-mod test_models;
+pub(crate) mod test_models;
 #[cfg(test)]
 mod tests;
 

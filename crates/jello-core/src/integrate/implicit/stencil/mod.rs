@@ -542,8 +542,9 @@ impl SpringMatrix {
     }
 
     /// `y = own·p + springs·p` in single precision (the springs' blocks in 16 bits where
-    /// [`SpringMatrix::pack_products`] allows), scaled by `free` per point, as structure of arrays, `p` in [`SpringMatrix::single_input`]
-    /// already (the single-precision conjugate gradients' direction); returns `p·y` (in double precision), each chunk of [`sum_chunk`]
+    /// [`SpringMatrix::pack_products`] allows), scaled by `free` per point, as structure of
+    /// arrays, `p` in [`SpringMatrix::single_input`] already (the single-precision conjugate
+    /// gradients' direction); returns `p·y` (in double precision), each chunk of [`sum_chunk`]
     /// points summed in order into `sums`, then the chunks' sums in order: the same bits on any
     /// number of threads.
     pub fn apply_dot_single(&mut self, free: &[f64], y: [&mut [f32]; 3], sums: &mut [f64]) -> f64 {

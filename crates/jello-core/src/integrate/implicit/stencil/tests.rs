@@ -24,6 +24,17 @@ fn listed(model: &Model) -> (SpringMatrix, Vec<[usize; 2]>) {
     (matrix, springs)
 }
 
+/// Three bodies of about 9 000 points in all: a lattice with holes (drawn from `seed`), a full
+/// box beside it and the small body with holes of [`two_bodies`].
+fn three_bodies(seed: u64) -> Model {
+    let holes = with_holes([16, 15, 14], seed, -0.7);
+    let cube = box_at([14, 13, 12], Vec3::new(20.0, 0.0, 0.0));
+    ModelBuilder::new()
+        .bodies(vec![holes, cube, two_bodies().body(0).clone()])
+        .build()
+        .unwrap()
+}
+
 /// The solver's listing (entry by entry) has every spring the bodies list point by point, with
 /// the same values: on bodies with holes (their links) and with springs' factors (their table).
 #[test]
@@ -126,12 +137,7 @@ fn the_stencil_product_is_the_product_over_springs() {
 #[test]
 fn the_diagonal_by_slot_is_the_sum_over_springs() {
     use super::super::sym::add_sym;
-    let holes = with_holes([16, 15, 14], 29, -0.7);
-    let cube = box_at([14, 13, 12], Vec3::new(20.0, 0.0, 0.0));
-    let model = ModelBuilder::new()
-        .bodies(vec![holes, cube, two_bodies().body(0).clone()])
-        .build()
-        .unwrap();
+    let model = three_bodies(29);
     let n = model.point_count();
     assert!(
         n > 2 * MIN_POINTS_PER_RANGE,
@@ -419,12 +425,7 @@ fn by_spring(matrix: &SpringMatrix, springs: usize) -> Vec<Sym> {
 /// and more points than a tile or a range holds; the same bits on any number of threads.
 #[test]
 fn the_packed_product_is_the_product_with_each_tiles_blocks_in_its_steps() {
-    let holes = with_holes([16, 15, 14], 31, -0.7);
-    let cube = box_at([14, 13, 12], Vec3::new(20.0, 0.0, 0.0));
-    let model = ModelBuilder::new()
-        .bodies(vec![holes, cube, two_bodies().body(0).clone()])
-        .build()
-        .unwrap();
+    let model = three_bodies(31);
     let n = model.point_count();
     assert!(
         n > 2 * MIN_POINTS_PER_RANGE,
