@@ -3,8 +3,8 @@
 //! [`TILE`] first ends, all six components, in whole steps of the tile's largest magnitude over
 //! `i16::MAX` ([`pack_tile`]), and each tile's step. A product's spring loop streams its blocks
 //! from memory (12.6 MB in single precision at 32³): on one thread of a 2-vCPU AMD EPYC with
-//! AVX2 a product took 1.65 ms, and 0.84 ms with its blocks held in the cache; with these,
-//! half the bytes, 1.0–1.15 ms (2026-12-07).
+//! AVX2 a product took 1.36–1.65 ms, and 0.84 ms with its blocks held in the cache; with
+//! these, half the bytes, 0.97–1.16 ms (2026-12-07).
 //!
 //! The rounding is at most half a step, `2⁻¹⁶` of the tile's largest component: a tile's blocks
 //! are its springs' (one entry: one rest length and stiffness in a lattice) and alike, so each
@@ -12,10 +12,11 @@
 //! (`SINGLE_PRECISION_REDUCTION`, 1e-4), where they stop: the conjugate gradients steer by it,
 //! and the residual that decides convergence stays in double precision (the 32³ cube dropped on
 //! a floor took 10.25 → 10.52 conjugate-gradient iterations a step, as many Newton iterations).
-//! Not where a field swirls ([`SpringMatrix::pack_products`](super::SpringMatrix::pack_products)), nor
-//! below [`PACKED_FROM`](super::PACKED_FROM) points, where the blocks stay in the caches. The
-//! blocks are packed at the first such product after an assembly; the diagonal and the
-//! multigrid read the single-precision blocks, exact solves the double-precision ones.
+//! Not where a field swirls
+//! ([`SpringMatrix::pack_products`](super::SpringMatrix::pack_products)), nor below
+//! [`PACKED_FROM`](super::PACKED_FROM) points, where the blocks stay in the caches. The blocks
+//! are packed at the first such product after an assembly; the diagonal and the multigrid read
+//! the single-precision blocks, exact solves the double-precision ones.
 
 use super::kernels::{pack_tile, spring_forces_packed};
 use super::TILE;
