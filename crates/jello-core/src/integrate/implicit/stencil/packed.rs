@@ -25,8 +25,8 @@ use crate::compute::team;
 /// The 16-bit blocks of a [`SpringMatrix`](super::SpringMatrix) and each tile's step.
 #[derive(Clone, Debug, Default)]
 pub(super) struct Packed {
-    /// `[xx, yy, zz, xy, xz, yz]`, each entry's run `stride` long (the points rounded up to
-    /// whole tiles, so that every entry's tiles start at a multiple of [`TILE`]: tile `t` of
+    /// `[xx, yy, zz, xy, xz, yz]`, each entry's run `tiles·TILE` long (the points rounded up
+    /// to whole tiles, so that every entry's tiles start at a multiple of [`TILE`]: tile `t` of
     /// entry `e` is the run `(e·tiles + t)·TILE ..` of [`TILE`]).
     values: [Vec<i16>; 6],
     /// Each tile's step, at `e·tiles + t`.
