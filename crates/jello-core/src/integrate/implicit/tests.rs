@@ -1266,3 +1266,35 @@ fn products_in_16_bits_only_for_large_lattices_without_a_swirl() {
     assert_eq!(packs(24, 0.0), (false, false));
     assert_eq!(packs(26, past_limit), (false, true));
 }
+
+/// The multigrid's coarse levels are smoothed over-relaxed, but where the step's field swirls
+/// (see `OMEGA_SWIRLING`), chosen at each step's start.
+#[test]
+fn the_coarse_smoother_is_over_relaxed_unless_a_field_swirls() {
+    let box_ = Aabb::new(Vec3::new(-2.0, -2.0, -2.0), Vec3::new(2.0, 2.0, 2.0)).unwrap();
+    let turning = |c: f64| ForceField::from_fn(5, box_, move |p| Vec3::new(-p.y, p.x, 0.0) * c);
+    let body = Body::lattice_box(
+        Lattice::new([8; 3], Vec3::new(0.04, 0.04, 0.04)),
+        Material::classic(),
+    );
+    let mut s = None;
+    // Twice the swirl at the limit, for the classic point mass (1/512 kg), then none.
+    for swirl in [2.0 * SWIRL_LIMIT / 512.0 * 3600.0, 0.0] {
+        let model = ModelBuilder::new()
+            .bodies(vec![body.clone()])
+            .dt(1.0 / 60.0);
+        let mut model = model.field(Some(turning(swirl).unwrap())).build().unwrap();
+        model.newton.max_iterations = 1;
+        let state = crate::State::at_rest(&model);
+        let (control, mut force) = (Control::none(), ForceScratch::new(&model));
+        // One scratch for both models: the weight follows the step, not the scratch's history.
+        let s = s.get_or_insert_with(|| ImplicitScratch::new(&model));
+        let (mut pos, mut vel) = (state.pos.clone(), state.vel.clone());
+        let _ = step(
+            &model, &state, &control, &mut force, s, model.dt, &mut pos, &mut vel,
+        );
+        let want = if swirl > 0.0 { 0.9 } else { 1.2 };
+        assert_eq!(s.multigrid.omega(), want, "swirl {swirl}");
+        assert_eq!(can_swirl(&model, model.dt), swirl > 0.0);
+    }
+}

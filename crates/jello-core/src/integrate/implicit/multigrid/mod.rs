@@ -21,10 +21,10 @@
 //! iterations in 2.2 s against 2 074 in 3.6 s). There `P` is trilinear over each large full
 //! lattice ([`trilinear`]), a smooth correction, and constant over the aggregates of the
 //! others. The coarse levels, an eighth of the size each, are solved by a V-cycle that smooths
-//! with damped block Jacobi before and after the next level's correction (the same smoother on
-//! both sides, so the preconditioner is symmetric, as conjugate gradients need), a large level
-//! taking that correction scaled up ([`OVER_CORRECTION`]); the coarsest by a few Jacobi
-//! sweeps. A coarse level's residual
+//! with over-relaxed block Jacobi ([`OMEGA`]) before and after the next level's correction (the
+//! same smoother on both sides, so the preconditioner is symmetric, as conjugate gradients
+//! need), a large level taking that correction scaled up ([`OVER_CORRECTION`]); the coarsest by
+//! a few Jacobi sweeps. A coarse level's residual
 //! `r − A·e` is a product in stencil order ([`LevelStencil`]: the aggregates of a lattice form a
 //! lattice), in single precision where the fine products are, with the pairs found at the
 //! iterate added after; on a level of small lattices ([`STENCIL_NODES`]), a loop over its list of
@@ -52,8 +52,21 @@ type Node = (u32, [u32; 3]);
 /// A pair inside one aggregate (it has no block on the next level).
 const INSIDE: u32 = u32::MAX;
 
-/// Damping of the Jacobi smoother on the coarse levels.
-const OMEGA: f64 = 0.9;
+/// Weight of the Jacobi smoother on the coarse levels: over-relaxed. Conjugate-gradient
+/// iterations a step, BackwardEuler at 1/60 s over the frame-rate job's time, 0.9 → 1.2: a 32³
+/// cube dropped on a floor 10.52 → 9.15, resting on it 5.23 → 4.50, at 16³ 3.78 → 3.49 and
+/// 1.92 → 1.78 (4–7 % faster on an AMD EPYC, one and two threads); the corpus at 1/60 s 5 %
+/// fewer in all (two of its 113 worlds more: `custom-IPC.w` 112 → 127 a step,
+/// `moveLeft_Euler_with_small_force.w` 42 → 57). From 1.05 to 1.4 the jobs differ by a few per
+/// cent; at 1.6 the smoother diverges on their levels, the cycle is no longer positive definite
+/// and the diagonal preconditions alone (75 iterations a step dropped). Not where a field swirls
+/// ([`OMEGA_SWIRLING`]).
+const OMEGA: f64 = 1.2;
+
+/// [`OMEGA`] where the step's field swirls (GMRES on a crushed lattice): `leapfrog.w` at 1/60 s
+/// took 578 conjugate-gradient or GMRES iterations a step at 1.05, 850 at 0.9 and 4 938 at 1.1,
+/// with 33–54 Newton iterations; it keeps the damped 0.9.
+const OMEGA_SWIRLING: f64 = 0.9;
 
 /// Weight of the fine level's block Jacobi, added to the coarse correction.
 const FINE_OMEGA: f64 = 0.7;
@@ -401,6 +414,9 @@ pub(super) struct Multigrid {
     /// The least nodes of a level whose correction is over-corrected, where not
     /// [`OVER_CORRECTED_NODES`] (tests).
     over_corrected_from: Option<usize>,
+    /// Whether the step's field swirls: the coarse levels' Jacobi weight is then
+    /// [`OMEGA_SWIRLING`], else [`OMEGA`].
+    swirls: bool,
 }
 
 impl Multigrid {
@@ -470,6 +486,20 @@ impl Multigrid {
         self.built_for = pairs.to_vec();
     }
 
+    /// Whether the step's field swirls (see [`OMEGA_SWIRLING`]): set at each step's start.
+    pub fn set_swirls(&mut self, swirls: bool) {
+        self.swirls = swirls;
+    }
+
+    /// The coarse levels' Jacobi weight.
+    pub(super) fn omega(&self) -> f64 {
+        if self.swirls {
+            OMEGA_SWIRLING
+        } else {
+            OMEGA
+        }
+    }
+
     /// The least nodes of a level that takes the next one's correction scaled up, and the
     /// scale ([`OVER_CORRECTION`], or [`OVER_CORRECTION_TRILINEAR`] after trilinear transfers).
     fn over_correction(&self) -> (usize, f64) {
@@ -510,7 +540,7 @@ impl Multigrid {
         precision: Precision,
         sums: &mut [f64],
     ) -> f64 {
-        let over = self.over_correction();
+        let (over, omega) = (self.over_correction(), self.omega());
         let Some(first) = self.levels.first_mut() else {
             // One node per body already: block Jacobi is the exact solve of that level.
             return fine.jacobi_dot(r, 1.0, None, z, sums);
@@ -521,7 +551,7 @@ impl Multigrid {
         } else {
             restrict(&self.down, r, &mut first.r);
         }
-        cycle(&mut self.levels, precision, over);
+        cycle(&mut self.levels, precision, over, omega);
         let correction = if transfer.is_trilinear() {
             transfer.prolong(&self.down, &self.levels[0].e, Precision::Double);
             Correction::Points(&transfer.correction[..])
@@ -549,10 +579,10 @@ pub(super) fn precondition_single(
     let Some(multigrid) = coarse.filter(|m| !m.levels.is_empty()) else {
         return jacobi_dot_single(free, diag_inv, r, 1.0, None, z, sums);
     };
-    let over = multigrid.over_correction();
+    let (over, omega) = (multigrid.over_correction(), multigrid.omega());
     let (down, transfer) = (&multigrid.down, &mut multigrid.transfer);
     transfer.restrict(down, r, &mut multigrid.levels[0].r);
-    cycle(&mut multigrid.levels, precision, over);
+    cycle(&mut multigrid.levels, precision, over, omega);
     let correction = if transfer.is_trilinear() {
         transfer.prolong(down, &multigrid.levels[0].e, Precision::Single);
         Correction::Points(transfer.correction_single.each_ref().map(|c| &c[..]))
@@ -735,10 +765,10 @@ impl Level {
     }
 }
 
-/// One V-cycle from `levels[0].r` into `levels[0].e`, the levels' products in `precision`; a
-/// level of at least `over.0` nodes takes the next level's correction times `over.1` (see
-/// [`Multigrid::over_correction`]).
-fn cycle(levels: &mut [Level], precision: Precision, over: (usize, f64)) {
+/// One V-cycle from `levels[0].r` into `levels[0].e`, the levels' products in `precision`,
+/// smoothed by Jacobi sweeps of weight `omega`; a level of at least `over.0` nodes takes the
+/// next level's correction times `over.1` (see [`Multigrid::over_correction`]).
+fn cycle(levels: &mut [Level], precision: Precision, over: (usize, f64), omega: f64) {
     let Some((this, coarser)) = levels.split_first_mut() else {
         return;
     };
@@ -746,7 +776,7 @@ fn cycle(levels: &mut [Level], precision: Precision, over: (usize, f64)) {
     // each cost more in the threads' start and wait than they saved (the 32³ cube dropped on a
     // floor, 2 threads: 50 ms in its levels of 512 nodes and fewer, 36 ms on one thread).
     if this.e.len() < SERIAL_NODES && team::threads() > 1 {
-        team::serially(|| cycle(levels, precision, over));
+        team::serially(|| cycle(levels, precision, over, omega));
         return;
     }
     // The correction, residual and stencil leave the level while its operator is borrowed
@@ -765,14 +795,14 @@ fn cycle(levels: &mut [Level], precision: Precision, over: (usize, f64)) {
     };
     e.fill(Vec3::ZERO);
     if let Some(next) = coarser.first_mut() {
-        op.jacobi(r, OMEGA, &mut e);
+        op.jacobi(r, omega, &mut e);
         residual(&e, &mut t);
         restrict(&this.down, &t, &mut next.r);
-        cycle(coarser, precision, over);
+        cycle(coarser, precision, over, omega);
         let scale = if e.len() >= over.0 { over.1 } else { 1.0 };
         prolong(&this.down, &coarser[0].e, &mut e, scale);
         residual(&e, &mut t);
-        op.jacobi(&t, OMEGA, &mut e);
+        op.jacobi(&t, omega, &mut e);
     } else {
         op.jacobi(r, 1.0, &mut e);
         for _ in 1..COARSEST_SWEEPS {
@@ -1549,19 +1579,28 @@ mod tests {
             v.iter().zip(&fine.free).map(|(&v, &f)| v * f).collect()
         };
         let (a, b) = (mask(random(n, 21)), mask(random(n, 22)));
-        // As built, and with every coarse level's correction over-corrected (this model's
-        // levels are below `OVER_CORRECTED_NODES`; it changes the answer).
+        // As built, with every coarse level's correction over-corrected (this model's levels
+        // are below `OVER_CORRECTED_NODES`; it changes the answer), and with the smoother's
+        // weight where a field swirls.
         let mut over = mg.clone();
         over.over_corrected_from = Some(0);
-        let (mut v, mut w) = (vec![Vec3::ZERO; n], vec![Vec3::ZERO; n]);
+        let mut swirling = mg.clone();
+        swirling.set_swirls(true);
+        let (mut v, mut w, mut u) = (
+            vec![Vec3::ZERO; n],
+            vec![Vec3::ZERO; n],
+            vec![Vec3::ZERO; n],
+        );
         let mut sums = vec![0.0; super::super::cg::sum_chunks(n)];
         let av = mg.precondition(&fine.operator(), &a, &mut v, Precision::Double, &mut sums);
         over.precondition(&fine.operator(), &a, &mut w, Precision::Double, &mut sums);
         assert_ne!(v, w, "over-corrected, another preconditioner");
+        swirling.precondition(&fine.operator(), &a, &mut u, Precision::Double, &mut sums);
+        assert_ne!(v, u, "another weight, another preconditioner");
         // It returns `r·z` with the bits of the conjugate gradients' dot product.
         let summed = super::super::cg::dot(&a, &v, &mut sums);
         assert_eq!(av.to_bits(), summed.to_bits());
-        for mg in [&mut mg, &mut over] {
+        for mg in [&mut mg, &mut over, &mut swirling] {
             for (precision, tolerance) in [(Precision::Double, 1e-12), (Precision::Single, 1e-5)] {
                 let (mut za, mut zb) = (vec![Vec3::ZERO; n], vec![Vec3::ZERO; n]);
                 mg.precondition(&fine.operator(), &a, &mut za, precision, &mut sums);
