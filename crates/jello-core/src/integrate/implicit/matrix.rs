@@ -38,9 +38,16 @@ pub(super) fn newton_direction(
     let mut solve_with = |curvature| {
         assemble(model, control, anchors, s, x0, h, curvature);
         // Where `A` is nearly indefinite its coarse copies may be indefinite, and the cycle with
-        // them, though `A` is not: the diagonal alone then decides, as it did before the
+        // them, though `A` is not; or the cycle's over-relaxed smoother diverges on them: damped
+        // then, and where that fails too, the diagonal alone decides, as it did before the
         // multigrid.
-        if solve(s, reduction, Preconditioner::Multigrid) {
+        let mut multigrid = || {
+            solve(s, reduction, Preconditioner::Multigrid)
+                || (s.multigrid_failed
+                    && s.multigrid.damp()
+                    && solve(s, reduction, Preconditioner::Multigrid))
+        };
+        if multigrid() {
             Some(Preconditioner::Multigrid)
         } else if s.multigrid_failed && solve(s, reduction, Preconditioner::Diagonal) {
             Some(Preconditioner::Diagonal)

@@ -1268,7 +1268,7 @@ fn products_in_16_bits_only_for_large_lattices_without_a_swirl() {
 }
 
 /// The multigrid's coarse levels are smoothed over-relaxed, but where the step's field swirls
-/// (see `OMEGA_SWIRLING`), chosen at each step's start.
+/// (see `OMEGA_DAMPED`), chosen at each step's start.
 #[test]
 fn the_coarse_smoother_is_over_relaxed_unless_a_field_swirls() {
     let box_ = Aabb::new(Vec3::new(-2.0, -2.0, -2.0), Vec3::new(2.0, 2.0, 2.0)).unwrap();

@@ -59,14 +59,18 @@ const INSIDE: u32 = u32::MAX;
 /// fewer in all (two of its 113 worlds more: `custom-IPC.w` 112 → 127 a step,
 /// `moveLeft_Euler_with_small_force.w` 42 → 57). From 1.05 to 1.4 the jobs differ by a few per
 /// cent; at 1.6 the smoother diverges on their levels, the cycle is no longer positive definite
-/// and the diagonal preconditions alone (75 iterations a step dropped). Not where a field swirls
-/// ([`OMEGA_SWIRLING`]).
+/// and the diagonal preconditions alone (75 iterations a step dropped); `pile.toml` (many small
+/// bodies pressed together) already at 1.2, where a cycle that turns out indefinite is damped
+/// ([`OMEGA_DAMPED`]). Not where a field swirls.
 const OMEGA: f64 = 1.2;
 
-/// [`OMEGA`] where the step's field swirls (GMRES on a crushed lattice): `leapfrog.w` at 1/60 s
+/// [`OMEGA`] where the step's field swirls (GMRES on a crushed lattice: `leapfrog.w` at 1/60 s
 /// took 578 conjugate-gradient or GMRES iterations a step at 1.05, 850 at 0.9 and 4 938 at 1.1,
-/// with 33–54 Newton iterations; it keeps the damped 0.9.
-const OMEGA_SWIRLING: f64 = 0.9;
+/// with 33–54 Newton iterations), and from a solve on whose over-relaxed cycle the conjugate
+/// gradients found not positive definite, until the levels are built again (`pile.toml` at
+/// 1/60 s, its first 0.5 s: 511 iterations a step at 0.9, 479 at 1.1, 2 746 at 1.2 without this
+/// fallback).
+const OMEGA_DAMPED: f64 = 0.9;
 
 /// Weight of the fine level's block Jacobi, added to the coarse correction.
 const FINE_OMEGA: f64 = 0.7;
@@ -414,9 +418,11 @@ pub(super) struct Multigrid {
     /// The least nodes of a level whose correction is over-corrected, where not
     /// [`OVER_CORRECTED_NODES`] (tests).
     over_corrected_from: Option<usize>,
-    /// Whether the step's field swirls: the coarse levels' Jacobi weight is then
-    /// [`OMEGA_SWIRLING`], else [`OMEGA`].
+    /// Whether the step's field swirls, and whether a solve found the over-relaxed cycle not
+    /// positive definite since the levels were built: the coarse levels' Jacobi weight is then
+    /// [`OMEGA_DAMPED`], else [`OMEGA`].
     swirls: bool,
+    failed_over_relaxed: bool,
 }
 
 impl Multigrid {
@@ -484,17 +490,27 @@ impl Multigrid {
         self.levels = levels;
         self.points = model.point_count();
         self.built_for = pairs.to_vec();
+        self.failed_over_relaxed = false;
     }
 
-    /// Whether the step's field swirls (see [`OMEGA_SWIRLING`]): set at each step's start.
+    /// Whether the step's field swirls (see [`OMEGA_DAMPED`]): set at each step's start.
     pub fn set_swirls(&mut self, swirls: bool) {
         self.swirls = swirls;
     }
 
+    /// After a solve found the cycle not positive definite: its coarse levels damped from now
+    /// on, until they are built again ([`OMEGA_DAMPED`]). True when they were over-relaxed (a
+    /// solve with the damped cycle may succeed where this one failed).
+    pub fn damp(&mut self) -> bool {
+        let over_relaxed = self.omega() == OMEGA;
+        self.failed_over_relaxed = true;
+        over_relaxed
+    }
+
     /// The coarse levels' Jacobi weight.
     pub(super) fn omega(&self) -> f64 {
-        if self.swirls {
-            OMEGA_SWIRLING
+        if self.swirls || self.failed_over_relaxed {
+            OMEGA_DAMPED
         } else {
             OMEGA
         }
@@ -1567,6 +1583,30 @@ mod tests {
         // With constant transfers alone, and with trilinear ones (the third body's) beside them.
         symmetric_and_positive(&two_bodies());
         symmetric_and_positive(&three_bodies());
+    }
+
+    /// A cycle found not positive definite is damped from then on, until its levels are built
+    /// again; where a field swirls it is damped already, and `damp` says a retry gains nothing.
+    #[test]
+    fn a_failed_over_relaxed_cycle_is_damped_until_built_again() {
+        let model = two_bodies();
+        let fine = Fine::new(&model);
+        let mut mg = fine.multigrid(&model);
+        assert_eq!(mg.omega(), OMEGA);
+        mg.set_swirls(true);
+        assert_eq!(mg.omega(), OMEGA_DAMPED);
+        assert!(!mg.damp(), "damped already where a field swirls");
+        mg.set_swirls(false);
+        mg.failed_over_relaxed = false;
+        assert!(mg.damp(), "over-relaxed before");
+        assert_eq!(mg.omega(), OMEGA_DAMPED);
+        assert!(!mg.damp(), "damped already");
+        // The same springs keep the levels, and the damping; others build them again.
+        let pairs = mg.built_for.clone();
+        mg.build(&model, &pairs, 0);
+        assert_eq!(mg.omega(), OMEGA_DAMPED);
+        mg.build(&model, &pairs[1..], 0);
+        assert_eq!(mg.omega(), OMEGA);
     }
 
     /// [`the_preconditioner_is_symmetric_and_positive`] on `model`.
