@@ -39,8 +39,8 @@ pub(super) fn newton_direction(
         assemble(model, control, anchors, s, x0, h, curvature);
         // Where `A` is nearly indefinite its coarse copies may be indefinite, and the cycle with
         // them, though `A` is not; or the cycle's over-relaxed smoother diverges on them: damped
-        // then, and where that fails too, the diagonal alone decides, as it did before the
-        // multigrid.
+        // then (for the rest of the step), and where that fails too, the diagonal alone decides,
+        // as it did before the multigrid.
         let mut multigrid = || {
             solve(s, reduction, Preconditioner::Multigrid)
                 || (s.multigrid_failed

@@ -348,7 +348,7 @@ fn step_on_team(
     s.load(model);
     let swirls = can_swirl(model, h);
     s.springs.pack_products(!swirls);
-    s.multigrid.set_swirls(swirls);
+    s.multigrid.start_step(swirls);
     let (x0, v0) = (&state.pos[..], &state.vel[..]);
     if model.integrator != Integrator::Sdirk2 {
         s.start_dampers(model, x0);
