@@ -56,7 +56,7 @@ const INSIDE: u32 = u32::MAX;
 /// iterations a step, BackwardEuler at 1/60 s over the frame-rate job's time, 0.9 → 1.2: a 32³
 /// cube dropped on a floor 10.52 → 9.15, resting on it 5.23 → 4.50, at 16³ 3.78 → 3.49 and
 /// 1.92 → 1.78 (4–7 % faster on an AMD EPYC, one and two threads); the corpus at 1/60 s 5 %
-/// fewer in all (two of its 113 worlds more: `custom-IPC.w` 112 → 127 a step,
+/// fewer in all (two of its 113 worlds more: `custom-IPC.w` 112 → 128 a step,
 /// `moveLeft_Euler_with_small_force.w` 42 → 57). From 1.05 to 1.4 the jobs differ by a few per
 /// cent; at 1.6 the smoother diverges on their levels, the cycle is no longer positive definite
 /// and the diagonal preconditions alone (75 iterations a step dropped); `pile.toml` (many small
@@ -503,7 +503,7 @@ impl Multigrid {
     /// rest of the step ([`OMEGA_DAMPED`]). True when they were over-relaxed (a solve with the
     /// damped cycle may succeed where this one failed).
     pub fn damp(&mut self) -> bool {
-        let over_relaxed = self.omega() == OMEGA;
+        let over_relaxed = !(self.swirls || self.failed_over_relaxed);
         self.failed_over_relaxed = true;
         over_relaxed
     }
