@@ -37,17 +37,9 @@ pub(super) fn newton_direction(
     // The preconditioner that solved, if any.
     let mut solve_with = |curvature| {
         assemble(model, control, anchors, s, x0, h, curvature);
-        // Where `A` is nearly indefinite its coarse copies may be indefinite, and the cycle with
-        // them, though `A` is not; or the cycle's over-relaxed smoother diverges on them: damped
-        // then (for the rest of the step), and where that fails too, the diagonal alone decides,
-        // as it did before the multigrid.
-        let mut multigrid = || {
-            solve(s, reduction, Preconditioner::Multigrid)
-                || (s.multigrid_failed
-                    && s.multigrid.damp()
-                    && solve(s, reduction, Preconditioner::Multigrid))
-        };
-        if multigrid() {
+        // Where the multigrid fails even damped, the diagonal alone decides, as it did before
+        // the multigrid.
+        if solve_multigrid(s, reduction) {
             Some(Preconditioner::Multigrid)
         } else if s.multigrid_failed && solve(s, reduction, Preconditioner::Diagonal) {
             Some(Preconditioner::Diagonal)
@@ -70,6 +62,21 @@ pub(super) fn newton_direction(
     }
     solve_with(Curvature::Clamped);
     false
+}
+
+/// Solves with `A` as assembled, preconditioned by the multigrid; true when that solved. Where
+/// `A` is nearly indefinite its coarse copies may be indefinite, and the cycle with them, though
+/// `A` is not; or the cycle's over-relaxed smoother diverges on them: the conjugate gradients
+/// find the cycle not positive definite (`s.multigrid_failed`), and the solve is tried again
+/// with the smoother damped for the rest of the step ([`Multigrid::damp`]), whether `A` was
+/// assembled for this iteration or kept from the last one.
+///
+/// [`Multigrid::damp`]: super::multigrid::Multigrid::damp
+pub(super) fn solve_multigrid(s: &mut ImplicitScratch, reduction: f64) -> bool {
+    solve(s, reduction, Preconditioner::Multigrid)
+        || (s.multigrid_failed
+            && s.multigrid.damp()
+            && solve(s, reduction, Preconditioner::Multigrid))
 }
 
 /// Which stiffness [`assemble`] puts in `A`.

@@ -9,8 +9,7 @@ use crate::state::Control;
 use crate::vec3::Vec3;
 
 use super::cg::sum_chunk;
-use super::cg::{solve, Preconditioner};
-use super::matrix::newton_direction;
+use super::matrix::{newton_direction, solve_multigrid};
 use super::residual::{has_potential, potential_fall, residual};
 use super::SINGLE_PRECISION_REDUCTION;
 use super::{chunk_size, ImplicitScratch, NotConverged, Row, CG_REDUCTION, CG_REDUCTION_EXACT};
@@ -152,7 +151,8 @@ pub(super) fn newton(
         {
             s.recycling &= s.may_recycle;
         }
-        let own = (keep && solve(s, solve_to, Preconditioner::Multigrid))
+        // A kept `A` whose cycle fails even damped is assembled afresh.
+        let own = (keep && solve_multigrid(s, solve_to))
             || newton_direction(
                 model,
                 control,

@@ -2,7 +2,7 @@
 //! computation on another number of threads.
 
 use super::cg::{advance, apply_to, dot, sum_chunk, sum_chunks};
-use super::matrix::{assemble, Curvature};
+use super::matrix::{assemble, solve_multigrid, Curvature};
 use super::newton::shift_by_momentum;
 use super::newton::{add_weight, enough_reduction, first_iterate, max_norms, momentum_shift};
 use super::residual::residual;
@@ -1124,6 +1124,45 @@ fn single_precision_solves_reach_their_reduction_with_the_same_bits_on_any_numbe
         assert_eq!(other_iterations, iterations, "{threads} threads");
         assert!(other == dv, "{threads} threads: other bits");
     }
+}
+
+/// A multigrid cycle that the conjugate gradients find not positive definite (its coarse levels
+/// over-relaxed past what their Jacobi sweeps bear) is retried damped, on the same `A`, before
+/// anything else: `solve_multigrid`, which a kept `A` and a new one both solve through.
+#[test]
+fn a_cycle_found_not_positive_definite_is_retried_damped() {
+    let model = ModelBuilder::new()
+        .bodies(vec![test_models::box_at([16, 16, 16], Vec3::ZERO)])
+        .build()
+        .unwrap();
+    let n = model.point_count();
+    let h = 0.01;
+    let mut next = values(41);
+    let x0 = crate::State::at_rest(&model).pos;
+    let v: Vec<Vec3> = (0..n).map(|_| Vec3::new(next(), next(), next())).collect();
+    let (control, mut force) = (Control::none(), ForceScratch::new(&model));
+    let mut s = scratch_at(&model, &x0);
+    residual_at(&model, &control, &mut force, &mut s, (&x0, &v), &v, h);
+    assemble(
+        &model,
+        &control,
+        force.anchors(),
+        &mut s,
+        &x0,
+        h,
+        Curvature::True { shift: 0.0 },
+    );
+    s.within = 0.0;
+    // Jacobi at 3 diverges on every level (their `λ_max(D⁻¹A)` lie between 1.6 and 2).
+    s.multigrid.start_step(false);
+    s.multigrid.over_relax_by(3.0);
+    assert!(!cg::solve(&mut s, 1e-3, cg::Preconditioner::Multigrid));
+    assert!(s.multigrid_failed, "the cycle, not A, found indefinite");
+    s.multigrid.start_step(false);
+    assert!(solve_multigrid(&mut s, 1e-3), "solved damped");
+    assert!(!s.multigrid_failed);
+    assert_eq!(s.multigrid.omega(), 0.9, "damped for the rest of the step");
+    assert!(s.dv.iter().all(|d| d.is_finite()));
 }
 
 /// A residual at rest (every velocity zero) computes neither the springs' dampers

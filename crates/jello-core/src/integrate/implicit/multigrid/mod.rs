@@ -424,6 +424,8 @@ pub(super) struct Multigrid {
     /// [`OMEGA_DAMPED`], else [`OMEGA`].
     swirls: bool,
     failed_over_relaxed: bool,
+    /// The over-relaxed weight, where not [`OMEGA`] (tests).
+    over_relaxed: Option<f64>,
 }
 
 impl Multigrid {
@@ -513,8 +515,15 @@ impl Multigrid {
         if self.swirls || self.failed_over_relaxed {
             OMEGA_DAMPED
         } else {
-            OMEGA
+            self.over_relaxed.unwrap_or(OMEGA)
         }
+    }
+
+    /// Over-relaxes the coarse levels by `omega` instead of [`OMEGA`] (tests: a weight at which
+    /// the cycle is not positive definite).
+    #[cfg(test)]
+    pub(super) fn over_relax_by(&mut self, omega: f64) {
+        self.over_relaxed = Some(omega);
     }
 
     /// The least nodes of a level that takes the next one's correction scaled up, and the
