@@ -1153,7 +1153,8 @@ fn a_cycle_found_not_positive_definite_is_retried_damped() {
         Curvature::True { shift: 0.0 },
     );
     s.within = 0.0;
-    // Jacobi at 3 diverges on every level (their `λ_max(D⁻¹A)` lie between 1.6 and 2).
+    // Jacobi at 3 diverges on every level: `D⁻¹A`'s eigenvalues average 1, so its largest is 1
+    // or more, and the sweep stays convergent only while `ω·λ_max < 2`.
     s.multigrid.start_step(false);
     s.multigrid.over_relax_by(3.0);
     assert!(!cg::solve(&mut s, 1e-3, cg::Preconditioner::Multigrid));
