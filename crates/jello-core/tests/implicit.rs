@@ -1,7 +1,7 @@
 //! The implicit integrators (backward Euler and SDIRK2, `jello_core::integrate::implicit`):
 //! stability far past the explicit limit, energy, convergence order, momentum, threads, hard
-//! impacts, the report of a step that does not converge, and the solver's counts. Their
-//! recurrences in closed form are in `implicit_closed_forms.rs`.
+//! impacts, the report of a step that does not converge, the solver's counts and its budget on
+//! the frame-rate job. Their recurrences in closed form are in `implicit_closed_forms.rs`.
 
 mod common;
 #[path = "common/oscillator.rs"]
@@ -619,6 +619,87 @@ fn the_solver_counts_its_work() {
         assert!(
             loose.newton_iterations < tight.newton_iterations,
             "{integrator}: {tight:?} {loose:?}"
+        );
+    }
+}
+
+/// The frame-rate job's first simulated second at 1/60 s (a 1 kg, 1 m cube of `n³` points
+/// resting on a floor, or dropped onto it from 0.5 m: `jello bench --job rest|drop`): the
+/// solver's work stays within its budget, and the cube ends at rest with the floor carrying its
+/// weight, `Σ kc·depth = M·g`, within what the tolerance leaves of each point's force balance.
+///
+/// The solver's counts are deterministic and the same on every thread count and SIMD tier
+/// (`implicit_steps_are_bit_identical_on_any_thread_count`), so unlike its time they can be
+/// tested: each budget is the count of 2026-12-07 (`7ce778b`; the same with `JELLO_SIMD` set to
+/// each tier) with about 10 % to spare. A change that needs more Newton or conjugate-gradient
+/// iterations or assemblies on this job makes the frame-rate table slower (BENCHMARKS.md):
+/// measure it there, say why in CHANGELOG.md and raise the budget in the same commit.
+#[test]
+fn the_frame_rate_jobs_stay_within_their_solver_budget() {
+    use jello_core::benchmark::Job;
+    // (job, n, budget of Newton iterations, of linear iterations, of assemblies) over the 60
+    // steps; the counts of 2026-12-07 in the comments.
+    let budgets = [
+        (Job::Rest, 8, 45, 206, 10),  // 41, 187, 9
+        (Job::Drop, 8, 70, 439, 26),  // 64, 399, 24
+        (Job::Rest, 16, 36, 234, 9),  // 33, 213, 8
+        (Job::Drop, 16, 62, 461, 28), // 56, 419, 25
+        (Job::Rest, 32, 36, 297, 10), // 33, 270, 9
+        (Job::Drop, 32, 65, 604, 29), // 59, 549, 26
+    ];
+    for (job, n, newton, linear, assemblies) in budgets {
+        let name = format!("the {n}³ {} job", job.name());
+        let (model, state) = job.scene(n, Integrator::BackwardEuler, None).unwrap();
+        let (h, tolerance) = (model.dt, model.newton.tolerance);
+        assert_eq!(h, 1.0 / 60.0, "{name}");
+        let mut sim = jello_core::Simulation::new(model, state);
+        sim.advance(59).unwrap();
+        let before = sim.state.vel.clone();
+        sim.advance(1).unwrap();
+
+        let stats = sim.solver_stats();
+        assert_eq!(sim.cutback_stats().split_steps, 0, "{name}: {stats:?}");
+        assert_eq!(stats.solves, 60, "{name}: {stats:?}");
+        assert!(
+            stats.newton_iterations <= newton
+                && stats.linear_iterations <= linear
+                && stats.assemblies <= assemblies,
+            "{name}: the solver took {} Newton iterations, {} linear iterations and {} \
+             assemblies, over its budget of {newton}, {linear} and {assemblies}",
+            stats.newton_iterations,
+            stats.linear_iterations,
+            stats.assemblies
+        );
+
+        // At rest: no point moves faster than 1 mm/s.
+        let fastest = sim.state.vel.iter().map(|v| v.length()).fold(0.0, f64::max);
+        assert!(fastest < 1e-3, "{name}: a point moves at {fastest} m/s");
+        let change = (sim.state.vel.iter().zip(&before))
+            .map(|(&v, &b)| (v - b).length())
+            .fold(0.0, f64::max);
+        // Each point's residual `Δv − h·F/m` is within the tolerance, so the vertical forces on
+        // the cube (the floor's penalty springs and dampers below it, gravity; the springs'
+        // forces and dampers cancel in pairs, friction is horizontal) sum to within
+        // `M·(tolerance + the largest Δv)/h` of zero, and the floor's springs alone to within
+        // that and what its dampers can give at the fastest point's speed.
+        let model = &sim.model;
+        let mass: f64 = (model.bodies().iter())
+            .map(|b| b.material.mass * b.points().len() as f64)
+            .sum();
+        let gravity = -model.gravity.z;
+        assert!(
+            (mass - 1.0).abs() < 1e-12 && gravity == 9.81,
+            "{name}: {mass} kg, {gravity} m/s²"
+        );
+        let k = model.k_collision;
+        let below = || sim.state.pos.iter().filter(|p| p.z < 0.0);
+        let carried: f64 = below().map(|p| -p.z * k).sum();
+        let dampers = below().count() as f64 * model.d_collision * fastest;
+        let within = mass * (tolerance + change) / h + dampers;
+        assert!(
+            (carried - mass * gravity).abs() <= within,
+            "{name}: the floor carries {carried} N of the cube's {} N (to within {within} N)",
+            mass * gravity
         );
     }
 }
