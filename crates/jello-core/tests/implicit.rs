@@ -629,9 +629,9 @@ fn the_solver_counts_its_work() {
 /// weight, `Σ kc·depth = M·g`, within what the tolerance leaves of each point's force balance.
 ///
 /// The solver's counts are deterministic and the same on every thread count and SIMD tier
-/// (`implicit_steps_are_bit_identical_on_any_thread_count`), so unlike its time they can be
-/// tested: each budget is the count of 2026-12-07 (`7ce778b`; the same with `JELLO_SIMD` set to
-/// each tier) with about 10 % to spare. A change that needs more Newton or conjugate-gradient
+/// (`implicit_steps_are_bit_identical_on_any_thread_count`, and `simd_tiers.rs`), so unlike its
+/// time they can be tested: each budget is the count of 2026-12-07 (`7ce778b`, the same with
+/// `JELLO_SIMD=baseline` as on AVX2) with about 10 % to spare. A change that needs more Newton or conjugate-gradient
 /// iterations or assemblies on this job makes the frame-rate table slower (BENCHMARKS.md):
 /// measure it there, say why in CHANGELOG.md and raise the budget in the same commit.
 #[test]
