@@ -683,9 +683,7 @@ fn the_frame_rate_jobs_stay_within_their_solver_budget() {
         // `M·(tolerance + the largest Δv)/h` of zero, and the floor's springs alone to within
         // that and what its dampers can give at the fastest point's speed.
         let model = &sim.model;
-        let mass: f64 = (model.bodies().iter())
-            .map(|b| b.material.mass * b.points().len() as f64)
-            .sum();
+        let mass: f64 = model.bodies().iter().map(|b| b.total_mass()).sum();
         let gravity = -model.gravity.z;
         assert!(
             (mass - 1.0).abs() < 1e-12 && gravity == 9.81,
